@@ -1,0 +1,26 @@
+//! Shared geometric types: volumes with their voxel→world affine, triangle
+//! meshes with named data arrays, landmarks and the valve frame.
+//!
+//! World coordinates are LPS millimetres throughout (as DICOM, ITK and
+//! 3D Slicer); file readers convert other frames on the way in.
+
+pub mod attributes;
+pub mod frame;
+pub mod landmarks;
+pub mod polydata;
+pub mod trimesh;
+pub mod valve_frame;
+pub mod volume;
+
+pub use attributes::{Attributes, DataArray, DataValues};
+pub use frame::Frame;
+pub use landmarks::Landmarks;
+pub use polydata::PolyData;
+pub use trimesh::TriMesh;
+pub use valve_frame::ValveFrame;
+pub use volume::Volume;
+
+pub type Point3 = nalgebra::Point3<f64>;
+pub type Vector3 = nalgebra::Vector3<f64>;
+pub type Matrix3 = nalgebra::Matrix3<f64>;
+pub type Matrix4 = nalgebra::Matrix4<f64>;

@@ -1,0 +1,19 @@
+//! coapt: from a contrast CT angiogram (ceCTA) to the predicted closure of an
+//! Ozaki-reconstructed aortic valve.
+//!
+//! The crate is cut by pipeline stage (see `DESIGN.md` in the shared folder):
+//! each stage is a library function over in-memory types from [`geom`], plus a
+//! declaration in [`pipeline`] from which its CLI subcommand, its run-config
+//! section and its provenance record follow. [`io`] holds file formats and
+//! nothing else. The `coapt` binary is a thin layer over [`cli`].
+
+pub mod cli;
+pub mod error;
+pub mod geom;
+pub mod io;
+pub mod phantom;
+pub mod pipeline;
+pub mod rng;
+pub mod units;
+
+pub use error::{Error, Result};
