@@ -1,1 +1,407 @@
-pub fn main() -> i32 { 0 }
+//! The `coapt` command line: a thin layer over the library. Stage
+//! subcommands are generated from the stages' declarations.
+
+use std::ffi::OsString;
+use std::path::PathBuf;
+
+use clap::{Arg, ArgAction, ArgMatches, Command};
+
+use crate::pipeline::execute::Invocation;
+use crate::pipeline::{self, ArtifactKind, LogMode, Param, ParamKind, Params, StageIo, StageSpec, params, provenance, runner};
+use crate::{Error, Result, bench, inspect};
+
+/// Run the CLI with the process's arguments; returns the exit code.
+pub fn main() -> i32 {
+    run_with(std::env::args_os().collect())
+}
+
+/// Run the CLI with explicit arguments; returns the exit code
+/// (0 success, 1 a computation failed, 2 bad input or usage).
+pub fn run_with(args: Vec<OsString>) -> i32 {
+    let matches = match command().try_get_matches_from(&args) {
+        Ok(m) => m,
+        Err(e) => {
+            let _ = e.print();
+            return match e.kind() {
+                clap::error::ErrorKind::DisplayHelp
+                | clap::error::ErrorKind::DisplayVersion
+                | clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => 0,
+                _ => 2,
+            };
+        }
+    };
+    match dispatch(&matches, &args) {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {}", render(&e));
+            e.exit_code()
+        }
+    }
+}
+
+/// The error and its causes on one line, without repeating a cause the
+/// message already contains.
+fn render(e: &Error) -> String {
+    let mut text = e.to_string();
+    let mut source = std::error::Error::source(e);
+    while let Some(s) = source {
+        let part = s.to_string();
+        if !text.contains(&part) {
+            text.push_str(": ");
+            text.push_str(&part);
+        }
+        source = s.source();
+    }
+    text.replace('\n', " ")
+}
+
+fn command() -> Command {
+    let mut cmd = Command::new("coapt")
+        .version(provenance::version_line())
+        .about("From a contrast CT angiogram to the predicted closure of an Ozaki-reconstructed aortic valve")
+        .subcommand_required(true)
+        .arg_required_else_help(true)
+        .arg(
+            Arg::new("threads")
+                .long("threads")
+                .global(true)
+                .value_name("N")
+                .value_parser(clap::value_parser!(usize))
+                .help("worker threads (default: all cores); outputs do not depend on it"),
+        )
+        .arg(
+            Arg::new("quiet")
+                .long("quiet")
+                .short('q')
+                .global(true)
+                .action(ArgAction::SetTrue)
+                .help("only warnings and errors; no progress bars"),
+        )
+        .arg(
+            Arg::new("log-json")
+                .long("log-json")
+                .global(true)
+                .action(ArgAction::SetTrue)
+                .help("log one JSON event per line on stderr (for schedulers)"),
+        )
+        .subcommand(
+            Command::new("run")
+                .about("Run the chain a run config describes, skipping stages whose inputs, parameters and version are unchanged")
+                .arg(Arg::new("config").required(true).value_name("CONFIG.toml").value_parser(clap::value_parser!(PathBuf)))
+                .arg(
+                    Arg::new("out")
+                        .long("out")
+                        .value_name("DIR")
+                        .value_parser(clap::value_parser!(PathBuf))
+                        .help("run directory (default: the config's [run] dir)"),
+                )
+                .arg(Arg::new("from").long("from").value_name("STAGE").help("start at this stage, reusing upstream outputs"))
+                .arg(Arg::new("until").long("until").value_name("STAGE").help("stop after this stage"))
+                .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("run every selected stage even if unchanged")),
+        );
+    for spec in pipeline::registry() {
+        cmd = cmd.subcommand(stage_command(spec));
+    }
+    cmd.subcommand(
+        Command::new("info")
+            .about("Describe a coapt artifact: NIfTI volume, .vtp mesh or polylines, landmarks")
+            .arg(Arg::new("file").required(true).value_name("FILE").value_parser(clap::value_parser!(PathBuf)))
+            .arg(Arg::new("json").long("json").action(ArgAction::SetTrue).help("print JSON instead of text")),
+    )
+    .subcommand(
+        Command::new("check")
+            .about("Check input files as `coapt run` would before starting: readable, valid, complete (landmarks need C1–C3)")
+            .arg_required_else_help(true)
+            .args(CHECKS.iter().map(|(flag, kind)| {
+                Arg::new(*flag)
+                    .long(*flag)
+                    .value_name("PATH")
+                    .action(ArgAction::Append)
+                    .value_parser(clap::value_parser!(PathBuf))
+                    .help(kind.describe())
+            })),
+    )
+    .subcommand(
+        Command::new("convert")
+            .about("Convert between formats: .vtp → .vtp/.stl/.ply; .nii ↔ .nii.gz; landmarks → .mrk.json/.fcsv/.json")
+            .arg(Arg::new("input").required(true).value_name("IN").value_parser(clap::value_parser!(PathBuf)))
+            .arg(Arg::new("output").required(true).value_name("OUT").value_parser(clap::value_parser!(PathBuf)))
+            .arg(
+                Arg::new("frame")
+                    .long("frame")
+                    .value_name("LPS|RAS")
+                    .default_value("LPS")
+                    .help("coordinate system written into landmark files"),
+            ),
+    )
+    .subcommand(
+        Command::new("bench")
+            .about("Benchmarks: time and peak memory, measured in child processes")
+            .subcommand_required(true)
+            .subcommand(
+                Command::new("phantom")
+                    .about("Phantom generation time and peak memory per preset")
+                    .arg(
+                        Arg::new("presets")
+                            .long("presets")
+                            .value_name("LIST")
+                            .default_value("sample,standard,full")
+                            .help("comma-separated presets"),
+                    )
+                    .arg(
+                        Arg::new("repeat")
+                            .long("repeat")
+                            .value_name("N")
+                            .default_value("1")
+                            .value_parser(clap::value_parser!(u32).range(1..=20)),
+                    ),
+            ),
+    )
+}
+
+/// `coapt check` flags and the kind of file each expects.
+const CHECKS: [(&str, ArtifactKind); 5] = [
+    ("ct", ArtifactKind::Volume),
+    ("mask", ArtifactKind::Mask),
+    ("landmarks", ArtifactKind::Landmarks),
+    ("surface", ArtifactKind::Mesh),
+    ("paths", ArtifactKind::Polylines),
+];
+
+/// The flag of a parameter: `noise` → `--noise`; booleans become switches
+/// that flip their default (`--no-contrast`, `--calcium`).
+fn param_flag(p: &Param) -> String {
+    let base = p.name.replace('_', "-");
+    match (p.kind, p.default) {
+        (ParamKind::Bool, Some("true")) => format!("no-{base}"),
+        _ => base,
+    }
+}
+
+fn stage_command(spec: &'static StageSpec) -> Command {
+    let mut cmd = Command::new(spec.name).about(spec.about);
+    for port in spec.inputs {
+        cmd = cmd.arg(
+            Arg::new(port.name)
+                .long(port.flag)
+                .value_name("PATH")
+                .required(port.required)
+                .value_parser(clap::value_parser!(PathBuf))
+                .help(format!("{} [{}]", port.help, port.kind.describe())),
+        );
+    }
+    match spec.out_dir {
+        Some(flag) => {
+            let files: Vec<&str> = spec.outputs.iter().map(|p| p.file).collect();
+            cmd = cmd.arg(
+                Arg::new("__out_dir")
+                    .long(flag)
+                    .value_name("DIR")
+                    .required(true)
+                    .value_parser(clap::value_parser!(PathBuf))
+                    .help(format!("output directory; writes {} and manifest.json", files.join(", "))),
+            );
+        }
+        None => {
+            for port in spec.outputs {
+                cmd = cmd.arg(
+                    Arg::new(port.name)
+                        .long(port.flag)
+                        .value_name("PATH")
+                        .required(port.flag == "out")
+                        .value_parser(clap::value_parser!(PathBuf))
+                        .help(format!("{} [default: {} beside --out]", port.help, port.file)),
+                );
+            }
+        }
+    }
+    for p in spec.params {
+        let flag = param_flag(p);
+        let arg = match p.kind {
+            ParamKind::Bool => Arg::new(p.name).long(flag).action(ArgAction::SetTrue).help(p.help.to_string()),
+            kind => {
+                let default = p.default.map(|d| format!(" [default: {d}]")).unwrap_or_default();
+                Arg::new(p.name)
+                    .long(flag)
+                    .value_name(value_name(kind))
+                    .help(format!("{}{default}", p.help))
+            }
+        };
+        cmd = cmd.arg(arg);
+    }
+    cmd
+}
+
+fn value_name(kind: ParamKind) -> &'static str {
+    match kind {
+        ParamKind::Quantity(k) => match k {
+            crate::units::Kind::Length => "LENGTH",
+            crate::units::Kind::Pressure => "PRESSURE",
+            crate::units::Kind::Angle => "ANGLE",
+            crate::units::Kind::Intensity => "HU",
+        },
+        ParamKind::Lengths3 => "\"X, Y, Z mm\"",
+        ParamKind::Int { .. } => "N",
+        ParamKind::Float { .. } => "X",
+        ParamKind::Bool => "",
+        ParamKind::Choice(_) => "NAME",
+    }
+}
+
+fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
+    let log = LogMode {
+        quiet: m.get_flag("quiet"),
+        json: m.get_flag("log-json"),
+    };
+    pipeline::progress::init_logging(log);
+    let threads = match m.get_one::<usize>("threads") {
+        Some(0) => return Err(Error::usage("--threads must be at least 1")),
+        Some(&n) => n,
+        None => std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+    };
+    // The global pool may already exist when the CLI runs inside a test process.
+    let _ = rayon::ThreadPoolBuilder::new().num_threads(threads).build_global();
+    let inv = Invocation {
+        command_line: args.iter().map(|a| a.to_string_lossy().into_owned()).collect(),
+        threads,
+        log,
+    };
+    let (name, sub) = m.subcommand().expect("a subcommand is required");
+    match name {
+        "run" => {
+            let opts = runner::RunOptions {
+                config: sub.get_one::<PathBuf>("config").expect("required").clone(),
+                out: sub.get_one::<PathBuf>("out").cloned(),
+                from: sub.get_one::<String>("from").cloned(),
+                until: sub.get_one::<String>("until").cloned(),
+                force: sub.get_flag("force"),
+            };
+            let report = runner::run(&opts, pipeline::registry(), &inv)?;
+            if !log.quiet && !log.json {
+                eprintln!("run directory: {}", report.run_dir.display());
+            }
+            Ok(())
+        }
+        "info" => {
+            let file = sub.get_one::<PathBuf>("file").expect("required");
+            let out = inspect::describe(file, sub.get_flag("json"))?;
+            println!("{out}");
+            Ok(())
+        }
+        "check" => {
+            for (flag, kind) in CHECKS {
+                for path in sub.get_many::<PathBuf>(flag).into_iter().flatten() {
+                    pipeline::validate::input(kind, path)?;
+                    println!("ok: {} ({})", path.display(), kind.describe());
+                }
+            }
+            Ok(())
+        }
+        "convert" => {
+            let frame = sub.get_one::<String>("frame").expect("has default");
+            let frame = crate::geom::Frame::parse(frame)
+                .ok_or_else(|| Error::usage(format!("--frame {frame}: expected LPS or RAS")))?;
+            inspect::convert(
+                sub.get_one::<PathBuf>("input").expect("required"),
+                sub.get_one::<PathBuf>("output").expect("required"),
+                frame,
+            )
+        }
+        "bench" => match sub.subcommand() {
+            Some(("phantom", b)) => {
+                let presets: Vec<String> = b
+                    .get_one::<String>("presets")
+                    .expect("has default")
+                    .split(',')
+                    .map(|s| s.trim().to_string())
+                    .collect();
+                let repeat = *b.get_one::<u32>("repeat").expect("has default");
+                let table = bench::phantom(&presets, repeat, threads)?;
+                println!("{table}");
+                Ok(())
+            }
+            _ => Err(Error::usage("coapt bench: name a benchmark (phantom)")),
+        },
+        stage => {
+            let spec = pipeline::registry()
+                .iter()
+                .find(|s| s.name == stage)
+                .expect("clap only accepts registered stages");
+            run_stage(spec, sub, &inv)
+        }
+    }
+}
+
+fn run_stage(spec: &'static StageSpec, m: &ArgMatches, inv: &Invocation) -> Result<()> {
+    let mut given = std::collections::BTreeMap::new();
+    for p in spec.params {
+        match p.kind {
+            ParamKind::Bool => {
+                if m.get_flag(p.name) {
+                    let flipped = p.default != Some("true");
+                    given.insert(p.name.to_string(), params::Value::Bool(flipped));
+                }
+            }
+            _ => {
+                if let Some(text) = m.get_one::<String>(p.name) {
+                    let v = params::parse_text(p, text)
+                        .map_err(|e| Error::usage(format!("--{} {text}: {e}", param_flag(p))))?;
+                    given.insert(p.name.to_string(), v);
+                }
+            }
+        }
+    }
+    let params = Params::resolve(spec, given)?;
+    let mut io = StageIo::default();
+    for port in spec.inputs {
+        if let Some(path) = m.get_one::<PathBuf>(port.name) {
+            io.inputs.push((port.name, path.clone()));
+        }
+    }
+    let out_dir = match spec.out_dir {
+        Some(_) => {
+            let dir = m.get_one::<PathBuf>("__out_dir").expect("required").clone();
+            for port in spec.outputs {
+                io.outputs.push((port.name, dir.join(port.file)));
+            }
+            Some(dir)
+        }
+        None => {
+            let main = spec
+                .outputs
+                .iter()
+                .find(|p| p.flag == "out")
+                .and_then(|p| m.get_one::<PathBuf>(p.name))
+                .cloned();
+            let beside = main
+                .as_ref()
+                .and_then(|p| p.parent().map(PathBuf::from))
+                .unwrap_or_default();
+            for port in spec.outputs {
+                let path = m
+                    .get_one::<PathBuf>(port.name)
+                    .cloned()
+                    .unwrap_or_else(|| beside.join(port.file));
+                io.outputs.push((port.name, path));
+            }
+            None
+        }
+    };
+    runner::run_single(spec, &io, &params, out_dir.as_deref(), inv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn command_is_well_formed() {
+        command().debug_assert();
+    }
+
+    #[test]
+    fn render_does_not_repeat_causes() {
+        let e = Error::read("x.nii", std::io::Error::new(std::io::ErrorKind::NotFound, "gone"));
+        assert_eq!(render(&e), "x.nii: cannot read: gone");
+    }
+}

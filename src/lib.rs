@@ -7,9 +7,11 @@
 //! section and its provenance record follow. [`io`] holds file formats and
 //! nothing else. The `coapt` binary is a thin layer over [`cli`].
 
+pub mod bench;
 pub mod cli;
 pub mod error;
 pub mod geom;
+pub mod inspect;
 pub mod io;
 pub mod phantom;
 pub mod pipeline;

@@ -1,0 +1,227 @@
+//! `coapt info` and `coapt convert`: look inside any artifact and hand it to
+//! other tools in the format they want.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde_json::{Value as Json, json};
+
+use crate::geom::{Frame, PolyData, TriMesh};
+use crate::io::{markups, nifti, ply, stl, vtp};
+use crate::{Error, Result};
+
+/// File formats coapt reads, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    Nifti,
+    Vtp,
+    Stl,
+    Ply,
+    Landmarks,
+}
+
+pub fn format_of(path: &Path) -> Option<Format> {
+    let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+    Some(if name.ends_with(".nii") || name.ends_with(".nii.gz") {
+        Format::Nifti
+    } else if name.ends_with(".vtp") {
+        Format::Vtp
+    } else if name.ends_with(".stl") {
+        Format::Stl
+    } else if name.ends_with(".ply") {
+        Format::Ply
+    } else if name.ends_with(".json") || name.ends_with(".fcsv") {
+        Format::Landmarks
+    } else {
+        return None;
+    })
+}
+
+fn unknown_format(path: &Path) -> Error {
+    Error::bad_input(
+        path,
+        "unknown format: expected .nii/.nii.gz, .vtp, .mrk.json, .fcsv or .json (landmarks)",
+    )
+}
+
+/// A description of the file, as text or JSON.
+pub fn describe(path: &Path, as_json: bool) -> Result<String> {
+    if !path.exists() {
+        return Err(Error::bad_input(path, "not found"));
+    }
+    let info = match format_of(path).ok_or_else(|| unknown_format(path))? {
+        Format::Nifti => describe_nifti(path)?,
+        Format::Vtp => describe_polydata(&vtp::read(path)?),
+        Format::Landmarks => describe_landmarks(path)?,
+        Format::Stl | Format::Ply => {
+            return Err(Error::bad_input(path, "coapt writes STL and PLY for hand-off but does not read them"));
+        }
+    };
+    if as_json {
+        Ok(serde_json::to_string_pretty(&info).expect("JSON value serialises"))
+    } else {
+        Ok(to_text(&info, 0))
+    }
+}
+
+fn describe_nifti(path: &Path) -> Result<Json> {
+    let h = nifti::read_header(path)?;
+    let v = nifti::read_f32(path)?;
+    let (mut lo, mut hi, mut sum) = (f64::INFINITY, f64::NEG_INFINITY, 0.0);
+    for &x in v.as_slice() {
+        let x = x as f64;
+        lo = lo.min(x);
+        hi = hi.max(x);
+        sum += x;
+    }
+    let a = v.affine();
+    let rows: Vec<Vec<f64>> = (0..4).map(|r| (0..4).map(|c| a[(r, c)]).collect()).collect();
+    Ok(json!({
+        "file": path.display().to_string(),
+        "format": format!("NIfTI-{}", h.version),
+        "datatype": format!("{:?}", h.datatype),
+        "dims": v.dims(),
+        "spacing_mm": v.spacing(),
+        "transform": h.transform_source.to_string(),
+        "frame": "LPS",
+        "affine_voxel_to_lps": rows,
+        "right_handed": v.is_right_handed(),
+        "origin_mm": [v.origin().x, v.origin().y, v.origin().z],
+        "value_min": lo,
+        "value_max": hi,
+        "value_mean": sum / v.len() as f64,
+    }))
+}
+
+fn describe_polydata(pd: &PolyData) -> Json {
+    let arrays = |a: &crate::geom::Attributes| -> Vec<Json> {
+        a.iter()
+            .map(|d| json!({"name": d.name, "type": d.values.vtk_type(), "components": d.components}))
+            .collect()
+    };
+    let mut info = json!({
+        "format": "VTK XML PolyData",
+        "frame": pd.field_data.get_str("frame").unwrap_or("LPS (not recorded)"),
+        "points": pd.points.len(),
+        "lines": pd.lines.len(),
+        "triangles": pd.triangles.len(),
+        "point_data": arrays(&pd.point_data),
+        "cell_data": arrays(&pd.cell_data),
+        "field_data": arrays(&pd.field_data),
+    });
+    if !pd.triangles.is_empty() && pd.lines.is_empty() {
+        if let Ok(mesh) = TriMesh::from_polydata(pd.clone()) {
+            let topo = mesh.topology();
+            let (mut emin, mut emax, mut amin) = (f64::INFINITY, 0.0f64, f64::INFINITY);
+            for t in 0..mesh.triangles.len() {
+                let q = mesh.quality(t);
+                emin = emin.min(q.min_edge);
+                emax = emax.max(q.max_edge);
+                amin = amin.min(q.min_angle);
+            }
+            let closed = topo.boundary_edges == 0 && topo.nonmanifold_edges == 0;
+            info["mesh"] = json!({
+                "area_mm2": mesh.total_area(),
+                "closed": closed,
+                "enclosed_volume_mm3": if closed { json!(mesh.signed_volume()) } else { Json::Null },
+                "euler_characteristic": topo.euler_characteristic,
+                "components": topo.components,
+                "boundary_edges": topo.boundary_edges,
+                "edge_min_mm": emin,
+                "edge_max_mm": emax,
+                "min_angle_deg": amin.to_degrees(),
+                "consistent": mesh.sanity_check().is_ok(),
+            });
+        }
+    }
+    info
+}
+
+fn describe_landmarks(path: &Path) -> Result<Json> {
+    let lm = markups::read(path)?;
+    let points: Vec<Json> = lm
+        .points
+        .iter()
+        .map(|(l, p)| json!({"label": l, "position_mm": [p.x, p.y, p.z]}))
+        .collect();
+    let missing: Vec<&str> = ["C1", "C2", "C3"].into_iter().filter(|l| lm.get(l).is_none()).collect();
+    Ok(json!({
+        "format": "landmarks",
+        "frame": "LPS",
+        "points": points,
+        "missing_required": missing,
+    }))
+}
+
+/// Indented text rendering of a JSON description.
+fn to_text(v: &Json, indent: usize) -> String {
+    let pad = " ".repeat(indent);
+    let mut s = String::new();
+    match v {
+        Json::Object(m) => {
+            for (k, x) in m {
+                match x {
+                    Json::Object(_) => {
+                        let _ = write!(s, "{pad}{k}:\n{}", to_text(x, indent + 2));
+                    }
+                    Json::Array(a) if a.iter().any(|e| e.is_object()) => {
+                        let _ = writeln!(s, "{pad}{k}:");
+                        for e in a {
+                            let _ = writeln!(s, "{pad}  - {}", e);
+                        }
+                    }
+                    _ => {
+                        let _ = writeln!(s, "{pad}{k}: {x}");
+                    }
+                }
+            }
+        }
+        other => {
+            let _ = writeln!(s, "{pad}{other}");
+        }
+    }
+    s
+}
+
+/// Convert `input` into the format `output`'s name asks for. Writes atomically.
+pub fn convert(input: &Path, output: &Path, frame: Frame) -> Result<()> {
+    if !input.exists() {
+        return Err(Error::bad_input(input, "not found"));
+    }
+    let from = format_of(input).ok_or_else(|| unknown_format(input))?;
+    let to = format_of(output).ok_or_else(|| {
+        Error::usage(format!(
+            "{}: unknown output format (.nii, .nii.gz, .vtp, .stl, .ply, .mrk.json, .fcsv, .json)",
+            output.display()
+        ))
+    })?;
+    match (from, to) {
+        (Format::Nifti, Format::Nifti) => {
+            let h = nifti::read_header(input)?;
+            match h.datatype {
+                nifti::DataType::U8 => nifti::write(output, &nifti::read_u8(input)?),
+                nifti::DataType::I16 | nifti::DataType::I8 => nifti::write(output, &nifti::read_i16(input)?),
+                _ => nifti::write(output, &nifti::read_f32(input)?),
+            }
+        }
+        (Format::Vtp, Format::Vtp) => vtp::write(output, &vtp::read(input)?, &vtp::WriteOptions::default()),
+        (Format::Vtp, Format::Stl) => stl::write(output, &vtp::read_mesh(input)?),
+        (Format::Vtp, Format::Ply) => ply::write(output, &vtp::read_mesh(input)?),
+        (Format::Landmarks, Format::Landmarks) => {
+            let lm = markups::read(input)?;
+            let name = output.to_string_lossy().to_ascii_lowercase();
+            if name.ends_with(".mrk.json") {
+                markups::write_mrk_json(output, &lm, frame)
+            } else if name.ends_with(".fcsv") {
+                markups::write_fcsv(output, &lm, frame)
+            } else {
+                markups::write_plain_json(output, &lm)
+            }
+        }
+        _ => Err(Error::usage(format!(
+            "cannot convert {} to {}: formats do not match",
+            input.display(),
+            output.display()
+        ))),
+    }
+}

@@ -1,0 +1,160 @@
+//! The `phantom` stage: declaration and file output.
+
+use serde_json::{Value as Json, json};
+
+use super::{PhantomParams, Preset, generate};
+use crate::io::{Transaction, markups, nifti, vtp};
+use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
+use crate::units::Kind;
+use crate::Result;
+use crate::geom::Frame;
+
+pub static SPEC: StageSpec = StageSpec {
+    name: "phantom",
+    about: "Generate a synthetic ceCTA of an aortic root with exact ground truth",
+    inputs: &[],
+    outputs: &[
+        Port {
+            name: "ct",
+            flag: "ct",
+            file: "ct.nii.gz",
+            kind: ArtifactKind::Volume,
+            required: true,
+            help: "synthetic CT, int16 HU",
+        },
+        Port {
+            name: "truth_mask",
+            flag: "truth-mask",
+            file: "truth_mask.nii.gz",
+            kind: ArtifactKind::Mask,
+            required: true,
+            help: "aortic lumen from the VAJ plane up, uint8 0/1, CT grid",
+        },
+        Port {
+            name: "landmarks",
+            flag: "landmarks",
+            file: "landmarks.mrk.json",
+            kind: ArtifactKind::Landmarks,
+            required: true,
+            help: "commissures C1–C3 and nadirs N1–N3, 3D Slicer markups in LPS",
+        },
+        Port {
+            name: "truth",
+            flag: "truth",
+            file: "truth.json",
+            kind: ArtifactKind::Json,
+            required: true,
+            help: "every geometric parameter, the valve frame, radii and volumes",
+        },
+        Port {
+            name: "truth_surface",
+            flag: "truth-surface",
+            file: "truth_surface.vtp",
+            kind: ArtifactKind::Mesh,
+            required: true,
+            help: "analytic lumen surface (closed; region 0 wall, 1 VAJ cap, 2 top cap)",
+        },
+    ],
+    out_dir: Some("out"),
+    params: &[
+        Param {
+            name: "preset",
+            kind: ParamKind::Choice(&["sample", "standard", "full"]),
+            default: Some("sample"),
+            help: "grid: sample 112×112×112 at 0.9×0.9×1 mm, standard 256×256×200, full 512×512×300 at 0.44×0.44×0.6 mm",
+        },
+        Param {
+            name: "seed",
+            kind: ParamKind::Int { min: 0, max: i64::MAX },
+            default: Some("1"),
+            help: "anatomy and noise seed; same seed, same bytes",
+        },
+        Param {
+            name: "noise",
+            kind: ParamKind::Quantity(Kind::Intensity),
+            default: Some("25 HU"),
+            help: "standard deviation of the image noise",
+        },
+        Param {
+            name: "tilt",
+            kind: ParamKind::Quantity(Kind::Angle),
+            default: Some("35 deg"),
+            help: "angle between the valve axis and the scanner's z axis",
+        },
+        Param {
+            name: "spacing",
+            kind: ParamKind::Lengths3,
+            default: None,
+            help: "voxel spacing, e.g. \"0.5, 0.5, 0.8 mm\"; keeps the preset's field of view",
+        },
+        Param {
+            name: "contrast",
+            kind: ParamKind::Bool,
+            default: Some("true"),
+            help: "contrast-filled blood; without it blood is ~40 HU, as in a non-contrast CT",
+        },
+        Param {
+            name: "blood",
+            kind: ParamKind::Quantity(Kind::Intensity),
+            default: Some("350 HU"),
+            help: "blood-pool intensity in the aorta (other chambers vary around it)",
+        },
+        Param {
+            name: "calcium",
+            kind: ParamKind::Bool,
+            default: Some("false"),
+            help: "add annular calcium near the nadirs",
+        },
+    ],
+    run,
+};
+
+/// The generator's parameters from the stage's resolved parameters.
+pub fn params_from(p: &Params) -> Result<PhantomParams> {
+    let preset: Preset = p.choice("preset").parse()?;
+    let mut pp = PhantomParams::new(preset, p.int("seed") as u64);
+    pp.noise_hu = p.quantity("noise");
+    pp.tilt_rad = p.quantity("tilt");
+    pp.spacing_mm = p.lengths3("spacing");
+    pp.contrast = p.flag("contrast");
+    pp.blood_hu = p.quantity("blood");
+    pp.calcium = p.flag("calcium");
+    pp.validate()?;
+    Ok(pp)
+}
+
+fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
+    let pp = params_from(params)?;
+    let t0 = std::time::Instant::now();
+    let ph = generate(&pp, &|f| progress.set(0.9 * f))?;
+    let generate_s = t0.elapsed().as_secs_f64();
+
+    let t1 = std::time::Instant::now();
+    let mut truth = serde_json::to_value(&ph.truth).expect("truth serialises");
+    if let Json::Object(m) = &mut truth {
+        // Provenance (version, time) lives in the manifest, so that the
+        // artifact itself depends on the inputs alone.
+        m.insert("frame".into(), json!(Frame::Lps.name()));
+    }
+    let mut tx = Transaction::new();
+    tx.write(io.output("ct"), |w| nifti::encode(w, &ph.ct, true))?;
+    tx.write(io.output("truth_mask"), |w| nifti::encode(w, &ph.truth_mask, true))?;
+    let mrk = markups::encode_mrk_json(&ph.landmarks, Frame::Lps);
+    tx.write_bytes(io.output("landmarks"), mrk.as_bytes())?;
+    let text = serde_json::to_string_pretty(&truth).expect("truth serialises") + "\n";
+    tx.write_bytes(io.output("truth"), text.as_bytes())?;
+    let surface = ph.truth_surface.to_polydata();
+    tx.write(io.output("truth_surface"), |w| vtp::encode(w, &surface, &vtp::WriteOptions::default()))?;
+    tx.commit()?;
+    progress.set(1.0);
+    let d = ph.ct.dims();
+    Ok(json!({
+        "dims": d,
+        "voxels": d[0] * d[1] * d[2],
+        "spacing_mm": ph.ct.spacing(),
+        "truth_mask_voxels": ph.truth_mask.as_slice().iter().filter(|&&v| v != 0).count(),
+        "truth_surface_triangles": ph.truth_surface.triangles.len(),
+        "generate_s": generate_s,
+        "write_s": t1.elapsed().as_secs_f64(),
+    }))
+}

@@ -1,0 +1,218 @@
+//! Run configs (TOML): where the run directory is, which external artifacts
+//! feed the chain, and per-stage parameter sections named after the stages.
+//!
+//! ```toml
+//! [run]
+//! dir = "../runs/phantom"        # relative to this file; `--out` overrides
+//!
+//! [inputs]                       # external artifacts, by artifact name
+//! ct = "../sample_data/ct.nii.gz"
+//!
+//! [phantom]                      # a stage section: its parameters
+//! preset = "sample"
+//! noise = "25 HU"                # quantities always carry a unit
+//! ```
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use super::params::{self, Value};
+use super::spec::StageSpec;
+use crate::{Error, Result};
+
+#[derive(Debug, Clone)]
+pub struct RunConfig {
+    pub path: PathBuf,
+    pub run_dir: Option<PathBuf>,
+    /// External artifacts by name, resolved against the config's directory.
+    pub inputs: BTreeMap<String, PathBuf>,
+    /// Parsed parameters of each stage section present.
+    pub sections: BTreeMap<String, BTreeMap<String, Value>>,
+}
+
+impl RunConfig {
+    pub fn has_section(&self, stage: &str) -> bool {
+        self.sections.contains_key(stage)
+    }
+
+    pub fn load(path: &Path, registry: &[&'static StageSpec]) -> Result<RunConfig> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
+        Self::parse(path, &text, registry)
+    }
+
+    pub fn parse(path: &Path, text: &str, registry: &[&'static StageSpec]) -> Result<RunConfig> {
+        let doc: toml::Table = text
+            .parse()
+            .map_err(|e: toml::de::Error| Error::bad_input(path, format!("not valid TOML: {}", e.message())))?;
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let artifacts: BTreeSet<&str> = registry
+            .iter()
+            .flat_map(|s| s.inputs.iter().chain(s.outputs.iter()).map(|p| p.name))
+            .collect();
+
+        let mut cfg = RunConfig {
+            path: path.to_path_buf(),
+            run_dir: None,
+            inputs: BTreeMap::new(),
+            sections: BTreeMap::new(),
+        };
+        for (key, value) in &doc {
+            match key.as_str() {
+                "run" => {
+                    let t = table(path, key, value)?;
+                    for (k, v) in t {
+                        match (k.as_str(), v) {
+                            ("dir", toml::Value::String(s)) => cfg.run_dir = Some(base.join(s)),
+                            ("dir", _) => return Err(Error::config(path, "run.dir", "must be a path string")),
+                            _ => {
+                                return Err(Error::config(
+                                    path,
+                                    format!("run.{k}"),
+                                    "unknown key (the [run] section takes: dir)",
+                                ));
+                            }
+                        }
+                    }
+                }
+                "inputs" => {
+                    for (k, v) in table(path, key, value)? {
+                        if !artifacts.contains(k.as_str()) {
+                            return Err(Error::config(
+                                path,
+                                format!("inputs.{k}"),
+                                format!(
+                                    "no stage uses an artifact called '{k}' (known: {})",
+                                    artifacts.iter().copied().collect::<Vec<_>>().join(", ")
+                                ),
+                            ));
+                        }
+                        let toml::Value::String(s) = v else {
+                            return Err(Error::config(path, format!("inputs.{k}"), "must be a path string"));
+                        };
+                        cfg.inputs.insert(k.clone(), base.join(s));
+                    }
+                }
+                name => {
+                    let Some(spec) = registry.iter().find(|s| s.name == name) else {
+                        let known: Vec<&str> = registry.iter().map(|s| s.name).collect();
+                        return Err(Error::config(
+                            path,
+                            format!("[{name}]"),
+                            format!(
+                                "unknown section: not a stage of this coapt (stages: {}; other sections: run, inputs)",
+                                known.join(", ")
+                            ),
+                        ));
+                    };
+                    let mut values = BTreeMap::new();
+                    for (k, v) in table(path, key, value)? {
+                        let Some(p) = spec.param(k) else {
+                            let names: Vec<&str> = spec.params.iter().map(|p| p.name).collect();
+                            return Err(Error::config(
+                                path,
+                                format!("{name}.{k}"),
+                                format!("unknown parameter (stage {name} takes: {})", names.join(", ")),
+                            ));
+                        };
+                        let parsed = params::parse_toml(p, v)
+                            .map_err(|e| Error::config(path, format!("{name}.{k}"), e.to_string()))?;
+                        values.insert(k.clone(), parsed);
+                    }
+                    cfg.sections.insert(name.to_string(), values);
+                }
+            }
+        }
+        Ok(cfg)
+    }
+}
+
+fn table<'a>(path: &Path, key: &str, v: &'a toml::Value) -> Result<&'a toml::Table> {
+    v.as_table()
+        .ok_or_else(|| Error::config(path, key, "must be a [section] table"))
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::pipeline::spec::{ArtifactKind, Param, ParamKind, Port};
+    use crate::units::Kind;
+
+    fn noop(_: &super::super::StageIo, _: &super::super::Params, _: &super::super::Progress) -> Result<serde_json::Value> {
+        Ok(serde_json::Value::Null)
+    }
+
+    pub static MAKE: StageSpec = StageSpec {
+        name: "make",
+        about: "",
+        inputs: &[],
+        outputs: &[Port {
+            name: "a",
+            flag: "out",
+            file: "a.txt",
+            kind: ArtifactKind::Json,
+            required: true,
+            help: "",
+        }],
+        out_dir: Some("out"),
+        params: &[],
+        run: noop,
+    };
+
+    pub static CLOSE: StageSpec = StageSpec {
+        name: "close",
+        about: "",
+        inputs: &[Port {
+            name: "a",
+            flag: "a",
+            file: "a.txt",
+            kind: ArtifactKind::Json,
+            required: true,
+            help: "",
+        }],
+        outputs: &[Port {
+            name: "b",
+            flag: "out",
+            file: "b.txt",
+            kind: ArtifactKind::Json,
+            required: true,
+            help: "",
+        }],
+        out_dir: None,
+        params: &[Param {
+            name: "pressure",
+            kind: ParamKind::Quantity(Kind::Pressure),
+            default: Some("80 mmHg"),
+            help: "",
+        }],
+        run: noop,
+    };
+
+    pub fn registry() -> Vec<&'static StageSpec> {
+        vec![&MAKE, &CLOSE]
+    }
+
+    #[test]
+    fn bare_pressure_names_file_key_and_unit() {
+        let e = RunConfig::parse(Path::new("cfg/run.toml"), "[close]\npressure = 80\n", &registry())
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("cfg/run.toml: close.pressure:"), "{e}");
+        assert!(e.contains("bare number 80") && e.contains("mmHg"), "{e}");
+        let cfg = RunConfig::parse(Path::new("cfg/run.toml"), "[close]\npressure = \"12 kPa\"\n[inputs]\na = \"x.txt\"\n", &registry()).unwrap();
+        assert_eq!(cfg.sections["close"]["pressure"], Value::Quantity(0.012, Kind::Pressure));
+        assert_eq!(cfg.inputs["a"], Path::new("cfg/x.txt"));
+    }
+
+    #[test]
+    fn unknown_names_are_refused_with_the_valid_ones() {
+        let r = registry();
+        let e = RunConfig::parse(Path::new("c.toml"), "[clsoe]\n", &r).unwrap_err().to_string();
+        assert!(e.contains("[clsoe]") && e.contains("make, close"), "{e}");
+        let e = RunConfig::parse(Path::new("c.toml"), "[close]\npresure = \"1 kPa\"\n", &r).unwrap_err().to_string();
+        assert!(e.contains("close.presure") && e.contains("pressure"), "{e}");
+        let e = RunConfig::parse(Path::new("c.toml"), "[inputs]\nzz = \"p\"\n", &r).unwrap_err().to_string();
+        assert!(e.contains("inputs.zz") && e.contains("a, b"), "{e}");
+        let e = RunConfig::parse(Path::new("c.toml"), "[run]\ndir = 3\n", &r).unwrap_err().to_string();
+        assert!(e.contains("run.dir"), "{e}");
+    }
+}

@@ -1,0 +1,43 @@
+//! Check external inputs before a run spends any time: each is read (for
+//! volumes, only the header) and judged by the kind its stage declared.
+
+use std::path::Path;
+
+use super::spec::ArtifactKind;
+use crate::io::{markups, nifti, vtp};
+use crate::{Error, Result};
+
+/// Labels every landmarks input must hold.
+pub const REQUIRED_LANDMARKS: [&str; 3] = ["C1", "C2", "C3"];
+
+pub fn input(kind: ArtifactKind, path: &Path) -> Result<()> {
+    if !path.exists() {
+        return Err(Error::bad_input(path, "not found"));
+    }
+    match kind {
+        ArtifactKind::Volume | ArtifactKind::Mask => {
+            nifti::read_header(path)?;
+        }
+        ArtifactKind::Landmarks => {
+            let lm = markups::read(path)?;
+            lm.require(&REQUIRED_LANDMARKS).map_err(|e| e.in_file(path))?;
+        }
+        ArtifactKind::Mesh => {
+            vtp::read_mesh(path)?;
+        }
+        ArtifactKind::Polylines => {
+            vtp::read(path)?;
+        }
+        ArtifactKind::Json => {
+            let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
+            serde_json::from_slice::<serde_json::Value>(&bytes)
+                .map_err(|e| Error::bad_input(path, format!("not valid JSON: {e}")))?;
+        }
+        ArtifactKind::Dir => {
+            if !path.is_dir() {
+                return Err(Error::bad_input(path, "expected a directory"));
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,182 @@
+//! Bad input never panics: one line naming the file and the problem, exit 2,
+//! and nothing left behind.
+
+use std::path::{Path, PathBuf};
+
+use coapt::geom::volume::affine_from_parts;
+use coapt::geom::{Matrix3, Point3, Volume};
+
+use crate::common::*;
+
+fn small_ct(dir: &Path, name: &str) -> PathBuf {
+    let a = affine_from_parts([0.5, 0.5, 0.8], &Matrix3::identity(), Point3::new(1.0, 2.0, 3.0));
+    let v = Volume::from_fortran_vec([6, 5, 4], a, (0..120).map(|x| x as i16).collect()).unwrap();
+    let p = dir.join(name);
+    coapt::io::nifti::write(&p, &v).unwrap();
+    p
+}
+
+fn patch(path: &Path, offset: usize, bytes: &[u8]) {
+    let mut b = std::fs::read(path).unwrap();
+    b[offset..offset + bytes.len()].copy_from_slice(bytes);
+    std::fs::write(path, b).unwrap();
+}
+
+/// `info` and `convert` both refuse the file; `convert` leaves no output.
+fn refused(file: &Path, words: &[&str]) {
+    let o = coapt(&["info", file.to_str().unwrap()]);
+    assert_bad_input(&o, file, words);
+    let dir = file.parent().unwrap();
+    let before = entries(dir);
+    let out = dir.join("converted.nii.gz");
+    let o = coapt(&["convert", file.to_str().unwrap(), out.to_str().unwrap()]);
+    assert_bad_input(&o, file, words);
+    assert_eq!(entries(dir), before, "convert left something behind");
+}
+
+#[test]
+fn truncated_nii_gz() {
+    let d = tmpdir("trunc");
+    let p = small_ct(&d, "ct.nii.gz");
+    let b = std::fs::read(&p).unwrap();
+    std::fs::write(&p, &b[..b.len() / 2]).unwrap();
+    refused(&p, &["truncated"]);
+}
+
+#[test]
+fn header_claiming_a_trillion_trillion_voxels() {
+    // A NIfTI-2 header (64-bit dims) claiming 10^6 × 10^6 × 10^6 int16 voxels.
+    let d = tmpdir("huge");
+    let mut h = vec![0u8; 544];
+    h[0..4].copy_from_slice(&540i32.to_le_bytes());
+    h[4..12].copy_from_slice(b"n+2\0\r\n\x1a\n");
+    h[12..14].copy_from_slice(&4i16.to_le_bytes());
+    h[14..16].copy_from_slice(&16i16.to_le_bytes());
+    let dims = [3i64, 1_000_000, 1_000_000, 1_000_000, 1, 1, 1, 1];
+    for (i, v) in dims.iter().enumerate() {
+        h[16 + 8 * i..24 + 8 * i].copy_from_slice(&v.to_le_bytes());
+    }
+    for i in 0..8 {
+        h[104 + 8 * i..112 + 8 * i].copy_from_slice(&1f64.to_le_bytes());
+    }
+    h[168..176].copy_from_slice(&544i64.to_le_bytes());
+    let p = d.join("huge.nii");
+    std::fs::write(&p, h).unwrap();
+    refused(&p, &["COAPT_MAX_VOLUME_BYTES"]);
+}
+
+#[test]
+fn nan_pixdim() {
+    let d = tmpdir("nanpix");
+    let p = small_ct(&d, "ct.nii");
+    patch(&p, 80, &f32::NAN.to_le_bytes());
+    refused(&p, &["pixdim"]);
+}
+
+#[test]
+fn pixdim0_zero_with_qform_only() {
+    let d = tmpdir("qfac");
+    let p = small_ct(&d, "ct.nii");
+    patch(&p, 254, &0i16.to_le_bytes()); // sform_code = 0: the qform decides
+    patch(&p, 76, &0f32.to_le_bytes()); // pixdim[0] (qfac) = 0
+    refused(&p, &["pixdim[0]"]);
+}
+
+#[test]
+fn four_d_volume() {
+    let d = tmpdir("4d");
+    let p = small_ct(&d, "ct.nii");
+    patch(&p, 40, &4i16.to_le_bytes());
+    patch(&p, 48, &5i16.to_le_bytes());
+    refused(&p, &["4-D"]);
+}
+
+#[test]
+fn landmarks_without_commissures() {
+    let d = tmpdir("nocomm");
+    let p = d.join("lm.mrk.json");
+    std::fs::write(
+        &p,
+        r#"{"@schema": "https://raw.githubusercontent.com/slicer/slicer/master/Modules/Loadable/Markups/Resources/Schema/markups-schema-v1.0.3.json#",
+            "markups": [{"type": "Fiducial", "coordinateSystem": "LPS", "controlPoints": [
+              {"id": "1", "label": "N1", "position": [1.0, 2.0, 3.0]},
+              {"id": "2", "label": "C2", "position": [4.0, 5.0, 6.0]}]}]}"#,
+    )
+    .unwrap();
+    let o = coapt(&["check", "--landmarks", p.to_str().unwrap()]);
+    assert_bad_input(&o, &p, &["C1", "C3"]);
+}
+
+#[test]
+fn landmarks_with_non_numeric_position() {
+    let d = tmpdir("nonnum");
+    let p = d.join("lm.mrk.json");
+    std::fs::write(
+        &p,
+        r#"{"markups": [{"type": "Fiducial", "coordinateSystem": "LPS", "controlPoints": [
+              {"id": "1", "label": "C1", "position": [1.0, "abc", 3.0]}]}]}"#,
+    )
+    .unwrap();
+    let o = coapt(&["check", "--landmarks", p.to_str().unwrap()]);
+    assert_bad_input(&o, &p, &["C1", "position"]);
+    let o = coapt(&["info", p.to_str().unwrap()]);
+    assert_bad_input(&o, &p, &["C1", "position"]);
+}
+
+#[test]
+fn vtp_with_triangles_indexing_missing_points() {
+    let d = tmpdir("vtpidx");
+    let p = d.join("bad.vtp");
+    std::fs::write(
+        &p,
+        r#"<?xml version="1.0"?>
+<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian">
+<PolyData><Piece NumberOfPoints="3" NumberOfPolys="1">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0 1 0 0 0 1 0</DataArray></Points>
+<Polys><DataArray type="Int64" Name="connectivity" format="ascii">0 1 7</DataArray>
+<DataArray type="Int64" Name="offsets" format="ascii">3</DataArray></Polys>
+</Piece></PolyData></VTKFile>
+"#,
+    )
+    .unwrap();
+    let o = coapt(&["info", p.to_str().unwrap()]);
+    assert_bad_input(&o, &p, &["point 7"]);
+    let before = entries(&d);
+    let out = d.join("out.stl");
+    let o = coapt(&["convert", p.to_str().unwrap(), out.to_str().unwrap()]);
+    assert_bad_input(&o, &p, &["point 7"]);
+    assert_eq!(entries(&d), before);
+}
+
+#[test]
+fn config_with_a_bare_number_for_a_quantity() {
+    let d = tmpdir("bare");
+    let cfg = d.join("run.toml");
+    std::fs::write(&cfg, "[phantom]\npreset = \"sample\"\ntilt = 35\n").unwrap();
+    let out = d.join("run");
+    let o = coapt(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_bad_input(&o, &cfg, &["phantom.tilt", "bare number 35", "angle", "deg"]);
+    assert!(!out.exists(), "a refused config must not create the run directory");
+}
+
+#[test]
+fn cli_value_without_unit() {
+    let d = tmpdir("cliunit");
+    let o = coapt(&["phantom", "--out", d.join("p").to_str().unwrap(), "--noise", "25"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(err.contains("--noise 25") && err.contains("HU"), "{err}");
+    assert!(!d.join("p").exists());
+}
+
+#[test]
+fn missing_file_and_unknown_format() {
+    let d = tmpdir("missing");
+    let p = d.join("nope.nii.gz");
+    let o = coapt(&["info", p.to_str().unwrap()]);
+    assert_bad_input(&o, &p, &[]);
+    let q = d.join("data.xyz");
+    std::fs::write(&q, b"hello").unwrap();
+    let o = coapt(&["info", q.to_str().unwrap()]);
+    assert_bad_input(&o, &q, &["format"]);
+}

@@ -1,0 +1,53 @@
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// A fresh, empty directory for one test.
+pub fn tmpdir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("coapt-it-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+pub fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Run the coapt binary.
+pub fn coapt(args: &[&str]) -> Output {
+    let out = Command::new(env!("CARGO_BIN_EXE_coapt"))
+        .args(args)
+        .output()
+        .expect("coapt starts");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "coapt panicked: {stderr}");
+    out
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Assert exit code 2 with a one-line `error:` naming `file` and containing `words`.
+pub fn assert_bad_input(o: &Output, file: &Path, words: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "expected exit 2, stderr: {err}");
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "expected one line, got: {err}");
+    assert!(lines[0].starts_with("error: "), "{err}");
+    let name = file.file_name().unwrap().to_string_lossy();
+    assert!(lines[0].contains(name.as_ref()), "error does not name {name}: {err}");
+    for w in words {
+        assert!(lines[0].to_lowercase().contains(&w.to_lowercase()), "error lacks '{w}': {err}");
+    }
+}
+
+/// Names of the entries of a directory, sorted.
+pub fn entries(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}

@@ -1,0 +1,7 @@
+//! Integration tests: every user-visible behaviour of the `coapt` binary.
+
+mod bad_input;
+mod common;
+mod phantom;
+mod runner;
+mod sample_data;
