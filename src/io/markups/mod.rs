@@ -84,7 +84,7 @@ pub fn read(path: &Path) -> Result<Landmarks> {
     }
 }
 
-/// One point as found in a file, already converted to LPS.
+/// One point as found in a file; `lps` holds LPS once its decoder returns.
 #[derive(Debug)]
 struct RawPoint {
     label: String,
