@@ -36,7 +36,6 @@
 //! `coordinate_system` is `"LPS"` or `"RAS"`, `"LPS"` when absent; units are mm.
 //! [`write_plain_json`] writes the list form, in LPS.
 
-mod exact_json;
 mod fcsv;
 mod mrk_json;
 mod plain;
@@ -106,7 +105,9 @@ fn read_text(path: &Path) -> Result<String> {
 }
 
 fn read_json(path: &Path) -> Result<Value> {
-    exact_json::parse(&read_text(path)?).map_err(|m| Error::bad_input(path, m))
+    // serde_json is built with `float_roundtrip`, so numbers read back exactly.
+    serde_json::from_str(&read_text(path)?)
+        .map_err(|e| Error::bad_input(path, format!("malformed JSON: {e}")))
 }
 
 /// Turn decoded points into checked LPS landmarks, naming `path` in any error.
