@@ -43,9 +43,10 @@ pub fn parse(bytes: &[u8]) -> Result<PolyData, Error> {
 }
 
 /// Write `pd` atomically. Invalid data (indices out of range, NaN points,
-/// array lengths that do not match) is refused, never written.
+/// array lengths that do not match, an unknown `frame`) is refused, never
+/// written. Without a `frame` in field data, `frame` = "LPS" is recorded.
 pub fn write(path: &Path, pd: &PolyData, opts: &WriteOptions) -> Result<()> {
-    pd.sanity_check().map_err(|e| {
+    pd.sanity_check().and_then(|_| pd.frame()).map_err(|e| {
         Error::write(
             path,
             std::io::Error::new(
@@ -57,8 +58,9 @@ pub fn write(path: &Path, pd: &PolyData, opts: &WriteOptions) -> Result<()> {
     write_atomic(path, |w| encode(w, pd, opts))
 }
 
-/// Serialise `pd` (not validated: see [`write`]). Same input, same bytes,
-/// whatever the number of threads.
+/// Serialise `pd` (not validated: see [`write`]), adding `frame` = "LPS" to
+/// field data when absent. Same input, same bytes, whatever the number of
+/// threads.
 pub fn encode(w: &mut impl Write, pd: &PolyData, opts: &WriteOptions) -> std::io::Result<()> {
     write::encode(w, pd, opts)
 }

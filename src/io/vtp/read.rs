@@ -69,7 +69,7 @@ pub fn parse(bytes: &[u8]) -> Result<PolyData> {
 
 /// Split the file at `<AppendedData`: raw appended bytes are not UTF-8, so
 /// only the XML before them (closed artificially) goes to the XML parser.
-fn split_appended(bytes: &[u8]) -> Result<(String, Option<(String, &[u8])>)> {
+fn split_appended(bytes: &[u8]) -> Result<(String, Option<&[u8]>)> {
     let Some(start) = find(bytes, b"<AppendedData") else {
         let text =
             std::str::from_utf8(bytes).map_err(|e| err(format!("not a UTF-8 XML file: {e}")))?;
@@ -92,18 +92,14 @@ fn split_appended(bytes: &[u8]) -> Result<(String, Option<(String, &[u8])>)> {
         .filter(|&i| rest[i] == b'_')
         .ok_or_else(|| err("<AppendedData> does not start with the '_' marker"))?;
     let xml = format!("{head}{tag}/></VTKFile>");
-    Ok((xml, Some((tag.to_owned(), &rest[underscore + 1..]))))
+    Ok((xml, Some(&rest[underscore + 1..])))
 }
 
 fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
     hay.windows(needle.len()).position(|w| w == needle)
 }
 
-fn layout<'a>(
-    root: Node,
-    appended: Option<(String, &'a [u8])>,
-    doc: &Document,
-) -> Result<Layout<'a>> {
+fn layout<'a>(root: Node, appended: Option<&'a [u8]>, doc: &Document) -> Result<Layout<'a>> {
     let little_endian = match root.attribute("byte_order").unwrap_or("LittleEndian") {
         "LittleEndian" => true,
         "BigEndian" => false,
@@ -140,7 +136,7 @@ fn layout<'a>(
     offsets.sort_unstable();
     let (appended, appended_base64) = match appended {
         None => (None, false),
-        Some((_, data)) => {
+        Some(data) => {
             let el = child(root, "AppendedData")
                 .ok_or_else(|| err("<AppendedData> is outside <VTKFile>"))?;
             match el.attribute("encoding").unwrap_or("raw") {
@@ -225,7 +221,10 @@ fn read_piece(piece: Node, poly: Node, layout: &Layout) -> Result<PolyData> {
         Some(el) => attributes(el, Some(n_points), "point data", layout)?,
         None => Attributes::new(),
     };
-    let n_cells = n_verts + n_lines + n_polys;
+    let n_cells = n_verts
+        .checked_add(n_lines)
+        .and_then(|n| n.checked_add(n_polys))
+        .ok_or_else(|| err("cell counts in <Piece> are impossibly large"))?;
     let mut cell_data = match child(piece, "CellData") {
         Some(el) => attributes(el, Some(n_cells), "cell data", layout)?,
         None => Attributes::new(),
@@ -273,7 +272,7 @@ fn read_points(piece: Node, n_points: usize, layout: &Layout) -> Result<Vec<Poin
         DataValues::Str(_) => return Err(err("points are stored as strings")),
         other => Cow::Owned(other.to_f64().expect("numeric")),
     };
-    if coords.len() != 3 * n_points {
+    if Some(coords.len()) != n_points.checked_mul(3) {
         return Err(err(format!(
             "NumberOfPoints is {n_points} but the points array holds {} coordinates ({} points)",
             coords.len(),

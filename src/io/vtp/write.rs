@@ -7,7 +7,7 @@ use std::io::{self, Write};
 use rayon::prelude::*;
 
 use super::WriteOptions;
-use crate::geom::{Attributes, DataArray, DataValues, Point3, PolyData};
+use crate::geom::{DataArray, DataValues, Point3, PolyData};
 
 /// Uncompressed size of one compressed block. VTK's default is 32 KiB;
 /// larger blocks compress a little better and any reader handles them.
@@ -273,15 +273,14 @@ struct Section<'a> {
 fn attribute_section<'a>(
     open: &str,
     close: &'static str,
-    attrs: &'a Attributes,
+    arrays: impl Iterator<Item = &'a DataArray>,
     field: bool,
 ) -> io::Result<Section<'a>> {
     Ok(Section {
         open: open.to_owned(),
         close,
         indent: if field { "      " } else { "        " },
-        entries: attrs
-            .iter()
+        entries: arrays
             .map(|a| data_entry(a, field))
             .collect::<io::Result<_>>()?,
     })
@@ -289,14 +288,19 @@ fn attribute_section<'a>(
 
 pub fn encode(w: &mut impl Write, pd: &PolyData, opts: &WriteOptions) -> io::Result<()> {
     let mut sections: Vec<Section> = Vec::new();
-    if !pd.field_data.is_empty() {
-        sections.push(attribute_section(
-            "    <FieldData>",
-            "    </FieldData>",
-            &pd.field_data,
-            true,
-        )?);
-    }
+    // Every coapt .vtp records its frame (DESIGN.md); absent means LPS.
+    let default_frame = DataArray::string("frame", "LPS");
+    let frame = pd
+        .field_data
+        .get("frame")
+        .is_none()
+        .then_some(&default_frame);
+    sections.push(attribute_section(
+        "    <FieldData>",
+        "    </FieldData>",
+        frame.into_iter().chain(pd.field_data.iter()),
+        true,
+    )?);
     let piece_open = format!(
         "    <Piece NumberOfPoints=\"{}\" NumberOfVerts=\"0\" NumberOfLines=\"{}\" NumberOfStrips=\"0\" NumberOfPolys=\"{}\">",
         pd.points.len(),
@@ -308,7 +312,7 @@ pub fn encode(w: &mut impl Write, pd: &PolyData, opts: &WriteOptions) -> io::Res
         sections.push(attribute_section(
             "      <PointData>",
             "      </PointData>",
-            &pd.point_data,
+            pd.point_data.iter(),
             false,
         )?);
     }
@@ -316,7 +320,7 @@ pub fn encode(w: &mut impl Write, pd: &PolyData, opts: &WriteOptions) -> io::Res
         sections.push(attribute_section(
             "      <CellData>",
             "      </CellData>",
-            &pd.cell_data,
+            pd.cell_data.iter(),
             false,
         )?);
     }
