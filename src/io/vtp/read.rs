@@ -773,7 +773,16 @@ fn parse_ascii(text: &str, ty: Ty) -> std::result::Result<DataValues, String> {
         ),
         Ty::I32 => DataValues::I32(ints(tokens, bad)?),
         Ty::U8 => DataValues::U8(ints(tokens, bad)?),
-        // Strings in ascii are written as character codes, each string NUL-terminated.
-        Ty::Str => DataValues::Str(split_strings(&ints::<u8>(tokens, bad)?)),
+        // Strings in ascii are written as character codes, each string
+        // NUL-terminated; VTK prints bytes above 127 as negative (signed) chars.
+        Ty::Str => {
+            let codes: Vec<i64> = ints(tokens, bad)?;
+            let bytes = codes
+                .iter()
+                .map(|&c| u8::try_from(c).or_else(|_| i8::try_from(c).map(|b| b as u8)))
+                .collect::<std::result::Result<Vec<u8>, _>>()
+                .map_err(|_| "character code out of range in ascii string data".to_string())?;
+            DataValues::Str(split_strings(&bytes))
+        }
     })
 }

@@ -307,7 +307,7 @@ fn expected_fixture() -> PolyData {
     f.insert(DataArray::new(
         "notes",
         1,
-        DataValues::Str(vec!["hello world".into(), "second".into()]),
+        DataValues::Str(vec!["hello world".into(), "second".into(), "é µ".into()]),
     ));
     f.insert(DataArray::scalars_f64("scale", vec![2.5, -0.125]));
     pd
@@ -321,6 +321,15 @@ fn reads_every_layout_vtk_writes() {
         assert_eq!(got, want, "{name}");
         assert_bit_identical(&got, &want);
     }
+    // Float32 points (3D Slicer's default) widen exactly to f64.
+    let got = read(&fixture("points_float32_zlib.vtp")).unwrap();
+    let mut want32 = want.clone();
+    for p in &mut want32.points {
+        for k in 0..3 {
+            p[k] = p[k] as f32 as f64;
+        }
+    }
+    assert_eq!(got, want32);
 }
 
 #[test]

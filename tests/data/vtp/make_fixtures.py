@@ -13,10 +13,13 @@ from pathlib import Path
 import vtk
 
 
-def mesh():
+def mesh(points_type="double"):
     pd = vtk.vtkPolyData()
     pts = vtk.vtkPoints()
-    pts.SetDataTypeToDouble()
+    if points_type == "double":
+        pts.SetDataTypeToDouble()
+    else:
+        pts.SetDataTypeToFloat()
     for p in [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (1.0, 1.0, 0.0), (0.0, 1.0, 0.1),
               (-1.0 / 3.0, 0.5, 1e-300), (2.5, -7.25, 1e10)]:
         pts.InsertNextPoint(p)
@@ -59,6 +62,7 @@ def mesh():
     notes.SetName("notes")
     notes.InsertNextValue("hello world")
     notes.InsertNextValue("second")
+    notes.InsertNextValue("é µ")  # ascii mode writes these bytes as negative chars
     fd.AddArray(notes)
     fd.AddArray(arr(vtk.vtkDoubleArray, "scale", 1, [2.5, -0.125]))
     return pd
@@ -107,6 +111,8 @@ def main():
     write(pd, out / "bigendian_raw.vtp", "appended", big=True, encode=False)
     write(pd, out / "bigendian_zlib_u64.vtp", "appended", big=True, header64=True, compress=True, encode=False)
     write(pd, out / "bigendian_binary.vtp", "binary", big=True)
+    # 3D Slicer's usual output: Float32 points, zlib, appended raw.
+    write(mesh("float"), out / "points_float32_zlib.vtp", "appended", header64=True, compress=True, encode=False)
     print("VTK", vtk.vtkVersion.GetVTKVersion(), "wrote fixtures to", out)
 
 
