@@ -69,11 +69,11 @@ pub fn parse(bytes: &[u8]) -> Result<PolyData> {
 
 /// Split the file at `<AppendedData`: raw appended bytes are not UTF-8, so
 /// only the XML before them (closed artificially) goes to the XML parser.
-fn split_appended(bytes: &[u8]) -> Result<(String, Option<&[u8]>)> {
+fn split_appended(bytes: &[u8]) -> Result<(Cow<'_, str>, Option<&[u8]>)> {
     let Some(start) = find(bytes, b"<AppendedData") else {
         let text =
             std::str::from_utf8(bytes).map_err(|e| err(format!("not a UTF-8 XML file: {e}")))?;
-        return Ok((text.to_owned(), None));
+        return Ok((Cow::Borrowed(text), None));
     };
     let tag_end = start
         + bytes[start..]
@@ -92,7 +92,7 @@ fn split_appended(bytes: &[u8]) -> Result<(String, Option<&[u8]>)> {
         .filter(|&i| rest[i] == b'_')
         .ok_or_else(|| err("<AppendedData> does not start with the '_' marker"))?;
     let xml = format!("{head}{tag}/></VTKFile>");
-    Ok((xml, Some(&rest[underscore + 1..])))
+    Ok((Cow::Owned(xml), Some(&rest[underscore + 1..])))
 }
 
 fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
@@ -357,11 +357,17 @@ fn triangles(el: Node, n_polys: usize, layout: &Layout) -> Result<Vec<[u32; 3]>>
     let (conn, ends) = connectivity(el, n_polys, layout)?;
     let mut start = 0;
     for (i, &e) in ends.iter().enumerate() {
-        if e - start != 3 {
+        let k = e - start;
+        if k < 3 {
             return Err(err(format!(
-                "polygon {i} has {} points: coapt needs triangles; triangulate it \
-                 (ParaView: Filters › Triangulate, or VTK's vtkTriangleFilter) and save again",
-                e - start
+                "polygon {i} has {k} points: not a surface; remove degenerate cells \
+                 (ParaView: Filters › Clean) and save again"
+            )));
+        }
+        if k > 3 {
+            return Err(err(format!(
+                "polygon {i} has {k} points: coapt needs triangles; triangulate it \
+                 (ParaView: Filters › Triangulate, or VTK's vtkTriangleFilter) and save again"
             )));
         }
         start = e;

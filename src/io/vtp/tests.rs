@@ -426,6 +426,8 @@ fn refuses_bad_indices_quads_strips_nan_tokens() {
     assert!(e.contains("\"x\" is not a number"), "{e}");
     let e = parse_err(ascii_doc("0 0 0 1 0 0 1 nan 0", "0 1 2", "3", "").as_bytes());
     assert!(e.contains("point 2 has a NaN"), "{e}");
+    let e = parse_err(ascii_doc(SQUARE, "0 1 2 3 0", "3 5", "").as_bytes());
+    assert!(e.contains("polygon 1 has 2 points"), "{e}");
     let e = parse_err(ascii_doc(SQUARE, "0 1 2", "3 5", "").as_bytes());
     assert!(e.contains("offset"), "{e}");
     let e = parse_err(ascii_doc(SQUARE, "0 1 -2", "3", "").as_bytes());
