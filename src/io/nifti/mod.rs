@@ -47,20 +47,27 @@ pub struct ReadOptions {
 impl Default for ReadOptions {
     /// 2 GiB, or `COAPT_MAX_VOLUME_BYTES` when it holds a valid byte count.
     fn default() -> Self {
-        let max_bytes = match std::env::var(MAX_BYTES_ENV) {
-            Ok(s) => match s.trim().parse::<u64>() {
-                Ok(n) if n > 0 => n,
-                _ => {
-                    tracing::warn!(
-                        "{MAX_BYTES_ENV}={s:?} is not a positive whole number of bytes; \
-                         using the default limit of {DEFAULT_MAX_BYTES} bytes"
-                    );
-                    DEFAULT_MAX_BYTES
-                }
-            },
-            Err(_) => DEFAULT_MAX_BYTES,
-        };
-        Self { max_bytes }
+        Self {
+            max_bytes: max_bytes_from(std::env::var(MAX_BYTES_ENV).ok().as_deref()),
+        }
+    }
+}
+
+/// The limit an environment value asks for; an invalid value is reported
+/// and ignored rather than fatal, since it only guards memory.
+fn max_bytes_from(var: Option<&str>) -> u64 {
+    let Some(s) = var else {
+        return DEFAULT_MAX_BYTES;
+    };
+    match s.trim().parse::<u64>() {
+        Ok(n) if n > 0 => n,
+        _ => {
+            tracing::warn!(
+                "{MAX_BYTES_ENV}={s:?} is not a positive whole number of bytes; \
+                 using the default limit of {DEFAULT_MAX_BYTES} bytes"
+            );
+            DEFAULT_MAX_BYTES
+        }
     }
 }
 

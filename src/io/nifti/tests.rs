@@ -729,6 +729,15 @@ fn absurd_sizes_are_refused_instantly() {
 }
 
 #[test]
+fn max_bytes_env_value() {
+    assert_eq!(max_bytes_from(None), 2 * 1024 * 1024 * 1024);
+    assert_eq!(max_bytes_from(Some(" 5000000000 ")), 5_000_000_000);
+    for bad in ["", "abc", "-1", "0", "2GiB"] {
+        assert_eq!(max_bytes_from(Some(bad)), DEFAULT_MAX_BYTES, "{bad:?}");
+    }
+}
+
+#[test]
 fn bad_headers_name_the_problem() {
     let dir = tmpdir("badhdr");
     let good = small_i16_file();
