@@ -62,7 +62,7 @@ fn header_claiming_a_trillion_trillion_voxels() {
     h[168..176].copy_from_slice(&544i64.to_le_bytes());
     let p = d.join("huge.nii");
     std::fs::write(&p, h).unwrap();
-    refused(&p, &["COAPT_MAX_VOLUME_BYTES"]);
+    refused(&p, &["claims 1000000 voxels", "corrupt"]);
 }
 
 #[test]
