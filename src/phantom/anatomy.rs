@@ -1,0 +1,618 @@
+//! Random anatomical parameters from the seed, and the placement of every
+//! structure in world LPS (x → left, y → posterior, z → superior).
+//!
+//! All random numbers are drawn up front in a fixed order, so a flag such as
+//! `calcium` or a different preset never changes the anatomy of a seed.
+
+use std::f64::consts::PI;
+
+use super::centreline::Centreline;
+use super::lumen::{Lumen, RadiusProfile};
+use super::shapes::{Ellipsoid, Sdf, Tube, ZCylinder, basis_with_axis};
+use crate::geom::{Matrix3, Point3, Vector3};
+use crate::rng::SplitMix64;
+use crate::{Error, Result};
+
+/// Sinus names, in the order sinus k lies between commissures C_k and C_{k+1}
+/// (counter-clockwise about the valve axis seen from the aorta).
+pub const SINUS_NAMES: [&str; 3] = ["right_coronary", "left_coronary", "non_coronary"];
+
+/// Nominal annulus centre in world LPS (mm): a typical scanner position of
+/// the aortic valve, deliberately far from the origin.
+const NOMINAL_ANNULUS: [f64; 3] = [-15.0, 20.0, -160.0];
+/// Thickness of the LV myocardium around the cavity.
+const MYOCARDIUM_MM: f64 = 10.0;
+/// LV cavity semi-axes (short, short, long) in mm.
+const LV_SEMI: [f64; 3] = [22.0, 22.0, 40.0];
+/// Highest the LV cavity may reach along the valve axis (below the VAJ), so
+/// no LV blood lies above the annulus plane next to the truth region.
+const LV_MAX_HEIGHT_MM: f64 = -5.0;
+/// Smooth-union blend width between LV and LVOT.
+pub const LV_BLEND_MM: f64 = 6.0;
+/// Left-atrium semi-axes (x, y, z) before any shrinking.
+const LA_SEMI: [f64; 3] = [22.0, 13.0, 17.0];
+/// Minimal clearance kept between structures that are not meant to touch.
+const CLEARANCE_MM: f64 = 3.0;
+/// Vertebral body radius and cranio-caudal period (body + disc).
+const VERTEBRA_RADIUS_MM: f64 = 17.0;
+const VERTEBRA_PERIOD_MM: f64 = 25.0;
+pub const DISC_MM: f64 = 5.0;
+
+/// A coronary artery: tube, ostium on the sinus wall, proximal radius.
+#[derive(Debug, Clone)]
+pub struct Coronary {
+    pub name: &'static str,
+    pub sinus: usize,
+    pub tubes: Vec<Tube>,
+    pub ostium: Point3,
+    pub radius_mm: f64,
+    pub ostium_height_mm: f64,
+}
+
+#[derive(Debug, Clone)]
+pub struct Anatomy {
+    pub tilt_azimuth_rad: f64,
+    pub lumen: Lumen,
+    pub h_comm_mm: f64,
+    pub lv: Ellipsoid,
+    pub myocardium: Ellipsoid,
+    pub coronaries: Vec<Coronary>,
+    pub pa: Vec<Tube>,
+    pub pa_radius_mm: f64,
+    pub la: Ellipsoid,
+    pub da: ZCylinder,
+    pub spine_centre: [f64; 2],
+    pub vertebra_radius_mm: f64,
+    pub vertebra_period_mm: f64,
+    pub vertebra_phase_mm: f64,
+    pub cortical_hu: f64,
+    pub cancellous_hu: f64,
+    pub sternum_centre: [f64; 2],
+    pub body_centre: [f64; 2],
+    pub calcium: Vec<Ellipsoid>,
+    /// Low-frequency blood field: wave vectors (rad/mm) and phases.
+    pub blood_waves: Vec<(Vector3, f64)>,
+}
+
+/// Where the field of view must reach (world mm), for grid placement.
+#[derive(Debug, Clone, Copy)]
+pub struct FovNeeds {
+    pub z_bottom: f64,
+    pub z_top: f64,
+}
+
+/// Random numbers for one seed, drawn in a fixed order.
+struct Draws {
+    r_a: f64,
+    ellipticity: f64,
+    ellipse_angle: f64,
+    lvot_len: f64,
+    h_stj: f64,
+    comm_below_stj: f64,
+    stj_ratio: f64,
+    asc_ratio: f64,
+    stj_transition: f64,
+    asc_var: f64,
+    asc_wavelength: f64,
+    comm_dev: [f64; 2],
+    sinus_ratio: [f64; 3],
+    s1_above_stj: f64,
+    arc_radius: f64,
+    azimuth_jitter: f64,
+    e1_jitter: f64,
+    origin_jitter: [f64; 3],
+    apex_jitter: [f64; 2],
+    ostium_frac: [f64; 2],
+    ostium_angle: [f64; 2],
+    coronary_radius: [f64; 2],
+    pa_radius: f64,
+    pa_gap: f64,
+    la_gap: f64,
+    da_radius: f64,
+    da_offset: [f64; 2],
+    vertebra_phase: f64,
+    cortical_hu: f64,
+    cancellous_hu: f64,
+    calcium: Vec<(usize, f64, f64, f64, [f64; 3])>,
+    blood_waves: Vec<(Vector3, f64)>,
+}
+
+impl Draws {
+    fn new(seed: u64) -> Self {
+        let mut g = SplitMix64::new(seed ^ 0xA0A7_1C_2007);
+        let deg = PI / 180.0;
+        let d1 = g.range(-8.0, 8.0);
+        // Third spacing is 360° minus the other two: keep it within ±8° too.
+        let d2 = g.range((-8.0 - d1).max(-8.0), (8.0 - d1).min(8.0));
+        let mut calcium = Vec::new();
+        for k in 0..3 {
+            let n = 1 + (g.uniform() * 2.0) as usize;
+            for _ in 0..n {
+                calcium.push((
+                    k,
+                    g.range(0.3, 1.5),
+                    g.range(-25.0, 25.0) * deg,
+                    g.range(0.2, 0.6),
+                    [g.range(0.5, 1.5), g.range(0.5, 1.5), g.range(0.5, 1.2)],
+                ));
+            }
+        }
+        let mut blood_waves = Vec::new();
+        for _ in 0..3 {
+            let dir = Vector3::new(g.normal(), g.normal(), g.normal()).normalize();
+            let wavelength = g.range(80.0, 160.0);
+            blood_waves.push((dir * (2.0 * PI / wavelength), g.range(0.0, 2.0 * PI)));
+        }
+        Draws {
+            r_a: g.range(11.0, 13.0),
+            ellipticity: g.range(0.04, 0.06),
+            ellipse_angle: g.range(0.0, PI),
+            lvot_len: g.range(15.0, 20.0),
+            h_stj: g.range(17.0, 21.0),
+            comm_below_stj: g.range(1.0, 2.0),
+            stj_ratio: g.range(1.05, 1.2),
+            asc_ratio: g.range(1.0, 1.15),
+            stj_transition: g.range(8.0, 12.0),
+            asc_var: g.range(-0.04, 0.04),
+            asc_wavelength: g.range(50.0, 80.0),
+            comm_dev: [d1 * deg, d2 * deg],
+            sinus_ratio: [g.range(1.3, 1.45), g.range(1.3, 1.45), g.range(1.3, 1.45)],
+            s1_above_stj: g.range(3.0, 6.0),
+            arc_radius: g.range(55.0, 80.0),
+            azimuth_jitter: g.range(-10.0, 10.0) * deg,
+            e1_jitter: g.range(-10.0, 10.0) * deg,
+            origin_jitter: [g.range(-5.0, 5.0), g.range(-5.0, 5.0), g.range(-5.0, 5.0)],
+            apex_jitter: [g.range(-0.1, 0.1), g.range(-0.1, 0.1)],
+            ostium_frac: [g.range(0.4, 0.6), g.range(0.4, 0.6)],
+            ostium_angle: [g.range(-15.0, 15.0) * deg, g.range(-15.0, 15.0) * deg],
+            coronary_radius: [g.range(1.3, 1.8), g.range(1.5, 2.0)],
+            pa_radius: g.range(11.0, 14.0),
+            pa_gap: g.range(1.8, 2.6),
+            la_gap: g.range(3.3, 4.6),
+            da_radius: g.range(10.0, 12.0),
+            da_offset: [g.range(-3.0, 3.0), g.range(-3.0, 3.0)],
+            vertebra_phase: g.range(0.0, VERTEBRA_PERIOD_MM),
+            cortical_hu: g.range(700.0, 1000.0),
+            cancellous_hu: g.range(250.0, 320.0),
+            calcium,
+            blood_waves,
+        }
+    }
+}
+
+/// Rotate `v` (⟂ `axis`) about the unit `axis` by `angle`.
+fn rotate_about(v: &Vector3, axis: &Vector3, angle: f64) -> Vector3 {
+    v * angle.cos() + axis.cross(v) * angle.sin() + axis * (axis.dot(v) * (1.0 - angle.cos()))
+}
+
+impl Anatomy {
+    /// Build the anatomy for `seed` and `tilt`; `fit` reports the z-range the
+    /// field of view must cover and returns whether it fits, so the arc radius
+    /// can shrink for a short field of view.
+    pub fn new(seed: u64, tilt_rad: f64, fov_z_mm: f64) -> Result<(Self, FovNeeds)> {
+        let d = Draws::new(seed);
+        let deg = PI / 180.0;
+
+        // --- Valve frame -------------------------------------------------
+        let origin = Point3::new(
+            NOMINAL_ANNULUS[0] + d.origin_jitter[0],
+            NOMINAL_ANNULUS[1] + d.origin_jitter[1],
+            NOMINAL_ANNULUS[2] + d.origin_jitter[2],
+        );
+        // Tilt towards right-anterior: −x is right, −y is anterior.
+        let azimuth = 45.0 * deg + d.azimuth_jitter;
+        let horizontal = Vector3::new(-azimuth.cos(), -azimuth.sin(), 0.0);
+        let axis = Vector3::z() * tilt_rad.cos() + horizontal * tilt_rad.sin();
+
+        // --- Radius profile ----------------------------------------------
+        let r_a = d.r_a;
+        let r_stj = r_a * d.stj_ratio;
+        let gaps = [120.0 * deg + d.comm_dev[0], 120.0 * deg + d.comm_dev[1]];
+        let comm = [0.0, gaps[0], gaps[0] + gaps[1]];
+        let mut profile = RadiusProfile {
+            r_annulus_mm: r_a,
+            lvot_ellipticity: d.ellipticity,
+            lvot_major_angle_rad: d.ellipse_angle,
+            lvot_fade_mm: 8.0,
+            h_stj_mm: d.h_stj,
+            r_stj_mm: r_stj,
+            stj_transition_mm: d.stj_transition,
+            r_ascending_mm: r_stj * d.asc_ratio,
+            ascending_variation: d.asc_var,
+            ascending_wavelength_mm: d.asc_wavelength,
+            commissure_angles_rad: comm,
+            sinus_amplitude: [0.0; 3],
+        };
+        let base_peak = profile.base_root(0.4 * d.h_stj).0;
+        for k in 0..3 {
+            profile.sinus_amplitude[k] = d.sinus_ratio[k] * r_a / base_peak - 1.0;
+        }
+
+        // e1 such that the right-coronary sinus (sinus 1) faces anterior.
+        let anterior = -Vector3::y();
+        let d_ant = (anterior - axis * anterior.dot(&axis)).normalize();
+        let e1 = rotate_about(&d_ant, &axis, -profile.sinus_centre(0) + d.e1_jitter);
+
+        // --- Centreline: shrink the arc until the needed z-range fits ------
+        let s1 = d.h_stj + d.s1_above_stj;
+        let r_max = profile.r_max_bound();
+        let lvot_len = d.lvot_len;
+        let mut arc_radius = d.arc_radius;
+        let min_arc = (2.0 * r_max).max(35.0);
+        let (centreline, needs) = loop {
+            let cl = Centreline::new(origin, axis, e1, s1, arc_radius);
+            let needs = z_needs(&cl, &profile, lvot_len);
+            if needs.z_top - needs.z_bottom <= fov_z_mm || arc_radius <= min_arc {
+                if needs.z_top - needs.z_bottom > fov_z_mm {
+                    return Err(Error::value(format!(
+                        "the aortic root needs {:.0} mm of z field of view at tilt {:.0}°, the grid has {:.0} mm",
+                        needs.z_top - needs.z_bottom,
+                        tilt_rad.to_degrees(),
+                        fov_z_mm
+                    )));
+                }
+                break (cl, needs);
+            }
+            arc_radius = (arc_radius - 2.0).max(min_arc);
+        };
+        let lumen = Lumen {
+            centreline,
+            profile,
+            lvot_length_mm: lvot_len,
+        };
+        let cl = &lumen.centreline;
+        let profile = &lumen.profile;
+
+        // --- LV and myocardium --------------------------------------------
+        // Apex: anterior-left-inferior.
+        let apex_dir =
+            Vector3::new(0.5 + d.apex_jitter[0], -0.45 + d.apex_jitter[1], -0.75).normalize();
+        let rot = basis_with_axis(&apex_dir);
+        let semi = Vector3::new(LV_SEMI[0], LV_SEMI[1], LV_SEMI[2]);
+        let lvot_end = origin - axis * lvot_len;
+        // The LVOT end sits 70 % of the long semi-axis from the centre.
+        let mut centre = lvot_end + apex_dir * (0.7 * LV_SEMI[2]);
+        let reach = |c: &Point3| {
+            let m = rot * Matrix3::from_diagonal(&semi.component_mul(&semi)) * rot.transpose();
+            (c - origin).dot(&axis) + (axis.dot(&(m * axis))).sqrt()
+        };
+        let top = reach(&centre);
+        if top > LV_MAX_HEIGHT_MM {
+            centre -= axis * (top - LV_MAX_HEIGHT_MM);
+        }
+        let lv = Ellipsoid { centre, rot, semi };
+        let myocardium = Ellipsoid {
+            centre,
+            rot,
+            semi: semi.add_scalar(MYOCARDIUM_MM),
+        };
+
+        // --- Coronaries -----------------------------------------------------
+        let frame_point = |h: f64, th: f64, rho: f64| {
+            let st = cl.station(h);
+            st.point + (st.e1 * th.cos() + st.e2 * th.sin()) * rho
+        };
+        let groove = r_a + 12.0;
+        let mut coronaries = Vec::new();
+        for (c, (&name, &sinus)) in ["RCA", "LCA"].iter().zip(&[0usize, 1]).enumerate() {
+            let h_o = d.ostium_frac[c] * profile.h_stj_mm;
+            let psi = profile.sinus_centre(sinus) + d.ostium_angle[c];
+            let r_w = profile.eval(h_o, psi).r;
+            let r0 = d.coronary_radius[c];
+            let ostium = frame_point(h_o, psi, r_w);
+            // Start inside the sinus lumen so the artery is connected to it.
+            let proximal = vec![
+                frame_point(h_o, psi, r_w - 2.5),
+                frame_point(h_o, psi, r_w + 4.0),
+            ];
+            // (height, angle offset in degrees, radius) along the AV groove;
+            // the RCA runs towards the right (decreasing angle), the LCx
+            // towards posterior (increasing), the LAD anterior and down.
+            let paths: Vec<Vec<(f64, f64, f64)>> = if name == "RCA" {
+                vec![vec![
+                    (h_o - 3.0, -12.0, r_w + 9.0),
+                    (h_o - 7.0, -30.0, groove),
+                    (-2.0, -55.0, groove),
+                    (-6.0, -80.0, groove),
+                    (-9.0, -105.0, groove),
+                    (-12.0, -130.0, groove),
+                ]]
+            } else {
+                vec![
+                    vec![
+                        (h_o - 2.0, 6.0, r_w + 10.0),
+                        (-3.0, 25.0, groove),
+                        (-7.0, 50.0, groove),
+                        (-10.0, 75.0, groove),
+                        (-12.0, 100.0, groove),
+                    ],
+                    vec![
+                        (h_o - 2.0, 6.0, r_w + 10.0),
+                        (h_o - 8.0, -20.0, groove + 4.0),
+                        (h_o - 16.0, -45.0, groove + 8.0),
+                        (h_o - 28.0, -65.0, groove + 12.0),
+                    ],
+                ]
+            };
+            let mut tubes = Vec::new();
+            for (b, path) in paths.iter().enumerate() {
+                let mut pts = if b == 0 {
+                    proximal.clone()
+                } else {
+                    vec![proximal[1]]
+                };
+                pts.extend(
+                    path.iter()
+                        .map(|&(h, a, rho)| frame_point(h, psi + a * deg, rho)),
+                );
+                let n = pts.len() - 1;
+                // Taper to 60 % of the ostial radius.
+                let radii = (0..n)
+                    .map(|i| r0 * (1.0 - 0.4 * i as f64 / n as f64))
+                    .collect();
+                tubes.push(Tube::new(pts, radii));
+            }
+            coronaries.push(Coronary {
+                name,
+                sinus,
+                tubes,
+                ostium,
+                radius_mm: r0,
+                ostium_height_mm: h_o,
+            });
+        }
+
+        // --- Descending aorta, spine, sternum, body ---------------------------
+        let da = ZCylinder {
+            cx: origin.x + 24.0 + d.da_offset[0],
+            cy: origin.y + 44.0 + d.da_offset[1],
+            rx: d.da_radius,
+            ry: d.da_radius,
+            z_lo: f64::NEG_INFINITY,
+            z_hi: f64::INFINITY,
+        };
+        let spine_centre = [da.cx - 16.0, da.cy + 28.0];
+
+        // --- Pulmonary artery: place, then slide until the gap is right -----
+        let pa_r = d.pa_radius;
+        let wall = wall_samples(&lumen, -lvot_len, needs.z_top);
+        let ant_left = Vector3::new(1.0, -1.3, 0.0).normalize();
+        let d_pa = (ant_left - axis * ant_left.dot(&axis)).normalize();
+        let p0 = cl.station(8.0).point + d_pa * (r_max + d.pa_gap + pa_r);
+        let up = Vector3::new(0.35, 0.45, 0.82).normalize();
+        let bif = p0 + up * 38.0;
+        let s_r = s_at_z(cl, bif.z - 4.0);
+        let c_aa = cl.station(s_r).point;
+        let r_aa = profile.eval(s_r, 0.0).r;
+        let behind = c_aa.y + r_aa + d.pa_gap + 0.8 * pa_r;
+        let z_r = bif.z - 4.0;
+        let mut pa = vec![
+            Tube::new(vec![p0 - up * 10.0, p0, p0 + up * 20.0, bif], vec![pa_r; 3]),
+            Tube::new(
+                vec![
+                    bif,
+                    bif + Vector3::new(16.0, 16.0, -2.0),
+                    bif + Vector3::new(28.0, 30.0, -8.0),
+                ],
+                vec![0.8 * pa_r; 2],
+            ),
+            Tube::new(
+                vec![
+                    bif,
+                    Point3::new(c_aa.x + 12.0, behind, z_r),
+                    Point3::new(c_aa.x - 15.0, behind + 2.0, z_r - 3.0),
+                    Point3::new(c_aa.x - 40.0, behind + 8.0, z_r - 8.0),
+                ],
+                vec![0.8 * pa_r; 3],
+            ),
+        ];
+        slide_to_gap(&mut pa, &wall, d.pa_gap);
+
+        // --- Left atrium: posterior of the root, slid to a tissue gap --------
+        let mut la = Ellipsoid {
+            centre: Point3::new(origin.x - 6.0, origin.y + 30.0, origin.z - 6.0),
+            rot: Matrix3::identity(),
+            semi: Vector3::new(LA_SEMI[0], LA_SEMI[1], LA_SEMI[2]),
+        };
+        for _ in 0..6 {
+            place_la(&mut la, &wall, d.la_gap);
+            // Keep clear of the DA and the PA branches; shrink if not.
+            let clear = ellipsoid_samples(&la)
+                .iter()
+                .map(|p| {
+                    da.eval(p)
+                        .0
+                        .min(pa.iter().map(|t| t.eval(p).0).fold(f64::INFINITY, f64::min))
+                })
+                .fold(f64::INFINITY, f64::min);
+            if clear >= CLEARANCE_MM {
+                break;
+            }
+            la.semi *= 0.9;
+        }
+
+        // --- Calcium blobs in the wall near the nadirs -----------------------
+        let calcium = d
+            .calcium
+            .iter()
+            .map(|&(k, s, dth, out, sz)| {
+                let th = profile.sinus_centre(k) + dth;
+                let st = cl.station(s);
+                let u = st.e1 * th.cos() + st.e2 * th.sin();
+                let r = profile.eval(s, th).r;
+                // Long axis along the annulus (circumferential), short radially.
+                let circ = st.tangent.cross(&u);
+                Ellipsoid {
+                    centre: st.point + u * (r + out),
+                    rot: Matrix3::from_columns(&[circ, st.tangent, u]),
+                    semi: Vector3::new(sz[0], sz[1], sz[2]),
+                }
+            })
+            .collect();
+
+        let anatomy = Anatomy {
+            tilt_azimuth_rad: azimuth,
+            h_comm_mm: d.h_stj - d.comm_below_stj,
+            lv,
+            myocardium,
+            coronaries,
+            pa,
+            pa_radius_mm: pa_r,
+            la,
+            da,
+            spine_centre,
+            vertebra_radius_mm: VERTEBRA_RADIUS_MM,
+            vertebra_period_mm: VERTEBRA_PERIOD_MM,
+            vertebra_phase_mm: d.vertebra_phase,
+            cortical_hu: d.cortical_hu,
+            cancellous_hu: d.cancellous_hu,
+            sternum_centre: [origin.x + 8.0, origin.y - 62.0],
+            body_centre: [origin.x + 5.0, origin.y + 35.0],
+            calcium,
+            blood_waves: d.blood_waves,
+            lumen,
+        };
+        Ok((anatomy, needs))
+    }
+
+    /// Smallest distance between the PA lumen and the aortic lumen (exact up
+    /// to the wall sampling density: the PA tube distance is Euclidean).
+    pub fn pa_aorta_gap(&self, z_top: f64) -> f64 {
+        let wall = wall_samples(&self.lumen, -self.lumen.lvot_length_mm, z_top);
+        min_gap(&self.pa, &wall).0
+    }
+
+    /// Low-frequency multiplicative blood field, within ±5 %.
+    pub fn blood_field(&self, p: &Point3) -> f64 {
+        const AMPLITUDE: f64 = 0.05;
+        let q = p - self.lumen.centreline.origin;
+        let s: f64 = self
+            .blood_waves
+            .iter()
+            .map(|(k, ph)| (k.dot(&q) + ph).cos())
+            .sum();
+        1.0 + AMPLITUDE * s / self.blood_waves.len() as f64
+    }
+}
+
+/// The z-range the field of view must cover: ≥ 20 mm of LV below the
+/// annulus, the LVOT, ≥ 40 mm of ascending aorta above the STJ and ≥ 10 mm
+/// of vertical tube below the top face.
+fn z_needs(cl: &Centreline, profile: &RadiusProfile, lvot_len: f64) -> FovNeeds {
+    const LV_BELOW_MM: f64 = 25.0;
+    const ASCENDING_ABOVE_STJ_MM: f64 = 42.0;
+    const VERTICAL_BELOW_TOP_MM: f64 = 12.0;
+    let o = cl.origin;
+    let lateral = (1.0 - cl.axis.z * cl.axis.z).max(0.0).sqrt();
+    let lvot_low = o.z - lvot_len * cl.axis.z - profile.r_annulus_mm * lateral;
+    let z_bottom = (o.z - LV_BELOW_MM).min(lvot_low - 2.0);
+    let arc_end = cl.station(cl.s2()).point.z;
+    let asc = cl
+        .station(profile.h_stj_mm + ASCENDING_ABOVE_STJ_MM)
+        .point
+        .z;
+    FovNeeds {
+        z_bottom,
+        z_top: (arc_end + VERTICAL_BELOW_TOP_MM).max(asc),
+    }
+}
+
+/// Arc length where the centreline reaches height z (z increases along s).
+pub fn s_at_z(cl: &Centreline, z: f64) -> f64 {
+    let (mut lo, mut hi) = (-200.0, 400.0);
+    for _ in 0..100 {
+        let m = 0.5 * (lo + hi);
+        if cl.station(m).point.z < z {
+            lo = m;
+        } else {
+            hi = m;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Points on the analytic aortic wall, ~0.5 mm apart, up to height z_top.
+fn wall_samples(lumen: &Lumen, s_lo: f64, z_top: f64) -> Vec<Point3> {
+    const STEP_MM: f64 = 0.5;
+    let s_hi = s_at_z(&lumen.centreline, z_top + 20.0);
+    let n_s = ((s_hi - s_lo) / STEP_MM).ceil() as usize;
+    let n_t = (2.0 * PI * lumen.profile.r_max_bound() / STEP_MM).ceil() as usize;
+    let mut v = Vec::with_capacity((n_s + 1) * n_t);
+    for i in 0..=n_s {
+        let s = s_lo + (s_hi - s_lo) * i as f64 / n_s as f64;
+        for j in 0..n_t {
+            v.push(lumen.wall_point(s, 2.0 * PI * j as f64 / n_t as f64));
+        }
+    }
+    v
+}
+
+/// Minimal distance from the tubes to the wall samples, with the direction
+/// from the closest wall sample towards the tubes.
+fn min_gap(tubes: &[Tube], wall: &[Point3]) -> (f64, Vector3) {
+    let mut best = (f64::INFINITY, Vector3::z());
+    for p in wall {
+        for t in tubes {
+            let (d, n) = t.eval(p);
+            if d < best.0 {
+                best = (d, -n);
+            }
+        }
+    }
+    best
+}
+
+/// Translate the tubes until their closest approach to the wall is `gap`.
+fn slide_to_gap(tubes: &mut [Tube], wall: &[Point3], gap: f64) {
+    for _ in 0..30 {
+        let (g, dir) = min_gap(tubes, wall);
+        if (g - gap).abs() < 0.01 {
+            break;
+        }
+        // When overlapping, the direction is still outward from the wall
+        // point closest to the tube axis, so stepping along it separates.
+        let step = dir * (gap - g);
+        for t in tubes.iter_mut() {
+            for p in t.points.iter_mut() {
+                *p += step;
+            }
+        }
+    }
+}
+
+fn ellipsoid_samples(e: &Ellipsoid) -> Vec<Point3> {
+    let mut v = Vec::new();
+    const N: usize = 24;
+    for i in 0..=N {
+        let th = PI * i as f64 / N as f64;
+        for j in 0..2 * N {
+            let ph = PI * j as f64 / N as f64;
+            let l = Vector3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
+                .component_mul(&e.semi);
+            v.push(e.centre + e.rot * l);
+        }
+    }
+    v
+}
+
+/// Move the LA along +y (posterior) until its gap to the aortic wall is `gap`.
+fn place_la(la: &mut Ellipsoid, wall: &[Point3], gap: f64) {
+    let gap_of = |la: &Ellipsoid| {
+        wall.iter()
+            .map(|p| la.eval(p).0)
+            .fold(f64::INFINITY, f64::min)
+    };
+    // Bisection on the y offset: the gap grows monotonically moving posterior.
+    let y0 = la.centre.y;
+    let (mut lo, mut hi) = (-20.0, 40.0);
+    for _ in 0..40 {
+        let m = 0.5 * (lo + hi);
+        la.centre.y = y0 + m;
+        if gap_of(la) < gap {
+            lo = m;
+        } else {
+            hi = m;
+        }
+    }
+    la.centre.y = y0 + hi;
+}

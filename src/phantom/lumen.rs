@@ -1,0 +1,357 @@
+//! The aortic lumen tube (LVOT, root, ascending aorta): the truth object.
+//!
+//! Cross-sections are star-shaped about the centreline: a point at distance
+//! ρ from its closest centreline station, at angle θ from the transported
+//! frame vector e1, is inside when ρ < r(s, θ). Because the centreline's
+//! curvature radius exceeds every lumen radius, this is the image of the
+//! normal-plane map (s, θ, ρ) ↦ c(s) + ρ·u(s, θ); on the straight pieces its
+//! Jacobian is ρ, and on the arc the cross-sections are circular, so the
+//! curvature term integrates to zero and the volume is ∫∫ r²/2 dθ ds exactly
+//! (Pappus).
+
+use std::f64::consts::{PI, TAU};
+
+use serde::Serialize;
+
+use super::centreline::{Centreline, Station};
+use super::shapes::Aabb;
+use crate::geom::{DataArray, DataValues, Point3, TriMesh, Vector3};
+
+/// Shape of r(s, θ); see the module docs of `phantom` for the ranges.
+#[derive(Debug, Clone, Serialize)]
+pub struct RadiusProfile {
+    /// Annulus (VAJ) radius.
+    pub r_annulus_mm: f64,
+    /// LVOT ellipticity (relative), fading to 0 at the annulus.
+    pub lvot_ellipticity: f64,
+    /// Angle of the LVOT's long semi-axis from e1.
+    pub lvot_major_angle_rad: f64,
+    /// Length over which the ellipticity fades in, below the annulus.
+    pub lvot_fade_mm: f64,
+    pub h_stj_mm: f64,
+    pub r_stj_mm: f64,
+    /// Length of the STJ → ascending transition.
+    pub stj_transition_mm: f64,
+    pub r_ascending_mm: f64,
+    /// Relative amplitude and wavelength of the slow variation of the
+    /// ascending radius (circular cross-sections, so volume stays exact).
+    pub ascending_variation: f64,
+    pub ascending_wavelength_mm: f64,
+    /// Commissure angles in the transported frame, increasing, first = 0.
+    pub commissure_angles_rad: [f64; 3],
+    /// Sinus k lies between commissures k and k+1: its bulge amplitude.
+    pub sinus_amplitude: [f64; 3],
+}
+
+/// Normalisation of the sinus bump t²(1−t)³, whose maximum is at t = 0.4.
+const BUMP_PEAK_T: f64 = 0.4;
+fn bump_norm() -> f64 {
+    BUMP_PEAK_T.powi(2) * (1.0 - BUMP_PEAK_T).powi(3)
+}
+
+/// C¹ smoothstep 3t²−2t³ and its derivative, t clamped to [0, 1].
+fn smoothstep(t: f64) -> (f64, f64) {
+    let t = t.clamp(0.0, 1.0);
+    (t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t))
+}
+
+/// Radius with its partial derivatives.
+#[derive(Debug, Clone, Copy)]
+pub struct RadiusSample {
+    pub r: f64,
+    pub dr_ds: f64,
+    pub dr_dtheta: f64,
+}
+
+impl RadiusProfile {
+    /// Start of the ascending part (end of the STJ transition).
+    pub fn s_ascending(&self) -> f64 {
+        self.h_stj_mm + self.stj_transition_mm
+    }
+
+    /// Radius at the STJ-free part of the root, without the sinus bulge.
+    pub fn base_root(&self, s: f64) -> (f64, f64) {
+        let h = self.h_stj_mm;
+        let (w, dw) = smoothstep(s / h);
+        let dr = self.r_stj_mm - self.r_annulus_mm;
+        (self.r_annulus_mm + dr * w, dr * dw / h)
+    }
+
+    /// Sinus bump along s (0 at the annulus and at the STJ, C¹ there).
+    fn bump(&self, s: f64) -> (f64, f64) {
+        let h = self.h_stj_mm;
+        let t = (s / h).clamp(0.0, 1.0);
+        let n = bump_norm();
+        let b = t * t * (1.0 - t).powi(3) / n;
+        let db = (2.0 * t * (1.0 - t).powi(3) - 3.0 * t * t * (1.0 - t).powi(2)) / n / h;
+        (b, db)
+    }
+
+    /// Sector (sinus index) of angle θ and its lobe value and derivative:
+    /// sin²(π u) over the sector, zero with zero slope at both commissures,
+    /// so unequal sectors still join C¹.
+    pub fn lobe(&self, theta: f64) -> (usize, f64, f64) {
+        let c = &self.commissure_angles_rad;
+        let th = (theta - c[0]).rem_euclid(TAU) + c[0];
+        let k = if th < c[1] {
+            0
+        } else if th < c[2] {
+            1
+        } else {
+            2
+        };
+        let start = c[k];
+        let end = if k == 2 { c[0] + TAU } else { c[k + 1] };
+        let w = end - start;
+        let u = (th - start) / w;
+        let sp = (PI * u).sin();
+        (k, sp * sp, PI * (2.0 * PI * u).sin() / w)
+    }
+
+    /// Angle of the centre of sinus k (midway between its commissures).
+    pub fn sinus_centre(&self, k: usize) -> f64 {
+        let c = &self.commissure_angles_rad;
+        let end = if k == 2 { c[0] + TAU } else { c[k + 1] };
+        0.5 * (c[k] + end)
+    }
+
+    pub fn eval(&self, s: f64, theta: f64) -> RadiusSample {
+        if s < 0.0 {
+            let (w, dw) = smoothstep(-s / self.lvot_fade_mm);
+            let ang = 2.0 * (theta - self.lvot_major_angle_rad);
+            let e = self.lvot_ellipticity;
+            RadiusSample {
+                r: self.r_annulus_mm * (1.0 + e * w * ang.cos()),
+                dr_ds: -self.r_annulus_mm * e * dw / self.lvot_fade_mm * ang.cos(),
+                dr_dtheta: -2.0 * self.r_annulus_mm * e * w * ang.sin(),
+            }
+        } else if s <= self.h_stj_mm {
+            let (base, dbase) = self.base_root(s);
+            let (b, db) = self.bump(s);
+            let (k, l, dl) = self.lobe(theta);
+            let a = self.sinus_amplitude[k];
+            let f = 1.0 + a * b * l;
+            RadiusSample {
+                r: base * f,
+                dr_ds: dbase * f + base * a * db * l,
+                dr_dtheta: base * a * b * dl,
+            }
+        } else if s <= self.s_ascending() {
+            let (w, dw) = smoothstep((s - self.h_stj_mm) / self.stj_transition_mm);
+            let dr = self.r_ascending_mm - self.r_stj_mm;
+            RadiusSample {
+                r: self.r_stj_mm + dr * w,
+                dr_ds: dr * dw / self.stj_transition_mm,
+                dr_dtheta: 0.0,
+            }
+        } else {
+            let ph = TAU * (s - self.s_ascending()) / self.ascending_wavelength_mm;
+            let v = self.ascending_variation;
+            RadiusSample {
+                r: self.r_ascending_mm * (1.0 + v * 0.5 * (1.0 - ph.cos())),
+                dr_ds: self.r_ascending_mm * v * 0.5 * ph.sin() * TAU
+                    / self.ascending_wavelength_mm,
+                dr_dtheta: 0.0,
+            }
+        }
+    }
+
+    /// An upper bound of r over all s and θ (for culling and checks).
+    pub fn r_max_bound(&self) -> f64 {
+        let sinus = (0..3)
+            .map(|k| self.base_root(self.h_stj_mm).0 * (1.0 + self.sinus_amplitude[k]))
+            .fold(0.0, f64::max);
+        sinus
+            .max(self.r_ascending_mm * (1.0 + self.ascending_variation.abs()))
+            .max(self.r_annulus_mm * (1.0 + self.lvot_ellipticity))
+            .max(self.r_stj_mm)
+    }
+
+    /// Maximum radius of sinus k over the root height, by dense sampling
+    /// (along the sinus centre, where the lobe peaks).
+    pub fn sinus_max(&self, k: usize) -> f64 {
+        let th = self.sinus_centre(k);
+        const SAMPLES: usize = 4000;
+        (0..=SAMPLES)
+            .map(|i| self.eval(self.h_stj_mm * i as f64 / SAMPLES as f64, th).r)
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Where a point sits relative to the tube.
+#[derive(Debug, Clone, Copy)]
+pub struct LocalCoords {
+    pub station: Station,
+    pub rho: f64,
+    pub theta: f64,
+    /// Unit radial direction (arbitrary on the centreline).
+    pub radial: Vector3,
+}
+
+#[derive(Debug, Clone)]
+pub struct Lumen {
+    pub centreline: Centreline,
+    pub profile: RadiusProfile,
+    /// The tube is capped this far below the annulus (it continues as LV).
+    pub lvot_length_mm: f64,
+}
+
+/// Gauss–Legendre nodes and weights on [−1, 1], 8 points.
+const GL8: [(f64, f64); 8] = [
+    (-0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
+    (-0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
+    (-0.525_532_409_916_329, 0.313_706_645_877_887_3),
+    (-0.183_434_642_495_649_8, 0.362_683_783_378_362),
+    (0.183_434_642_495_649_8, 0.362_683_783_378_362),
+    (0.525_532_409_916_329, 0.313_706_645_877_887_3),
+    (0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
+    (0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
+];
+
+/// Composite Gauss–Legendre on [a, b] with `n` panels.
+fn integrate(a: f64, b: f64, n: usize, f: impl Fn(f64) -> f64) -> f64 {
+    if b <= a {
+        return 0.0;
+    }
+    let h = (b - a) / n as f64;
+    let mut sum = 0.0;
+    for i in 0..n {
+        let m = a + h * (i as f64 + 0.5);
+        for &(x, w) in &GL8 {
+            sum += w * f(m + 0.5 * h * x);
+        }
+    }
+    sum * 0.5 * h
+}
+
+impl Lumen {
+    pub fn local(&self, p: &Point3) -> LocalCoords {
+        let st = self.centreline.project(p);
+        let q = p - st.point;
+        let (x, y) = (q.dot(&st.e1), q.dot(&st.e2));
+        let rho = x.hypot(y);
+        let radial = if rho > 1e-12 {
+            (st.e1 * x + st.e2 * y) / rho
+        } else {
+            st.e1
+        };
+        LocalCoords {
+            station: st,
+            rho,
+            theta: y.atan2(x),
+            radial,
+        }
+    }
+
+    /// Exact inside test of the (uncapped) tube.
+    pub fn inside(&self, p: &Point3) -> bool {
+        let l = self.local(p);
+        l.rho < self.profile.eval(l.station.s, l.theta).r
+    }
+
+    /// Height above the annulus plane along the valve axis.
+    pub fn height(&self, p: &Point3) -> f64 {
+        (p - self.centreline.origin).dot(&self.centreline.axis)
+    }
+
+    /// Approximate signed distance of the uncapped tube and its normal:
+    /// (ρ − r) scaled by the wall's gradient norm, first-order exact at the wall.
+    pub fn sdf(&self, p: &Point3) -> (f64, Vector3) {
+        let l = self.local(p);
+        let rs = self.profile.eval(l.station.s, l.theta);
+        let rho = l.rho.max(1e-6);
+        let tangential = rs.dr_dtheta / rho;
+        let e_theta = l.station.tangent.cross(&l.radial);
+        let g = l.radial - e_theta * tangential - l.station.tangent * rs.dr_ds;
+        let gn = g.norm();
+        ((l.rho - rs.r) / gn, g / gn)
+    }
+
+    /// Point on the analytic wall.
+    pub fn wall_point(&self, s: f64, theta: f64) -> Point3 {
+        let st = self.centreline.station(s);
+        let r = self.profile.eval(s, theta).r;
+        st.point + (st.e1 * theta.cos() + st.e2 * theta.sin()) * r
+    }
+
+    /// Volume of the tube between s = 0 and `s_top`: ∫∫ r²/2 dθ ds, by
+    /// Gauss–Legendre per smooth piece (sectors in θ, s-intervals between
+    /// the profile's breakpoints), accurate to ~1e-10 relative.
+    pub fn volume(&self, s_top: f64) -> f64 {
+        let p = &self.profile;
+        const PANELS: usize = 64;
+        let c = p.commissure_angles_rad;
+        let sectors = [(c[0], c[1]), (c[1], c[2]), (c[2], c[0] + TAU)];
+        let root_top = p.h_stj_mm.min(s_top);
+        let root = integrate(0.0, root_top, PANELS, |s| {
+            sectors
+                .iter()
+                .map(|&(a, b)| integrate(a, b, PANELS / 4, |t| 0.5 * p.eval(s, t).r.powi(2)))
+                .sum()
+        });
+        // Above the STJ the sections are circles.
+        let circle = |s: f64| PI * p.eval(s, 0.0).r.powi(2);
+        let mid_top = p.s_ascending().min(s_top);
+        let trans = integrate(p.h_stj_mm.min(s_top), mid_top, PANELS, circle);
+        let asc = integrate(mid_top, s_top, 4 * PANELS, circle);
+        root + trans + asc
+    }
+
+    /// Box containing the tube between s_lo and s_hi.
+    pub fn aabb(&self, s_lo: f64, s_hi: f64) -> Aabb {
+        let r = self.profile.r_max_bound();
+        let mut b = Aabb::empty();
+        const STEPS: usize = 64;
+        for i in 0..=STEPS {
+            let s = s_lo + (s_hi - s_lo) * i as f64 / STEPS as f64;
+            b = b.union(&Aabb::around(&self.centreline.station(s).point, r));
+        }
+        b
+    }
+
+    /// Closed parametric surface of the truth region s ∈ [0, s_top]: wall
+    /// vertices exactly on the analytic wall, flat fan caps at both ends.
+    /// Cell data `region`: 0 wall, 1 VAJ cap, 2 top cap.
+    pub fn surface(&self, s_top: f64, edge_mm: f64) -> TriMesh {
+        let n_s = ((s_top / edge_mm).ceil() as usize).max(2);
+        let circumference = TAU * self.profile.r_max_bound();
+        let n_t = ((circumference / edge_mm).ceil() as usize).max(12);
+        let mut vertices = Vec::with_capacity((n_s + 1) * n_t + 2);
+        for i in 0..=n_s {
+            let s = s_top * i as f64 / n_s as f64;
+            let st = self.centreline.station(s);
+            for j in 0..n_t {
+                let th = TAU * j as f64 / n_t as f64;
+                let r = self.profile.eval(s, th).r;
+                vertices.push(st.point + (st.e1 * th.cos() + st.e2 * th.sin()) * r);
+            }
+        }
+        let idx = |i: usize, j: usize| (i * n_t + j % n_t) as u32;
+        let mut triangles = Vec::with_capacity(2 * n_s * n_t + 2 * n_t);
+        let mut region = Vec::with_capacity(triangles.capacity());
+        // Wall: (∂θ × ∂s) points outward for θ counter-clockwise about the tangent.
+        for i in 0..n_s {
+            for j in 0..n_t {
+                triangles.push([idx(i, j), idx(i, j + 1), idx(i + 1, j)]);
+                triangles.push([idx(i, j + 1), idx(i + 1, j + 1), idx(i + 1, j)]);
+                region.extend([0, 0]);
+            }
+        }
+        let bottom = vertices.len() as u32;
+        vertices.push(self.centreline.station(0.0).point);
+        let top = vertices.len() as u32;
+        vertices.push(self.centreline.station(s_top).point);
+        for j in 0..n_t {
+            triangles.push([bottom, idx(0, j + 1), idx(0, j)]);
+            region.push(1);
+        }
+        for j in 0..n_t {
+            triangles.push([top, idx(n_s, j), idx(n_s, j + 1)]);
+            region.push(2);
+        }
+        let mut mesh = TriMesh::new(vertices, triangles);
+        mesh.cell_data
+            .insert(DataArray::new("region", 1, DataValues::I32(region)));
+        mesh
+    }
+}
