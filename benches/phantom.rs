@@ -8,7 +8,10 @@ use coapt::phantom::{PhantomParams, Preset, generate};
 
 fn main() {
     let presets = std::env::var("COAPT_BENCH_PRESETS").unwrap_or_else(|_| "sample,standard".into());
-    println!("{:<9} {:>10} {:>10} {:>9}", "preset", "Mvoxels", "seconds", "Mvox/s");
+    println!(
+        "{:<9} {:>10} {:>10} {:>9}",
+        "preset", "Mvoxels", "seconds", "Mvox/s"
+    );
     for name in presets.split(',') {
         let preset: Preset = match name.trim().parse() {
             Ok(p) => p,
@@ -22,6 +25,12 @@ fn main() {
         let ph = generate(&params, &|_| {}).expect("phantom generates");
         let s = t0.elapsed().as_secs_f64();
         let mv = ph.ct.len() as f64 / 1e6;
-        println!("{:<9} {:>10.2} {:>10.2} {:>9.1}", name.trim(), mv, s, mv / s);
+        println!(
+            "{:<9} {:>10.2} {:>10.2} {:>9.1}",
+            name.trim(),
+            mv,
+            s,
+            mv / s
+        );
     }
 }

@@ -20,7 +20,8 @@ pub struct Sample {
 
 /// Run `coapt <args> --out DIR` in a child process and read its manifest.
 fn run_child(stage: &str, args: &[String], threads: usize) -> Result<Sample> {
-    let exe = std::env::current_exe().map_err(|e| Error::failed("bench", format!("cannot find coapt itself: {e}")))?;
+    let exe = std::env::current_exe()
+        .map_err(|e| Error::failed("bench", format!("cannot find coapt itself: {e}")))?;
     let dir = std::env::temp_dir().join(format!("coapt-bench-{}-{}", stage, std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let t0 = Instant::now();
@@ -37,7 +38,11 @@ fn run_child(stage: &str, args: &[String], threads: usize) -> Result<Sample> {
         let _ = std::fs::remove_dir_all(&dir);
         return Err(Error::failed(
             "bench",
-            format!("coapt {stage} {} failed: {}", args.join(" "), String::from_utf8_lossy(&out.stderr).trim()),
+            format!(
+                "coapt {stage} {} failed: {}",
+                args.join(" "),
+                String::from_utf8_lossy(&out.stderr).trim()
+            ),
         ));
     }
     let manifest = Manifest::load(&dir)?;
@@ -57,7 +62,11 @@ fn run_child(stage: &str, args: &[String], threads: usize) -> Result<Sample> {
 
 fn dir_bytes(dir: &Path) -> u64 {
     std::fs::read_dir(dir)
-        .map(|it| it.filter_map(|e| e.ok()?.metadata().ok()).map(|m| m.len()).sum())
+        .map(|it| {
+            it.filter_map(|e| e.ok()?.metadata().ok())
+                .map(|m| m.len())
+                .sum()
+        })
         .unwrap_or(0)
 }
 
@@ -70,7 +79,15 @@ fn median(mut v: Vec<f64>) -> f64 {
 pub fn phantom(presets: &[String], repeat: u32, threads: usize) -> Result<String> {
     let mut rows = vec![format!(
         "{:<9} {:>13} {:>8} {:>10} {:>8} {:>8} {:>9} {:>9} {:>9}",
-        "preset", "dims", "Mvoxels", "generate s", "write s", "stage s", "Mvox/s", "peak MB", "out MB"
+        "preset",
+        "dims",
+        "Mvoxels",
+        "generate s",
+        "write s",
+        "stage s",
+        "Mvox/s",
+        "peak MB",
+        "out MB"
     )];
     for preset in presets {
         let args = vec!["--preset".to_string(), preset.clone()];
@@ -78,7 +95,12 @@ pub fn phantom(presets: &[String], repeat: u32, threads: usize) -> Result<String
             .map(|_| run_child("phantom", &args, threads))
             .collect::<Result<_>>()?;
         let s0 = &samples[0];
-        let get = |s: &Sample, k: &str| s.summary.get(k).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+        let get = |s: &Sample, k: &str| {
+            s.summary
+                .get(k)
+                .and_then(|v| v.as_f64())
+                .unwrap_or(f64::NAN)
+        };
         let gen_s = median(samples.iter().map(|s| get(s, "generate_s")).collect());
         let write_s = median(samples.iter().map(|s| get(s, "write_s")).collect());
         let stage_s = median(samples.iter().map(|s| s.stage_s).collect());
@@ -87,7 +109,12 @@ pub fn phantom(presets: &[String], repeat: u32, threads: usize) -> Result<String
             .summary
             .get("dims")
             .and_then(|d| d.as_array())
-            .map(|d| d.iter().map(|x| x.to_string()).collect::<Vec<_>>().join("×"))
+            .map(|d| {
+                d.iter()
+                    .map(|x| x.to_string())
+                    .collect::<Vec<_>>()
+                    .join("×")
+            })
             .unwrap_or_default();
         rows.push(format!(
             "{:<9} {:>13} {:>8.2} {:>10.2} {:>8.2} {:>8.2} {:>9.1} {:>9.0} {:>9.2}",
@@ -102,6 +129,8 @@ pub fn phantom(presets: &[String], repeat: u32, threads: usize) -> Result<String
             s0.output_bytes as f64 / 1e6
         ));
     }
-    rows.push(format!("({threads} threads, median of {repeat} run(s), release build recommended)"));
+    rows.push(format!(
+        "({threads} threads, median of {repeat} run(s), release build recommended)"
+    ));
     Ok(rows.join("\n"))
 }

@@ -7,7 +7,10 @@ use std::path::PathBuf;
 use clap::{Arg, ArgAction, ArgMatches, Command};
 
 use crate::pipeline::execute::Invocation;
-use crate::pipeline::{self, ArtifactKind, LogMode, Param, ParamKind, Params, StageIo, StageSpec, params, provenance, runner};
+use crate::pipeline::{
+    self, ArtifactKind, LogMode, Param, ParamKind, Params, StageIo, StageSpec, params, provenance,
+    runner,
+};
 use crate::{Error, Result, bench, inspect};
 
 /// Run the CLI with the process's arguments; returns the exit code.
@@ -199,7 +202,10 @@ fn stage_command(spec: &'static StageSpec) -> Command {
                     .value_name("DIR")
                     .required(true)
                     .value_parser(clap::value_parser!(PathBuf))
-                    .help(format!("output directory; writes {} and manifest.json", files.join(", "))),
+                    .help(format!(
+                        "output directory; writes {} and manifest.json",
+                        files.join(", ")
+                    )),
             );
         }
         None => {
@@ -210,7 +216,10 @@ fn stage_command(spec: &'static StageSpec) -> Command {
                         .value_name("PATH")
                         .required(port.flag == "out")
                         .value_parser(clap::value_parser!(PathBuf))
-                        .help(format!("{} [default: {} beside --out]", port.help, port.file)),
+                        .help(format!(
+                            "{} [default: {} beside --out]",
+                            port.help, port.file
+                        )),
                 );
             }
         }
@@ -218,9 +227,15 @@ fn stage_command(spec: &'static StageSpec) -> Command {
     for p in spec.params {
         let flag = param_flag(p);
         let arg = match p.kind {
-            ParamKind::Bool => Arg::new(p.name).long(flag).action(ArgAction::SetTrue).help(p.help.to_string()),
+            ParamKind::Bool => Arg::new(p.name)
+                .long(flag)
+                .action(ArgAction::SetTrue)
+                .help(p.help.to_string()),
             kind => {
-                let default = p.default.map(|d| format!(" [default: {d}]")).unwrap_or_default();
+                let default = p
+                    .default
+                    .map(|d| format!(" [default: {d}]"))
+                    .unwrap_or_default();
                 Arg::new(p.name)
                     .long(flag)
                     .value_name(value_name(kind))
@@ -257,12 +272,19 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
     let threads = match m.get_one::<usize>("threads") {
         Some(0) => return Err(Error::usage("--threads must be at least 1")),
         Some(&n) => n,
-        None => std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        None => std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1),
     };
     // The global pool may already exist when the CLI runs inside a test process.
-    let _ = rayon::ThreadPoolBuilder::new().num_threads(threads).build_global();
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global();
     let inv = Invocation {
-        command_line: args.iter().map(|a| a.to_string_lossy().into_owned()).collect(),
+        command_line: args
+            .iter()
+            .map(|a| a.to_string_lossy().into_owned())
+            .collect(),
         threads,
         log,
     };
@@ -401,7 +423,10 @@ mod tests {
 
     #[test]
     fn render_does_not_repeat_causes() {
-        let e = Error::read("x.nii", std::io::Error::new(std::io::ErrorKind::NotFound, "gone"));
+        let e = Error::read(
+            "x.nii",
+            std::io::Error::new(std::io::ErrorKind::NotFound, "gone"),
+        );
         assert_eq!(render(&e), "x.nii: cannot read: gone");
     }
 }

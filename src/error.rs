@@ -74,7 +74,11 @@ impl Error {
         }
     }
 
-    pub fn config(path: impl AsRef<Path>, key: impl Into<String>, problem: impl Into<String>) -> Self {
+    pub fn config(
+        path: impl AsRef<Path>,
+        key: impl Into<String>,
+        problem: impl Into<String>,
+    ) -> Self {
         Error::Config {
             path: path.as_ref().to_path_buf(),
             key: key.into(),

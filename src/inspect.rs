@@ -54,7 +54,10 @@ pub fn describe(path: &Path, as_json: bool) -> Result<String> {
         Format::Vtp => describe_polydata(&vtp::read(path)?),
         Format::Landmarks => describe_landmarks(path)?,
         Format::Stl | Format::Ply => {
-            return Err(Error::bad_input(path, "coapt writes STL and PLY for hand-off but does not read them"));
+            return Err(Error::bad_input(
+                path,
+                "coapt writes STL and PLY for hand-off but does not read them",
+            ));
         }
     };
     if as_json {
@@ -75,7 +78,9 @@ fn describe_nifti(path: &Path) -> Result<Json> {
         sum += x;
     }
     let a = v.affine();
-    let rows: Vec<Vec<f64>> = (0..4).map(|r| (0..4).map(|c| a[(r, c)]).collect()).collect();
+    let rows: Vec<Vec<f64>> = (0..4)
+        .map(|r| (0..4).map(|c| a[(r, c)]).collect())
+        .collect();
     Ok(json!({
         "file": path.display().to_string(),
         "format": format!("NIfTI-{}", h.version),
@@ -144,7 +149,10 @@ fn describe_landmarks(path: &Path) -> Result<Json> {
         .iter()
         .map(|(l, p)| json!({"label": l, "position_mm": [p.x, p.y, p.z]}))
         .collect();
-    let missing: Vec<&str> = ["C1", "C2", "C3"].into_iter().filter(|l| lm.get(l).is_none()).collect();
+    let missing: Vec<&str> = ["C1", "C2", "C3"]
+        .into_iter()
+        .filter(|l| lm.get(l).is_none())
+        .collect();
     Ok(json!({
         "format": "landmarks",
         "frame": "LPS",
@@ -200,11 +208,15 @@ pub fn convert(input: &Path, output: &Path, frame: Frame) -> Result<()> {
             let h = nifti::read_header(input)?;
             match h.datatype {
                 nifti::DataType::U8 => nifti::write(output, &nifti::read_u8(input)?),
-                nifti::DataType::I16 | nifti::DataType::I8 => nifti::write(output, &nifti::read_i16(input)?),
+                nifti::DataType::I16 | nifti::DataType::I8 => {
+                    nifti::write(output, &nifti::read_i16(input)?)
+                }
                 _ => nifti::write(output, &nifti::read_f32(input)?),
             }
         }
-        (Format::Vtp, Format::Vtp) => vtp::write(output, &vtp::read(input)?, &vtp::WriteOptions::default()),
+        (Format::Vtp, Format::Vtp) => {
+            vtp::write(output, &vtp::read(input)?, &vtp::WriteOptions::default())
+        }
         (Format::Vtp, Format::Stl) => stl::write(output, &vtp::read_mesh(input)?),
         (Format::Vtp, Format::Ply) => ply::write(output, &vtp::read_mesh(input)?),
         (Format::Landmarks, Format::Landmarks) => {

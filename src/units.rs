@@ -58,7 +58,13 @@ impl Kind {
 
     fn units(self) -> &'static [(&'static str, f64)] {
         match self {
-            Kind::Length => &[("mm", 1.0), ("cm", 10.0), ("m", 1000.0), ("um", 1e-3), ("µm", 1e-3)],
+            Kind::Length => &[
+                ("mm", 1.0),
+                ("cm", 10.0),
+                ("m", 1000.0),
+                ("um", 1e-3),
+                ("µm", 1e-3),
+            ],
             Kind::Pressure => &[
                 ("MPa", 1.0),
                 ("kPa", 1e-3),
@@ -93,7 +99,11 @@ pub fn parse(kind: Kind, text: &str) -> Result<f64> {
     let split = s
         .char_indices()
         .find(|&(i, c)| {
-            !(c.is_ascii_digit() || c == '.' || c == '+' || c == '-' || ((c == 'e' || c == 'E') && i > 0 && exponent_follows(s, i)))
+            !(c.is_ascii_digit()
+                || c == '.'
+                || c == '+'
+                || c == '-'
+                || ((c == 'e' || c == 'E') && i > 0 && exponent_follows(s, i)))
         })
         .map(|(i, _)| i)
         .unwrap_or(s.len());
@@ -106,7 +116,10 @@ pub fn parse(kind: Kind, text: &str) -> Result<f64> {
         )));
     }
     let value: f64 = num.parse().map_err(|_| {
-        Error::value(format!("'{text}': '{num}' is not a number (expected e.g. {})", kind.example()))
+        Error::value(format!(
+            "'{text}': '{num}' is not a number (expected e.g. {})",
+            kind.example()
+        ))
     })?;
     if !value.is_finite() {
         return Err(Error::value(format!("'{text}' is not finite")));
@@ -200,7 +213,11 @@ macro_rules! quantity {
 }
 
 quantity!(Length, Kind::Length, "A length, stored in mm.");
-quantity!(Pressure, Kind::Pressure, "A pressure or stress, stored in MPa.");
+quantity!(
+    Pressure,
+    Kind::Pressure,
+    "A pressure or stress, stored in MPa."
+);
 quantity!(Angle, Kind::Angle, "An angle, stored in radians.");
 quantity!(Intensity, Kind::Intensity, "A CT number, stored in HU.");
 
@@ -210,7 +227,12 @@ impl<'de> serde::de::Visitor<'de> for QuantityVisitor {
     type Value = f64;
 
     fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "a {} with a unit, e.g. {}", self.0.name(), self.0.example())
+        write!(
+            f,
+            "a {} with a unit, e.g. {}",
+            self.0.name(),
+            self.0.example()
+        )
     }
 
     fn visit_str<E: serde::de::Error>(self, v: &str) -> std::result::Result<f64, E> {
@@ -277,7 +299,13 @@ mod tests {
         assert_eq!(back.p, c.p);
         assert_eq!(back.h, c.h);
         assert!((back.a.0 - c.a.0).abs() < 1e-15);
-        let e = toml::from_str::<C>("p = 80\nh = \"0.5 mm\"\na = \"1 rad\"").err().unwrap().to_string();
-        assert!(e.contains("bare number 80") && e.contains("pressure"), "{e}");
+        let e = toml::from_str::<C>("p = 80\nh = \"0.5 mm\"\na = \"1 rad\"")
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("bare number 80") && e.contains("pressure"),
+            "{e}"
+        );
     }
 }

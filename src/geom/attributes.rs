@@ -57,7 +57,9 @@ impl DataValues {
 
     fn select(&self, components: usize, keep: &[usize]) -> DataValues {
         fn pick<T: Clone>(v: &[T], c: usize, keep: &[usize]) -> Vec<T> {
-            keep.iter().flat_map(|&t| v[t * c..(t + 1) * c].iter().cloned()).collect()
+            keep.iter()
+                .flat_map(|&t| v[t * c..(t + 1) * c].iter().cloned())
+                .collect()
         }
         match self {
             DataValues::F64(v) => DataValues::F64(pick(v, components, keep)),
@@ -92,7 +94,11 @@ impl DataArray {
     }
 
     pub fn vectors_f64(name: impl Into<String>, v: &[[f64; 3]]) -> Self {
-        Self::new(name, 3, DataValues::F64(v.iter().flatten().copied().collect()))
+        Self::new(
+            name,
+            3,
+            DataValues::F64(v.iter().flatten().copied().collect()),
+        )
     }
 
     pub fn string(name: impl Into<String>, s: impl Into<String>) -> Self {
@@ -109,7 +115,10 @@ impl DataArray {
 
     fn check(&self) -> Result<()> {
         if self.components == 0 {
-            return Err(Error::value(format!("data array '{}' has 0 components", self.name)));
+            return Err(Error::value(format!(
+                "data array '{}' has 0 components",
+                self.name
+            )));
         }
         if self.values.len() % self.components != 0 {
             return Err(Error::value(format!(
@@ -121,7 +130,10 @@ impl DataArray {
         }
         if let DataValues::F64(v) = &self.values {
             if v.iter().any(|x| !x.is_finite()) {
-                return Err(Error::value(format!("data array '{}' holds NaN or infinite values", self.name)));
+                return Err(Error::value(format!(
+                    "data array '{}' holds NaN or infinite values",
+                    self.name
+                )));
             }
         }
         Ok(())
@@ -206,7 +218,13 @@ impl Attributes {
             arrays: self
                 .arrays
                 .iter()
-                .map(|a| DataArray::new(a.name.clone(), a.components, a.values.select(a.components, keep)))
+                .map(|a| {
+                    DataArray::new(
+                        a.name.clone(),
+                        a.components,
+                        a.values.select(a.components, keep),
+                    )
+                })
                 .collect(),
         }
     }

@@ -35,11 +35,7 @@ impl Frame {
 
     /// Convert a point given in `self` to `to` (LPS ↔ RAS flips x and y).
     pub fn convert(self, to: Frame, p: [f64; 3]) -> [f64; 3] {
-        if self == to {
-            p
-        } else {
-            [-p[0], -p[1], p[2]]
-        }
+        if self == to { p } else { [-p[0], -p[1], p[2]] }
     }
 }
 

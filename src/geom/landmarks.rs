@@ -23,19 +23,30 @@ impl Landmarks {
     }
 
     pub fn get(&self, label: &str) -> Option<Point3> {
-        self.points.iter().find(|(l, _)| l == label).map(|(_, p)| *p)
+        self.points
+            .iter()
+            .find(|(l, _)| l == label)
+            .map(|(_, p)| *p)
     }
 
     /// The points for `labels`, in that order; the error lists every one missing.
     pub fn require(&self, labels: &[&str]) -> Result<Vec<Point3>> {
-        let missing: Vec<&str> = labels.iter().copied().filter(|l| self.get(l).is_none()).collect();
+        let missing: Vec<&str> = labels
+            .iter()
+            .copied()
+            .filter(|l| self.get(l).is_none())
+            .collect();
         if !missing.is_empty() {
             let have: Vec<&str> = self.points.iter().map(|(l, _)| l.as_str()).collect();
             return Err(Error::value(format!(
                 "missing landmark{} {} (found: {})",
                 if missing.len() > 1 { "s" } else { "" },
                 missing.join(", "),
-                if have.is_empty() { "none".to_string() } else { have.join(", ") }
+                if have.is_empty() {
+                    "none".to_string()
+                } else {
+                    have.join(", ")
+                }
             )));
         }
         Ok(labels.iter().map(|l| self.get(l).unwrap()).collect())
@@ -48,7 +59,12 @@ impl Landmarks {
             points: self
                 .points
                 .iter()
-                .map(|(l, p)| (l.clone(), Point3::from(self.frame.convert(frame, [p.x, p.y, p.z]))))
+                .map(|(l, p)| {
+                    (
+                        l.clone(),
+                        Point3::from(self.frame.convert(frame, [p.x, p.y, p.z])),
+                    )
+                })
                 .collect(),
         }
     }
@@ -60,7 +76,9 @@ impl Landmarks {
                 return Err(Error::value(format!("point {} has an empty label", i + 1)));
             }
             if !p.iter().all(|c| c.is_finite()) {
-                return Err(Error::value(format!("point '{l}' has a non-finite coordinate")));
+                return Err(Error::value(format!(
+                    "point '{l}' has a non-finite coordinate"
+                )));
             }
             if self.points[..i].iter().any(|(m, _)| m == l) {
                 return Err(Error::value(format!("label '{l}' appears more than once")));

@@ -27,15 +27,22 @@ impl PolyData {
     pub fn frame(&self) -> Result<Frame> {
         match self.field_data.get_str("frame") {
             None => Ok(Frame::Lps),
-            Some(s) => Frame::parse(s).ok_or_else(|| Error::value(format!("unknown frame '{s}' in field data"))),
+            Some(s) => Frame::parse(s)
+                .ok_or_else(|| Error::value(format!("unknown frame '{s}' in field data"))),
         }
     }
 
     /// Verify indices, array lengths and finiteness.
     pub fn sanity_check(&self) -> Result<()> {
         let n = self.points.len();
-        if let Some(p) = self.points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-            return Err(Error::value(format!("point {p} has a NaN or infinite coordinate")));
+        if let Some(p) = self
+            .points
+            .iter()
+            .position(|p| !p.iter().all(|c| c.is_finite()))
+        {
+            return Err(Error::value(format!(
+                "point {p} has a NaN or infinite coordinate"
+            )));
         }
         for (c, line) in self.lines.iter().enumerate() {
             if line.len() < 2 {

@@ -44,7 +44,8 @@ impl Adjacency {
     }
 
     pub fn triangles_of_vertex(&self, v: usize) -> &[u32] {
-        &self.vertex_tris[self.vertex_tri_offsets[v] as usize..self.vertex_tri_offsets[v + 1] as usize]
+        &self.vertex_tris
+            [self.vertex_tri_offsets[v] as usize..self.vertex_tri_offsets[v + 1] as usize]
     }
 
     /// Edges used by exactly one triangle.
@@ -101,7 +102,11 @@ impl TriMesh {
     #[inline]
     pub fn corners(&self, t: usize) -> [Point3; 3] {
         let [a, b, c] = self.triangles[t];
-        [self.vertices[a as usize], self.vertices[b as usize], self.vertices[c as usize]]
+        [
+            self.vertices[a as usize],
+            self.vertices[b as usize],
+            self.vertices[c as usize],
+        ]
     }
 
     /// (b − a) × (c − a): twice the area, along the right-handed normal.
@@ -126,7 +131,11 @@ impl TriMesh {
     /// Unit normal of each triangle (zero for a degenerate one).
     pub fn face_normals(&self) -> Vec<Vector3> {
         (0..self.triangles.len())
-            .map(|t| self.area_vector(t).try_normalize(0.0).unwrap_or_else(Vector3::zeros))
+            .map(|t| {
+                self.area_vector(t)
+                    .try_normalize(0.0)
+                    .unwrap_or_else(Vector3::zeros)
+            })
             .collect()
     }
 
@@ -176,15 +185,27 @@ impl TriMesh {
         let (la, lb, lc) = ((c - b).norm(), (a - c).norm(), (b - a).norm());
         let angle = |u: Vector3, v: Vector3| {
             let d = u.norm() * v.norm();
-            if d == 0.0 { 0.0 } else { (u.dot(&v) / d).clamp(-1.0, 1.0).acos() }
+            if d == 0.0 {
+                0.0
+            } else {
+                (u.dot(&v) / d).clamp(-1.0, 1.0).acos()
+            }
         };
-        let angles = [angle(b - a, c - a), angle(a - b, c - b), angle(a - c, b - c)];
+        let angles = [
+            angle(b - a, c - a),
+            angle(a - b, c - b),
+            angle(a - c, b - c),
+        ];
         let sq = la * la + lb * lb + lc * lc;
         let area = self.area(t);
         Quality {
             min_angle: angles.iter().copied().fold(f64::INFINITY, f64::min),
             max_angle: angles.iter().copied().fold(0.0, f64::max),
-            shape: if sq == 0.0 { 0.0 } else { 4.0 * 3f64.sqrt() * area / sq },
+            shape: if sq == 0.0 {
+                0.0
+            } else {
+                4.0 * 3f64.sqrt() * area / sq
+            },
             min_edge: la.min(lb).min(lc),
             max_edge: la.max(lb).max(lc),
         }
@@ -303,15 +324,22 @@ impl TriMesh {
             boundary_edges: adj.boundary_edges().len(),
             nonmanifold_edges: adj.nonmanifold_edges().len(),
             components,
-            euler_characteristic: used_vertices as i64 - adj.edges.len() as i64 + self.triangles.len() as i64,
+            euler_characteristic: used_vertices as i64 - adj.edges.len() as i64
+                + self.triangles.len() as i64,
         }
     }
 
     /// Verify the invariants listed on the type.
     pub fn sanity_check(&self) -> Result<()> {
         let n = self.vertices.len();
-        if let Some(p) = self.vertices.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-            return Err(Error::value(format!("vertex {p} has a NaN or infinite coordinate")));
+        if let Some(p) = self
+            .vertices
+            .iter()
+            .position(|p| !p.iter().all(|c| c.is_finite()))
+        {
+            return Err(Error::value(format!(
+                "vertex {p} has a NaN or infinite coordinate"
+            )));
         }
         for (t, tri) in self.triangles.iter().enumerate() {
             if let Some(&i) = tri.iter().find(|&&i| i as usize >= n) {
@@ -320,11 +348,14 @@ impl TriMesh {
                 )));
             }
             if tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] {
-                return Err(Error::value(format!("triangle {t} repeats a vertex: {tri:?}")));
+                return Err(Error::value(format!(
+                    "triangle {t} repeats a vertex: {tri:?}"
+                )));
             }
         }
         self.point_data.check(Some(n), "point data")?;
-        self.cell_data.check(Some(self.triangles.len()), "cell data")?;
+        self.cell_data
+            .check(Some(self.triangles.len()), "cell data")?;
         self.field_data.check(None, "field data")?;
 
         let mut keys: Vec<([u32; 3], usize)> = self
@@ -352,7 +383,10 @@ impl TriMesh {
             }
         }
         directed.sort_unstable();
-        if let Some(w) = directed.windows(2).find(|w| (w[0].0, w[0].1) == (w[1].0, w[1].1)) {
+        if let Some(w) = directed
+            .windows(2)
+            .find(|w| (w[0].0, w[0].1) == (w[1].0, w[1].1))
+        {
             return Err(Error::value(format!(
                 "edge {}→{} is traversed in the same direction by triangles {} and {}: \
                  inconsistent orientation or a non-manifold edge",
@@ -487,7 +521,8 @@ mod tests {
         m.triangles[1] = [2, 1, 9];
         assert!(m.sanity_check().is_err());
         let mut m = octahedron();
-        m.point_data.insert(DataArray::scalars_f64("x", vec![0.0; 5]));
+        m.point_data
+            .insert(DataArray::scalars_f64("x", vec![0.0; 5]));
         assert!(m.sanity_check().is_err());
         let mut m = octahedron();
         m.vertices[3].x = f64::NAN;
@@ -504,8 +539,16 @@ mod tests {
         assert_eq!(topo.euler_characteristic, 1);
         let mut two = octahedron();
         let off = two.vertices.len() as u32;
-        let shifted: Vec<Point3> = two.vertices.iter().map(|p| p + Vector3::new(5.0, 0.0, 0.0)).collect();
-        let tris: Vec<[u32; 3]> = two.triangles.iter().map(|t| [t[0] + off, t[1] + off, t[2] + off]).collect();
+        let shifted: Vec<Point3> = two
+            .vertices
+            .iter()
+            .map(|p| p + Vector3::new(5.0, 0.0, 0.0))
+            .collect();
+        let tris: Vec<[u32; 3]> = two
+            .triangles
+            .iter()
+            .map(|t| [t[0] + off, t[1] + off, t[2] + off])
+            .collect();
         two.vertices.extend(shifted);
         two.triangles.extend(tris);
         assert_eq!(two.triangle_components().1, 2);

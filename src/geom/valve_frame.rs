@@ -27,7 +27,12 @@ pub struct ValveFrame {
 impl ValveFrame {
     /// Build from origin, axis and commissures; `e1` is C1's direction
     /// projected off the axis. `None` if the axis is degenerate or C1 lies on it.
-    pub fn new(origin: Point3, axis: Vector3, commissures: [Point3; 3], nadirs: Option<[Point3; 3]>) -> Option<Self> {
+    pub fn new(
+        origin: Point3,
+        axis: Vector3,
+        commissures: [Point3; 3],
+        nadirs: Option<[Point3; 3]>,
+    ) -> Option<Self> {
         let axis = axis.try_normalize(1e-12)?;
         let d = commissures[0] - origin;
         let e1 = (d - axis * d.dot(&axis)).try_normalize(1e-9)?;
@@ -81,7 +86,13 @@ mod tests {
             Point3::new(-5.0, 9.0, 15.0),
             Point3::new(-5.0, -9.0, 15.0),
         ];
-        let f = ValveFrame::new(Point3::new(0.0, 1.0, 0.0), Vector3::new(0.0, 0.0, 2.0), c, None).unwrap();
+        let f = ValveFrame::new(
+            Point3::new(0.0, 1.0, 0.0),
+            Vector3::new(0.0, 0.0, 2.0),
+            c,
+            None,
+        )
+        .unwrap();
         let (h, a, r) = f.to_cylindrical(&c[0]);
         assert!((h - 15.0).abs() < 1e-12 && a.abs() < 1e-12 && (r - 10.0).abs() < 1e-12);
         let p = Point3::new(3.0, -4.0, 7.0);

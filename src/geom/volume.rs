@@ -96,7 +96,8 @@ impl<T: Clone> Volume<T> {
         );
         data.assign(&view);
         let mut affine = self.affine;
-        let shift = self.affine * nalgebra::Vector4::new(lo[0] as f64, lo[1] as f64, lo[2] as f64, 1.0);
+        let shift =
+            self.affine * nalgebra::Vector4::new(lo[0] as f64, lo[1] as f64, lo[2] as f64, 1.0);
         affine[(0, 3)] = shift[0];
         affine[(1, 3)] = shift[1];
         affine[(2, 3)] = shift[2];
@@ -190,23 +191,39 @@ impl<T> Volume<T> {
 
     /// World step (mm) along each index axis: the affine's columns.
     pub fn axis(&self, a: usize) -> Vector3 {
-        Vector3::new(self.affine[(0, a)], self.affine[(1, a)], self.affine[(2, a)])
+        Vector3::new(
+            self.affine[(0, a)],
+            self.affine[(1, a)],
+            self.affine[(2, a)],
+        )
     }
 
     /// Voxel spacing in mm (lengths of the affine's columns).
     pub fn spacing(&self) -> [f64; 3] {
-        [self.axis(0).norm(), self.axis(1).norm(), self.axis(2).norm()]
+        [
+            self.axis(0).norm(),
+            self.axis(1).norm(),
+            self.axis(2).norm(),
+        ]
     }
 
     /// Unit direction of each index axis, as columns.
     pub fn direction(&self) -> Matrix3 {
         let s = self.spacing();
-        Matrix3::from_columns(&[self.axis(0) / s[0], self.axis(1) / s[1], self.axis(2) / s[2]])
+        Matrix3::from_columns(&[
+            self.axis(0) / s[0],
+            self.axis(1) / s[1],
+            self.axis(2) / s[2],
+        ])
     }
 
     /// World position of voxel [0, 0, 0].
     pub fn origin(&self) -> Point3 {
-        Point3::new(self.affine[(0, 3)], self.affine[(1, 3)], self.affine[(2, 3)])
+        Point3::new(
+            self.affine[(0, 3)],
+            self.affine[(1, 3)],
+            self.affine[(2, 3)],
+        )
     }
 
     /// Volume of one voxel in mm³.
@@ -232,7 +249,9 @@ impl<T> Volume<T> {
     /// Verify the invariants listed on the type.
     pub fn sanity_check(&self) -> Result<()> {
         if self.data.as_slice_memory_order().is_none() || !self.data.t().is_standard_layout() {
-            return Err(Error::value("volume data is not contiguous in Fortran order"));
+            return Err(Error::value(
+                "volume data is not contiguous in Fortran order",
+            ));
         }
         let inv = check_affine(&self.affine)?;
         let id = self.affine * inv;
@@ -264,12 +283,16 @@ pub fn check_affine(a: &Matrix4) -> Result<Matrix4> {
         return Err(Error::value("voxel→world affine has non-finite entries"));
     }
     if a[(3, 0)] != 0.0 || a[(3, 1)] != 0.0 || a[(3, 2)] != 0.0 || a[(3, 3)] != 1.0 {
-        return Err(Error::value("voxel→world affine's last row is not (0, 0, 0, 1)"));
+        return Err(Error::value(
+            "voxel→world affine's last row is not (0, 0, 0, 1)",
+        ));
     }
     let m = a.fixed_view::<3, 3>(0, 0).into_owned();
     let scale = m.column(0).norm() * m.column(1).norm() * m.column(2).norm();
     if scale == 0.0 || m.determinant().abs() <= 1e-12 * scale {
-        return Err(Error::value("voxel→world affine is singular (a zero or degenerate voxel axis)"));
+        return Err(Error::value(
+            "voxel→world affine is singular (a zero or degenerate voxel axis)",
+        ));
     }
     a.try_inverse()
         .ok_or_else(|| Error::value("voxel→world affine is not invertible"))
@@ -332,7 +355,8 @@ mod tests {
 
     #[test]
     fn crop_keeps_world_positions() {
-        let v = Volume::from_fortran_vec([6, 7, 8], oblique(), (0..336).collect::<Vec<u32>>()).unwrap();
+        let v =
+            Volume::from_fortran_vec([6, 7, 8], oblique(), (0..336).collect::<Vec<u32>>()).unwrap();
         let c = v.crop([1, 2, 3], [5, 6, 8]).unwrap();
         assert_eq!(c.dims(), [4, 4, 5]);
         assert_eq!(c[[0, 0, 0]], v[[1, 2, 3]]);

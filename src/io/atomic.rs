@@ -135,7 +135,10 @@ mod tests {
         t.commit().unwrap();
         assert_eq!(std::fs::read(d.join("a")).unwrap(), b"A");
         assert_eq!(std::fs::read(d.join("sub/b")).unwrap(), b"B");
-        let names: Vec<_> = std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let names: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         assert_eq!(names.len(), 2);
     }
 }

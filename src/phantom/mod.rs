@@ -58,6 +58,7 @@ mod lumen;
 mod render;
 mod scene;
 mod shapes;
+pub mod stage;
 mod truth;
 
 use std::fmt;

@@ -3,11 +3,11 @@
 use serde_json::{Value as Json, json};
 
 use super::{PhantomParams, Preset, generate};
+use crate::Result;
+use crate::geom::Frame;
 use crate::io::{Transaction, markups, nifti, vtp};
 use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
 use crate::units::Kind;
-use crate::Result;
-use crate::geom::Frame;
 
 pub static SPEC: StageSpec = StageSpec {
     name: "phantom",
@@ -65,7 +65,10 @@ pub static SPEC: StageSpec = StageSpec {
         },
         Param {
             name: "seed",
-            kind: ParamKind::Int { min: 0, max: i64::MAX },
+            kind: ParamKind::Int {
+                min: 0,
+                max: i64::MAX,
+            },
             default: Some("1"),
             help: "anatomy and noise seed; same seed, same bytes",
         },
@@ -138,13 +141,17 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     }
     let mut tx = Transaction::new();
     tx.write(io.output("ct"), |w| nifti::encode(w, &ph.ct, true))?;
-    tx.write(io.output("truth_mask"), |w| nifti::encode(w, &ph.truth_mask, true))?;
+    tx.write(io.output("truth_mask"), |w| {
+        nifti::encode(w, &ph.truth_mask, true)
+    })?;
     let mrk = markups::encode_mrk_json(&ph.landmarks, Frame::Lps);
     tx.write_bytes(io.output("landmarks"), mrk.as_bytes())?;
     let text = serde_json::to_string_pretty(&truth).expect("truth serialises") + "\n";
     tx.write_bytes(io.output("truth"), text.as_bytes())?;
     let surface = ph.truth_surface.to_polydata();
-    tx.write(io.output("truth_surface"), |w| vtp::encode(w, &surface, &vtp::WriteOptions::default()))?;
+    tx.write(io.output("truth_surface"), |w| {
+        vtp::encode(w, &surface, &vtp::WriteOptions::default())
+    })?;
     tx.commit()?;
     progress.set(1.0);
     let d = ph.ct.dims();

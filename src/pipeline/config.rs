@@ -41,9 +41,9 @@ impl RunConfig {
     }
 
     pub fn parse(path: &Path, text: &str, registry: &[&'static StageSpec]) -> Result<RunConfig> {
-        let doc: toml::Table = text
-            .parse()
-            .map_err(|e: toml::de::Error| Error::bad_input(path, format!("not valid TOML: {}", e.message())))?;
+        let doc: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+            Error::bad_input(path, format!("not valid TOML: {}", e.message()))
+        })?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let artifacts: BTreeSet<&str> = registry
             .iter()
@@ -63,7 +63,9 @@ impl RunConfig {
                     for (k, v) in t {
                         match (k.as_str(), v) {
                             ("dir", toml::Value::String(s)) => cfg.run_dir = Some(base.join(s)),
-                            ("dir", _) => return Err(Error::config(path, "run.dir", "must be a path string")),
+                            ("dir", _) => {
+                                return Err(Error::config(path, "run.dir", "must be a path string"));
+                            }
                             _ => {
                                 return Err(Error::config(
                                     path,
@@ -87,7 +89,11 @@ impl RunConfig {
                             ));
                         }
                         let toml::Value::String(s) = v else {
-                            return Err(Error::config(path, format!("inputs.{k}"), "must be a path string"));
+                            return Err(Error::config(
+                                path,
+                                format!("inputs.{k}"),
+                                "must be a path string",
+                            ));
                         };
                         cfg.inputs.insert(k.clone(), base.join(s));
                     }
@@ -111,11 +117,15 @@ impl RunConfig {
                             return Err(Error::config(
                                 path,
                                 format!("{name}.{k}"),
-                                format!("unknown parameter (stage {name} takes: {})", names.join(", ")),
+                                format!(
+                                    "unknown parameter (stage {name} takes: {})",
+                                    names.join(", ")
+                                ),
                             ));
                         };
-                        let parsed = params::parse_toml(p, v)
-                            .map_err(|e| Error::config(path, format!("{name}.{k}"), e.to_string()))?;
+                        let parsed = params::parse_toml(p, v).map_err(|e| {
+                            Error::config(path, format!("{name}.{k}"), e.to_string())
+                        })?;
                         values.insert(k.clone(), parsed);
                     }
                     cfg.sections.insert(name.to_string(), values);
@@ -137,7 +147,11 @@ pub(crate) mod tests {
     use crate::pipeline::spec::{ArtifactKind, Param, ParamKind, Port};
     use crate::units::Kind;
 
-    fn noop(_: &super::super::StageIo, _: &super::super::Params, _: &super::super::Progress) -> Result<serde_json::Value> {
+    fn noop(
+        _: &super::super::StageIo,
+        _: &super::super::Params,
+        _: &super::super::Progress,
+    ) -> Result<serde_json::Value> {
         Ok(serde_json::Value::Null)
     }
 
@@ -193,26 +207,46 @@ pub(crate) mod tests {
 
     #[test]
     fn bare_pressure_names_file_key_and_unit() {
-        let e = RunConfig::parse(Path::new("cfg/run.toml"), "[close]\npressure = 80\n", &registry())
-            .unwrap_err()
-            .to_string();
+        let e = RunConfig::parse(
+            Path::new("cfg/run.toml"),
+            "[close]\npressure = 80\n",
+            &registry(),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.starts_with("cfg/run.toml: close.pressure:"), "{e}");
         assert!(e.contains("bare number 80") && e.contains("mmHg"), "{e}");
-        let cfg = RunConfig::parse(Path::new("cfg/run.toml"), "[close]\npressure = \"12 kPa\"\n[inputs]\na = \"x.txt\"\n", &registry()).unwrap();
-        assert_eq!(cfg.sections["close"]["pressure"], Value::Quantity(0.012, Kind::Pressure));
+        let cfg = RunConfig::parse(
+            Path::new("cfg/run.toml"),
+            "[close]\npressure = \"12 kPa\"\n[inputs]\na = \"x.txt\"\n",
+            &registry(),
+        )
+        .unwrap();
+        assert_eq!(
+            cfg.sections["close"]["pressure"],
+            Value::Quantity(0.012, Kind::Pressure)
+        );
         assert_eq!(cfg.inputs["a"], Path::new("cfg/x.txt"));
     }
 
     #[test]
     fn unknown_names_are_refused_with_the_valid_ones() {
         let r = registry();
-        let e = RunConfig::parse(Path::new("c.toml"), "[clsoe]\n", &r).unwrap_err().to_string();
+        let e = RunConfig::parse(Path::new("c.toml"), "[clsoe]\n", &r)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("[clsoe]") && e.contains("make, close"), "{e}");
-        let e = RunConfig::parse(Path::new("c.toml"), "[close]\npresure = \"1 kPa\"\n", &r).unwrap_err().to_string();
+        let e = RunConfig::parse(Path::new("c.toml"), "[close]\npresure = \"1 kPa\"\n", &r)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("close.presure") && e.contains("pressure"), "{e}");
-        let e = RunConfig::parse(Path::new("c.toml"), "[inputs]\nzz = \"p\"\n", &r).unwrap_err().to_string();
+        let e = RunConfig::parse(Path::new("c.toml"), "[inputs]\nzz = \"p\"\n", &r)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("inputs.zz") && e.contains("a, b"), "{e}");
-        let e = RunConfig::parse(Path::new("c.toml"), "[run]\ndir = 3\n", &r).unwrap_err().to_string();
+        let e = RunConfig::parse(Path::new("c.toml"), "[run]\ndir = 3\n", &r)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("run.dir"), "{e}");
     }
 }

@@ -39,7 +39,9 @@ pub fn reason_to_run(
     let Some(prev) = previous else {
         return Some("no earlier run in this directory".into());
     };
-    if prev.coapt_version != provenance::version() || prev.git_commit.as_deref() != provenance::git_commit() {
+    if prev.coapt_version != provenance::version()
+        || prev.git_commit.as_deref() != provenance::git_commit()
+    {
         return Some(format!(
             "coapt changed ({} {} → {})",
             prev.coapt_version,
@@ -101,7 +103,13 @@ pub fn execute(
         .iter()
         .map(|(name, path)| Ok((name.to_string(), FileRecord::of(path, run_dir)?)))
         .collect::<Result<BTreeMap<_, _>>>()?;
-    tracing::info!(stage = spec.name, event = "ran", seconds, "{}: done in {seconds:.2} s", spec.name);
+    tracing::info!(
+        stage = spec.name,
+        event = "ran",
+        seconds,
+        "{}: done in {seconds:.2} s",
+        spec.name
+    );
     Ok(StageRecord {
         stage: spec.name.to_string(),
         status: Status::Ran,

@@ -24,5 +24,6 @@ pub use spec::{ArtifactKind, Param, ParamKind, Port, StageIo, StageSpec};
 /// The stages of this build of coapt, in chain order. Only stages that
 /// really exist are registered.
 pub fn registry() -> &'static [&'static StageSpec] {
-    &[&crate::phantom::stage::SPEC]
+    static STAGES: [&StageSpec; 1] = [&crate::phantom::stage::SPEC];
+    &STAGES
 }

@@ -68,7 +68,10 @@ pub fn parse_text(p: &Param, text: &str) -> Result<Value> {
             if options.contains(&t) {
                 Value::Choice(t.to_string())
             } else {
-                return Err(Error::value(format!("'{t}' is not one of: {}", options.join(", "))));
+                return Err(Error::value(format!(
+                    "'{t}' is not one of: {}",
+                    options.join(", ")
+                )));
             }
         }
     };
@@ -84,12 +87,16 @@ fn parse_lengths3(t: &str) -> Result<[f64; 3]> {
         )));
     }
     let last_unit: String = parts[2]
-        .trim_start_matches(|c: char| c.is_ascii_digit() || matches!(c, '.' | '+' | '-' | 'e' | 'E'))
+        .trim_start_matches(|c: char| {
+            c.is_ascii_digit() || matches!(c, '.' | '+' | '-' | 'e' | 'E')
+        })
         .trim()
         .to_string();
     let mut out = [0.0; 3];
     for (i, part) in parts.iter().enumerate() {
-        let has_unit = part.chars().any(|c| c.is_alphabetic() && c != 'e' && c != 'E');
+        let has_unit = part
+            .chars()
+            .any(|c| c.is_alphabetic() && c != 'e' && c != 'E');
         let text = if has_unit || last_unit.is_empty() {
             part.to_string()
         } else {
@@ -105,8 +112,12 @@ fn parse_lengths3(t: &str) -> Result<[f64; 3]> {
 pub fn parse_toml(p: &Param, v: &toml::Value) -> Result<Value> {
     match (p.kind, v) {
         (_, toml::Value::String(s)) => parse_text(p, s),
-        (ParamKind::Quantity(k), toml::Value::Integer(i)) => Err(units::bare_number(k, &i.to_string())),
-        (ParamKind::Quantity(k), toml::Value::Float(f)) => Err(units::bare_number(k, &f.to_string())),
+        (ParamKind::Quantity(k), toml::Value::Integer(i)) => {
+            Err(units::bare_number(k, &i.to_string()))
+        }
+        (ParamKind::Quantity(k), toml::Value::Float(f)) => {
+            Err(units::bare_number(k, &f.to_string()))
+        }
         (ParamKind::Lengths3, toml::Value::Array(a)) => {
             let texts: Vec<String> = a
                 .iter()
@@ -155,7 +166,10 @@ impl Params {
                 Some(v) => v.clone(),
                 None => match p.default {
                     Some(d) => parse_text(p, d).map_err(|e| {
-                        Error::value(format!("default of {}.{} is invalid: {e}", spec.name, p.name))
+                        Error::value(format!(
+                            "default of {}.{} is invalid: {e}",
+                            spec.name, p.name
+                        ))
                     })?,
                     None => Value::Unset,
                 },
@@ -163,7 +177,10 @@ impl Params {
             values.insert(p.name.to_string(), v);
         }
         if let Some(k) = given.keys().find(|k| spec.param(k).is_none()) {
-            return Err(Error::value(format!("stage {} has no parameter '{k}'", spec.name)));
+            return Err(Error::value(format!(
+                "stage {} has no parameter '{k}'",
+                spec.name
+            )));
         }
         Ok(Params { values })
     }
@@ -219,7 +236,10 @@ impl Params {
 
     /// Canonical text of every parameter, for provenance and skip decisions.
     pub fn canonical(&self) -> BTreeMap<String, String> {
-        self.values.iter().map(|(k, v)| (k.clone(), v.canonical())).collect()
+        self.values
+            .iter()
+            .map(|(k, v)| (k.clone(), v.canonical()))
+            .collect()
     }
 }
 
@@ -236,7 +256,9 @@ mod tests {
 
     #[test]
     fn toml_bare_number_names_the_unit() {
-        let e = parse_toml(&P, &toml::Value::Integer(80)).unwrap_err().to_string();
+        let e = parse_toml(&P, &toml::Value::Integer(80))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("bare number 80") && e.contains("mmHg"), "{e}");
         let v = parse_toml(&P, &toml::Value::String("10 kPa".into())).unwrap();
         assert_eq!(v, Value::Quantity(0.01, Kind::Pressure));
@@ -253,8 +275,14 @@ mod tests {
             default: None,
             help: "",
         };
-        assert_eq!(parse_text(&p, "0.44, 0.44, 0.6 mm").unwrap(), Value::Lengths3([0.44, 0.44, 0.6]));
-        assert_eq!(parse_text(&p, "1 mm, 0.1 cm, 2mm").unwrap(), Value::Lengths3([1.0, 1.0, 2.0]));
+        assert_eq!(
+            parse_text(&p, "0.44, 0.44, 0.6 mm").unwrap(),
+            Value::Lengths3([0.44, 0.44, 0.6])
+        );
+        assert_eq!(
+            parse_text(&p, "1 mm, 0.1 cm, 2mm").unwrap(),
+            Value::Lengths3([1.0, 1.0, 2.0])
+        );
         assert!(parse_text(&p, "0.44, 0.44, 0.6").is_err());
         assert!(parse_text(&p, "0.44, 0.6 mm").is_err());
         let v = parse_text(&p, "0.5, 0.5, 0.8 mm").unwrap();
@@ -269,7 +297,10 @@ mod tests {
             default: None,
             help: "",
         };
-        assert_eq!(parse_toml(&p, &toml::Value::Integer(3)).unwrap(), Value::Int(3));
+        assert_eq!(
+            parse_toml(&p, &toml::Value::Integer(3)).unwrap(),
+            Value::Int(3)
+        );
         assert!(parse_toml(&p, &toml::Value::Integer(11)).is_err());
         assert!(parse_text(&p, "x").is_err());
         let c = Param {
@@ -278,6 +309,11 @@ mod tests {
             default: None,
             help: "",
         };
-        assert!(parse_text(&c, "c").unwrap_err().to_string().contains("a, b"));
+        assert!(
+            parse_text(&c, "c")
+                .unwrap_err()
+                .to_string()
+                .contains("a, b")
+        );
     }
 }

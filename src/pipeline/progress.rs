@@ -57,7 +57,9 @@ impl Progress {
                 ProgressDrawTarget::hidden()
             },
         );
-        if let Ok(style) = ProgressStyle::with_template("{prefix:>10} [{bar:30}] {percent:>3}% {elapsed}") {
+        if let Ok(style) =
+            ProgressStyle::with_template("{prefix:>10} [{bar:30}] {percent:>3}% {elapsed}")
+        {
             bar.set_style(style.progress_chars("=> "));
         }
         bar.set_prefix(label.to_string());
@@ -72,7 +74,8 @@ impl Progress {
     }
 
     pub fn set(&self, fraction: f64) {
-        self.bar.set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
+        self.bar
+            .set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
     }
 
     pub fn finish(&self) {

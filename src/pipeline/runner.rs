@@ -65,7 +65,10 @@ pub fn plan(cfg: &RunConfig, registry: &[&'static StageSpec]) -> Result<Vec<&'st
                 return Err(Error::config(
                     &cfg.path,
                     format!("inputs.{}", out.name),
-                    format!("{} is made by stage {}; remove it from [inputs] or remove [{}]", out.name, spec.name, spec.name),
+                    format!(
+                        "{} is made by stage {}; remove it from [inputs] or remove [{}]",
+                        out.name, spec.name, spec.name
+                    ),
                 ));
             }
             available.push(out.name);
@@ -98,12 +101,19 @@ fn input_kind(registry: &[&'static StageSpec], name: &str) -> Option<super::spec
 fn position(chain: &[&StageSpec], name: &str, flag: &str) -> Result<usize> {
     chain.iter().position(|s| s.name == name).ok_or_else(|| {
         let names: Vec<&str> = chain.iter().map(|s| s.name).collect();
-        Error::usage(format!("{flag} {name}: not a stage of this run (the chain is: {})", names.join(" → ")))
+        Error::usage(format!(
+            "{flag} {name}: not a stage of this run (the chain is: {})",
+            names.join(" → ")
+        ))
     })
 }
 
 /// Run the chain.
-pub fn run(opts: &RunOptions, registry: &[&'static StageSpec], inv: &Invocation) -> Result<RunReport> {
+pub fn run(
+    opts: &RunOptions,
+    registry: &[&'static StageSpec],
+    inv: &Invocation,
+) -> Result<RunReport> {
     let cfg = RunConfig::load(&opts.config, registry)?;
     let run_dir = match (&opts.out, &cfg.run_dir) {
         (Some(d), _) => d.clone(),
@@ -152,7 +162,11 @@ pub fn run(opts: &RunOptions, registry: &[&'static StageSpec], inv: &Invocation)
 
     // Where every artifact lives: external inputs where the config says,
     // everything a stage makes under its run-directory name.
-    let mut artifact: BTreeMap<&str, PathBuf> = cfg.inputs.iter().map(|(k, v)| (k.as_str(), v.clone())).collect();
+    let mut artifact: BTreeMap<&str, PathBuf> = cfg
+        .inputs
+        .iter()
+        .map(|(k, v)| (k.as_str(), v.clone()))
+        .collect();
     for spec in &chain {
         for out in spec.outputs {
             artifact.insert(out.name, run_dir.join(out.file));
@@ -168,7 +182,9 @@ pub fn run(opts: &RunOptions, registry: &[&'static StageSpec], inv: &Invocation)
     }
     for spec in &chain[first..=last] {
         for port in spec.inputs {
-            let Some(path) = artifact.get(port.name) else { continue };
+            let Some(path) = artifact.get(port.name) else {
+                continue;
+            };
             let made_upstream = chain[..first].iter().any(|s| s.output(port.name).is_some());
             if made_upstream && !path.exists() {
                 return Err(Error::usage(format!(
@@ -198,10 +214,15 @@ pub fn run(opts: &RunOptions, registry: &[&'static StageSpec], inv: &Invocation)
                 .iter()
                 .filter_map(|p| artifact.get(p.name).map(|path| (p.name, path.clone())))
                 .collect(),
-            outputs: spec.outputs.iter().map(|p| (p.name, run_dir.join(p.file))).collect(),
+            outputs: spec
+                .outputs
+                .iter()
+                .map(|p| (p.name, run_dir.join(p.file)))
+                .collect(),
         };
         let given = cfg.sections.get(spec.name).cloned().unwrap_or_default();
-        let params = Params::resolve(spec, given).map_err(|e| Error::config(&cfg.path, spec.name, e.to_string()))?;
+        let params = Params::resolve(spec, given)
+            .map_err(|e| Error::config(&cfg.path, spec.name, e.to_string()))?;
         let inputs = execute::hash_inputs(&io, &run_dir)?;
         let previous = manifest.stage(spec.name).cloned();
         let reason = if opts.force {
@@ -213,15 +234,21 @@ pub fn run(opts: &RunOptions, registry: &[&'static StageSpec], inv: &Invocation)
             None => {
                 let mut rec = previous.expect("a skip needs an earlier record");
                 rec.status = Status::Skipped;
-                rec.reason = "inputs, parameters and coapt version unchanged; outputs intact".into();
+                rec.reason =
+                    "inputs, parameters and coapt version unchanged; outputs intact".into();
                 rec.checked = Some(super::provenance::now_utc());
                 tracing::info!(stage = spec.name, event = "skipped", reason = %rec.reason, "{}: skipped ({})", spec.name, rec.reason);
-                report.stages.push((spec.name.to_string(), Status::Skipped, rec.reason.clone()));
+                report
+                    .stages
+                    .push((spec.name.to_string(), Status::Skipped, rec.reason.clone()));
                 manifest.put(rec, &order);
             }
             Some(reason) => {
-                let rec = execute::execute(spec, &io, &params, inputs, &run_dir, reason.clone(), inv)?;
-                report.stages.push((spec.name.to_string(), Status::Ran, reason));
+                let rec =
+                    execute::execute(spec, &io, &params, inputs, &run_dir, reason.clone(), inv)?;
+                report
+                    .stages
+                    .push((spec.name.to_string(), Status::Ran, reason));
                 manifest.put(rec, &order);
             }
         }
@@ -244,14 +271,24 @@ pub fn run_single(
             validate::input(port.kind, path)?;
         }
     }
-    let record_dir = out_dir.map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
+    let record_dir = out_dir
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."));
     // Read an existing manifest first: an unreadable one stops us before any work.
     let mut manifest = match out_dir {
         Some(dir) => Some(Manifest::load(dir)?),
         None => None,
     };
     let inputs = execute::hash_inputs(io, &record_dir)?;
-    let rec = execute::execute(spec, io, params, inputs, &record_dir, "run by hand".into(), inv)?;
+    let rec = execute::execute(
+        spec,
+        io,
+        params,
+        inputs,
+        &record_dir,
+        "run by hand".into(),
+        inv,
+    )?;
     if let (Some(dir), Some(manifest)) = (out_dir, manifest.as_mut()) {
         // Keep the order the directory already has; a new stage goes last.
         let mut order: Vec<String> = manifest.stages.iter().map(|s| s.stage.clone()).collect();
@@ -277,7 +314,10 @@ mod tests {
         let r = registry();
         // A source stage runs only when configured; its outputs feed the next.
         let chain = plan(&cfg("[make]\n"), &r).unwrap();
-        assert_eq!(chain.iter().map(|s| s.name).collect::<Vec<_>>(), ["make", "close"]);
+        assert_eq!(
+            chain.iter().map(|s| s.name).collect::<Vec<_>>(),
+            ["make", "close"]
+        );
         // Given the artifact as an input, only the consumer runs.
         let chain = plan(&cfg("[inputs]\na = \"a.txt\"\n"), &r).unwrap();
         assert_eq!(chain.iter().map(|s| s.name).collect::<Vec<_>>(), ["close"]);
@@ -285,8 +325,13 @@ mod tests {
         let e = plan(&cfg("[close]\n"), &r).unwrap_err().to_string();
         assert!(e.contains("needs a"), "{e}");
         // Made by a stage and given as input: ambiguous.
-        let e = plan(&cfg("[make]\n[inputs]\na = \"a.txt\"\n"), &r).unwrap_err().to_string();
-        assert!(e.contains("inputs.a") && e.contains("made by stage make"), "{e}");
+        let e = plan(&cfg("[make]\n[inputs]\na = \"a.txt\"\n"), &r)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("inputs.a") && e.contains("made by stage make"),
+            "{e}"
+        );
         // Nothing at all.
         assert!(plan(&cfg(""), &r).is_err());
     }

@@ -65,8 +65,14 @@ pub enum ParamKind {
     Quantity(units::Kind),
     /// Three lengths ("0.44, 0.44, 0.6 mm").
     Lengths3,
-    Int { min: i64, max: i64 },
-    Float { min: f64, max: f64 },
+    Int {
+        min: i64,
+        max: i64,
+    },
+    Float {
+        min: f64,
+        max: f64,
+    },
     Bool,
     Choice(&'static [&'static str]),
 }
@@ -99,7 +105,9 @@ pub struct StageSpec {
 
 impl std::fmt::Debug for StageSpec {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("StageSpec").field("name", &self.name).finish()
+        f.debug_struct("StageSpec")
+            .field("name", &self.name)
+            .finish()
     }
 }
 
@@ -131,7 +139,10 @@ pub struct StageIo {
 
 impl StageIo {
     pub fn input(&self, name: &str) -> Option<&std::path::Path> {
-        self.inputs.iter().find(|(n, _)| *n == name).map(|(_, p)| p.as_path())
+        self.inputs
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, p)| p.as_path())
     }
 
     pub fn output(&self, name: &str) -> &std::path::Path {

@@ -20,7 +20,8 @@ pub fn input(kind: ArtifactKind, path: &Path) -> Result<()> {
         }
         ArtifactKind::Landmarks => {
             let lm = markups::read(path)?;
-            lm.require(&REQUIRED_LANDMARKS).map_err(|e| e.in_file(path))?;
+            lm.require(&REQUIRED_LANDMARKS)
+                .map_err(|e| e.in_file(path))?;
         }
         ArtifactKind::Mesh => {
             vtp::read_mesh(path)?;

@@ -9,7 +9,11 @@ use coapt::geom::{Matrix3, Point3, Volume};
 use crate::common::*;
 
 fn small_ct(dir: &Path, name: &str) -> PathBuf {
-    let a = affine_from_parts([0.5, 0.5, 0.8], &Matrix3::identity(), Point3::new(1.0, 2.0, 3.0));
+    let a = affine_from_parts(
+        [0.5, 0.5, 0.8],
+        &Matrix3::identity(),
+        Point3::new(1.0, 2.0, 3.0),
+    );
     let v = Volume::from_fortran_vec([6, 5, 4], a, (0..120).map(|x| x as i16).collect()).unwrap();
     let p = dir.join(name);
     coapt::io::nifti::write(&p, &v).unwrap();
@@ -155,14 +159,27 @@ fn config_with_a_bare_number_for_a_quantity() {
     std::fs::write(&cfg, "[phantom]\npreset = \"sample\"\ntilt = 35\n").unwrap();
     let out = d.join("run");
     let o = coapt(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    assert_bad_input(&o, &cfg, &["phantom.tilt", "bare number 35", "angle", "deg"]);
-    assert!(!out.exists(), "a refused config must not create the run directory");
+    assert_bad_input(
+        &o,
+        &cfg,
+        &["phantom.tilt", "bare number 35", "angle", "deg"],
+    );
+    assert!(
+        !out.exists(),
+        "a refused config must not create the run directory"
+    );
 }
 
 #[test]
 fn cli_value_without_unit() {
     let d = tmpdir("cliunit");
-    let o = coapt(&["phantom", "--out", d.join("p").to_str().unwrap(), "--noise", "25"]);
+    let o = coapt(&[
+        "phantom",
+        "--out",
+        d.join("p").to_str().unwrap(),
+        "--noise",
+        "25",
+    ]);
     assert_eq!(o.status.code(), Some(2));
     let err = stderr(&o);
     assert!(err.contains("--noise 25") && err.contains("HU"), "{err}");

@@ -36,9 +36,15 @@ pub fn assert_bad_input(o: &Output, file: &Path, words: &[&str]) {
     assert_eq!(lines.len(), 1, "expected one line, got: {err}");
     assert!(lines[0].starts_with("error: "), "{err}");
     let name = file.file_name().unwrap().to_string_lossy();
-    assert!(lines[0].contains(name.as_ref()), "error does not name {name}: {err}");
+    assert!(
+        lines[0].contains(name.as_ref()),
+        "error does not name {name}: {err}"
+    );
     for w in words {
-        assert!(lines[0].to_lowercase().contains(&w.to_lowercase()), "error lacks '{w}': {err}");
+        assert!(
+            lines[0].to_lowercase().contains(&w.to_lowercase()),
+            "error lacks '{w}': {err}"
+        );
     }
 }
 

@@ -9,18 +9,50 @@ fn bit_identical_with_one_or_two_threads() {
     let d = tmpdir("threads");
     let (a, b) = (d.join("t1"), d.join("t2"));
     for (dir, n) in [(&a, "1"), (&b, "2")] {
-        let o = coapt(&["phantom", "--preset", "sample", "--seed", "7", "--out", dir.to_str().unwrap(), "--threads", n, "--quiet"]);
+        let o = coapt(&[
+            "phantom",
+            "--preset",
+            "sample",
+            "--seed",
+            "7",
+            "--out",
+            dir.to_str().unwrap(),
+            "--threads",
+            n,
+            "--quiet",
+        ]);
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     }
-    for f in ["ct.nii.gz", "truth_mask.nii.gz", "landmarks.mrk.json", "truth.json", "truth_surface.vtp"] {
-        assert_eq!(std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap(), "{f} differs");
+    for f in [
+        "ct.nii.gz",
+        "truth_mask.nii.gz",
+        "landmarks.mrk.json",
+        "truth.json",
+        "truth_surface.vtp",
+    ] {
+        assert_eq!(
+            std::fs::read(a.join(f)).unwrap(),
+            std::fs::read(b.join(f)).unwrap(),
+            "{f} differs"
+        );
     }
 }
 
 #[test]
 fn outputs_are_consistent_and_readable() {
     let d = tmpdir("outputs");
-    let o = coapt(&["phantom", "--preset", "sample", "--seed", "3", "--tilt", "20 deg", "--out", d.to_str().unwrap(), "--quiet"]);
+    let o = coapt(&[
+        "phantom",
+        "--preset",
+        "sample",
+        "--seed",
+        "3",
+        "--tilt",
+        "20 deg",
+        "--out",
+        d.to_str().unwrap(),
+        "--quiet",
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let ct = nifti::read_i16(&d.join("ct.nii.gz")).unwrap();
     let mask = nifti::read_u8(&d.join("truth_mask.nii.gz")).unwrap();
@@ -37,7 +69,8 @@ fn outputs_are_consistent_and_readable() {
 
     let lm = markups::read(&d.join("landmarks.mrk.json")).unwrap();
     let c = lm.require(&["C1", "C2", "C3", "N1", "N2", "N3"]).unwrap();
-    let truth: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("truth.json")).unwrap()).unwrap();
+    let truth: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("truth.json")).unwrap()).unwrap();
     assert_eq!(truth["frame"], "LPS");
     let tilt = truth["tilt_deg"].as_f64().unwrap();
     assert!((tilt - 20.0).abs() < 1e-9, "tilt {tilt}");
@@ -47,8 +80,15 @@ fn outputs_are_consistent_and_readable() {
     assert_eq!(surface.topology().euler_characteristic, 2);
     // The commissures lie on the truth surface (to the mesh's chord error).
     for p in &c[..3] {
-        let nearest = surface.vertices.iter().map(|v| (v - p).norm()).fold(f64::INFINITY, f64::min);
-        assert!(nearest < 0.6, "commissure {p} is {nearest} mm from the surface");
+        let nearest = surface
+            .vertices
+            .iter()
+            .map(|v| (v - p).norm())
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            nearest < 0.6,
+            "commissure {p} is {nearest} mm from the surface"
+        );
     }
     let m = coapt::pipeline::manifest::Manifest::load(&d).unwrap();
     assert_eq!(m.stage("phantom").unwrap().params["tilt"], "20 deg");
@@ -57,7 +97,15 @@ fn outputs_are_consistent_and_readable() {
 #[test]
 fn no_contrast_phantom_is_dark() {
     let d = tmpdir("nocontrast");
-    let o = coapt(&["phantom", "--preset", "sample", "--no-contrast", "--out", d.to_str().unwrap(), "--quiet"]);
+    let o = coapt(&[
+        "phantom",
+        "--preset",
+        "sample",
+        "--no-contrast",
+        "--out",
+        d.to_str().unwrap(),
+        "--quiet",
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let ct = nifti::read_i16(&d.join("ct.nii.gz")).unwrap();
     let mask = nifti::read_u8(&d.join("truth_mask.nii.gz")).unwrap();

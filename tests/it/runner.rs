@@ -15,7 +15,11 @@ fn run(cfg: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
 }
 
 fn phantom_record(out: &Path) -> coapt::pipeline::manifest::StageRecord {
-    Manifest::load(out).unwrap().stage("phantom").cloned().expect("phantom recorded")
+    Manifest::load(out)
+        .unwrap()
+        .stage("phantom")
+        .cloned()
+        .expect("phantom recorded")
 }
 
 #[test]
@@ -31,7 +35,14 @@ fn second_run_skips_and_a_new_seed_reruns() {
     assert_eq!(rec.params.get("seed").map(String::as_str), Some("1"));
     assert!(rec.seconds > 0.0 && rec.threads >= 1);
     assert!(rec.command_line.iter().any(|a| a == "run"));
-    for f in ["ct.nii.gz", "truth_mask.nii.gz", "landmarks.mrk.json", "truth.json", "truth_surface.vtp", "manifest.json"] {
+    for f in [
+        "ct.nii.gz",
+        "truth_mask.nii.gz",
+        "landmarks.mrk.json",
+        "truth.json",
+        "truth_surface.vtp",
+        "manifest.json",
+    ] {
         assert!(out.join(f).exists(), "{f} missing");
     }
     let ct_before = std::fs::read(out.join("ct.nii.gz")).unwrap();
@@ -53,20 +64,30 @@ fn second_run_skips_and_a_new_seed_reruns() {
 
     // A different seed re-runs the stage and says why.
     let cfg2 = d.join("phantom-seed2.toml");
-    let text = std::fs::read_to_string(&cfg).unwrap().replace("seed = 1", "seed = 2");
+    let text = std::fs::read_to_string(&cfg)
+        .unwrap()
+        .replace("seed = 1", "seed = 2");
     assert!(text.contains("seed = 2"));
     std::fs::write(&cfg2, text).unwrap();
     let third = run(&cfg2, &out, &[]);
     let rec3 = phantom_record(&out);
     assert_eq!(rec3.status, Status::Ran);
-    assert!(rec3.reason.contains("seed changed (1 → 2)"), "{}", rec3.reason);
+    assert!(
+        rec3.reason.contains("seed changed (1 → 2)"),
+        "{}",
+        rec3.reason
+    );
     assert!(stderr(&third).contains("seed changed"));
     assert_ne!(std::fs::read(out.join("ct.nii.gz")).unwrap(), ct_before);
 
     // A damaged output re-runs; --force re-runs.
     std::fs::write(out.join("truth.json"), b"{}").unwrap();
     run(&cfg2, &out, &[]);
-    assert!(phantom_record(&out).reason.contains("truth.json was modified"));
+    assert!(
+        phantom_record(&out)
+            .reason
+            .contains("truth.json was modified")
+    );
     run(&cfg2, &out, &["--force"]);
     assert_eq!(phantom_record(&out).reason, "--force");
 }
@@ -76,15 +97,32 @@ fn unknown_stage_and_sections_are_refused() {
     let d = tmpdir("unknown");
     let cfg = d.join("c.toml");
     std::fs::write(&cfg, "[phantom]\npreset = \"sample\"\n[segmnt]\n").unwrap();
-    let o = coapt(&["run", cfg.to_str().unwrap(), "--out", d.join("r").to_str().unwrap()]);
+    let o = coapt(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out",
+        d.join("r").to_str().unwrap(),
+    ]);
     assert_bad_input(&o, &cfg, &["segmnt", "phantom"]);
 
     std::fs::write(&cfg, "[phantom]\npreset = \"sample\"\nnoize = \"3 HU\"\n").unwrap();
-    let o = coapt(&["run", cfg.to_str().unwrap(), "--out", d.join("r").to_str().unwrap()]);
+    let o = coapt(&[
+        "run",
+        cfg.to_str().unwrap(),
+        "--out",
+        d.join("r").to_str().unwrap(),
+    ]);
     assert_bad_input(&o, &cfg, &["phantom.noize", "noise"]);
 
     let cfg_ok = repo().join("pipelines/phantom.toml");
-    let o = coapt(&["run", cfg_ok.to_str().unwrap(), "--out", d.join("r").to_str().unwrap(), "--from", "close"]);
+    let o = coapt(&[
+        "run",
+        cfg_ok.to_str().unwrap(),
+        "--out",
+        d.join("r").to_str().unwrap(),
+        "--from",
+        "close",
+    ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--from close"), "{}", stderr(&o));
 }

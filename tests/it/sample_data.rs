@@ -5,13 +5,31 @@ use crate::common::*;
 #[test]
 fn sample_data_regenerates_bit_identically() {
     let d = tmpdir("sample");
-    let o = coapt(&["phantom", "--preset", "sample", "--seed", "1", "--out", d.to_str().unwrap(), "--quiet"]);
+    let o = coapt(&[
+        "phantom",
+        "--preset",
+        "sample",
+        "--seed",
+        "1",
+        "--out",
+        d.to_str().unwrap(),
+        "--quiet",
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let committed = repo().join("sample_data");
-    for f in ["ct.nii.gz", "truth_mask.nii.gz", "landmarks.mrk.json", "truth.json", "truth_surface.vtp"] {
+    for f in [
+        "ct.nii.gz",
+        "truth_mask.nii.gz",
+        "landmarks.mrk.json",
+        "truth.json",
+        "truth_surface.vtp",
+    ] {
         let a = std::fs::read(committed.join(f)).unwrap();
         let b = std::fs::read(d.join(f)).unwrap();
-        assert!(a == b, "sample_data/{f} differs from a fresh `coapt phantom --preset sample --seed 1`; regenerate it (see sample_data/README.md)");
+        assert!(
+            a == b,
+            "sample_data/{f} differs from a fresh `coapt phantom --preset sample --seed 1`; regenerate it (see sample_data/README.md)"
+        );
     }
 }
 

@@ -106,8 +106,19 @@ fn read_text(path: &Path) -> Result<String> {
 
 fn read_json(path: &Path) -> Result<Value> {
     // serde_json is built with `float_roundtrip`, so numbers read back exactly.
-    serde_json::from_str(&read_text(path)?)
-        .map_err(|e| Error::bad_input(path, format!("malformed JSON: {e}")))
+    let text = read_text(path)?;
+    serde_json::from_str(&text).map_err(|e| {
+        // Some tools write NaN/Infinity, which JSON does not have; say so.
+        let hint = if text.contains("NaN")
+            || text.contains("Infinity")
+            || e.to_string().contains("out of range")
+        {
+            " (JSON has no NaN or Infinity: every coordinate must be a finite number)"
+        } else {
+            ""
+        };
+        Error::bad_input(path, format!("malformed JSON: {e}{hint}"))
+    })
 }
 
 /// Turn decoded points into checked LPS landmarks, naming `path` in any error.

@@ -102,7 +102,8 @@ fn mrk_json_round_trip_exact_in_both_frames() {
             write_mrk_json(&p, &lm, frame).unwrap();
             assert_same_bits(&read(&p).unwrap(), &lm);
             // The file really holds `frame` coordinates, labelled as such.
-            let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+            let v: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
             let m = &v["markups"][0];
             assert_eq!(m["coordinateSystem"], frame.name());
             let x0 = m["controlPoints"][0]["position"][0].as_f64().unwrap();
