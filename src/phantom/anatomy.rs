@@ -259,6 +259,7 @@ impl Anatomy {
             centreline,
             profile,
             lvot_length_mm: lvot_len,
+            r_max_mm: r_max,
         };
         let cl = &lumen.centreline;
         let profile = &lumen.profile;
@@ -573,9 +574,7 @@ fn slide_to_gap(tubes: &mut [Tube], wall: &[Point3], gap: f64) {
         // point closest to the tube axis, so stepping along it separates.
         let step = dir * (gap - g);
         for t in tubes.iter_mut() {
-            for p in t.points.iter_mut() {
-                *p += step;
-            }
+            t.translate(&step);
         }
     }
 }

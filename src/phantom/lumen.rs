@@ -194,6 +194,8 @@ pub struct Lumen {
     pub profile: RadiusProfile,
     /// The tube is capped this far below the annulus (it continues as LV).
     pub lvot_length_mm: f64,
+    /// `profile.r_max_bound()`, cached for the far-field test.
+    pub r_max_mm: f64,
 }
 
 /// Gauss–Legendre nodes and weights on [−1, 1], 8 points.
@@ -229,7 +231,8 @@ impl Lumen {
         let st = self.centreline.project(p);
         let q = p - st.point;
         let (x, y) = (q.dot(&st.e1), q.dot(&st.e2));
-        let rho = x.hypot(y);
+        // sqrt rather than hypot: no overflow risk at mm scale, and much faster.
+        let rho = (x * x + y * y).sqrt();
         let radial = if rho > 1e-12 {
             (st.e1 * x + st.e2 * y) / rho
         } else {

@@ -313,14 +313,7 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         progress,
         RASTER_SHARE,
     );
-    let ct_values = render::finish(
-        &raster,
-        &grid,
-        noise_seed,
-        params.noise_hu,
-        progress,
-        RASTER_SHARE,
-    );
+    let ct_values = render::finish(&raster, &grid, params.noise_hu, progress, RASTER_SHARE);
     let mask_voxels = raster.mask.iter().filter(|&&m| m != 0).count();
     let ct = Volume::from_fortran_vec(dims, affine, ct_values)?;
     let truth_mask = Volume::from_fortran_vec(dims, affine, raster.mask)?;

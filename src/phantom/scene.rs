@@ -55,6 +55,11 @@ const FAT_BLEND_MM: f64 = 8.0;
 /// surrounded by myocardium instead).
 const WALL_START_BELOW_VAJ_MM: f64 = 3.0;
 
+/// Beyond this distance shapes may return a lower bound of their distance
+/// instead of the distance (cheap far-field): it exceeds every layer's
+/// offset + blend width + voxel extent, so no coverage depends on it.
+const FAR_MM: f64 = 25.0;
+
 /// A voxel centre and a lazily computed aortic-lumen distance, which several
 /// layers and the truth mask share.
 pub struct Probe<'a> {
@@ -76,7 +81,13 @@ impl<'a> Probe<'a> {
         if let Some(v) = self.lumen.get() {
             return v;
         }
-        let v = self.anatomy.lumen.sdf(&self.p);
+        let lumen = &self.anatomy.lumen;
+        let lb = lumen.centreline.distance_lower_bound(&self.p) - lumen.r_max_mm;
+        let v = if lb > FAR_MM {
+            (lb, Vector3::z())
+        } else {
+            lumen.sdf(&self.p)
+        };
         self.lumen.set(Some(v));
         v
     }
@@ -118,7 +129,7 @@ fn offset(s: (f64, Vector3), by: f64) -> (f64, Vector3) {
 fn tubes_sdf(tubes: &[Tube], p: &Point3) -> (f64, Vector3) {
     tubes
         .iter()
-        .map(|t| t.eval(p))
+        .map(|t| t.eval_within(p, FAR_MM))
         .fold((f64::INFINITY, Vector3::z()), union)
 }
 
