@@ -33,6 +33,12 @@ pub const LV_BLEND_MM: f64 = 6.0;
 const LA_SEMI: [f64; 3] = [22.0, 13.0, 17.0];
 /// Minimal clearance kept between structures that are not meant to touch.
 const CLEARANCE_MM: f64 = 3.0;
+/// Default DA position relative to the annulus centre (x left, y posterior).
+const DA_OFFSET: [f64; 2] = [24.0, 44.0];
+/// Least distance kept between the DA and the aortic lumen, beyond radii.
+const MIN_DA_SEPARATION_MM: f64 = 8.0;
+/// Margin kept between the must-see structures and the in-plane FOV edge.
+const FOV_MARGIN_MM: f64 = 4.0;
 /// Vertebral body radius and cranio-caudal period (body + disc).
 const VERTEBRA_RADIUS_MM: f64 = 17.0;
 const VERTEBRA_PERIOD_MM: f64 = 25.0;
@@ -79,6 +85,38 @@ pub struct Anatomy {
 pub struct FovNeeds {
     pub z_bottom: f64,
     pub z_top: f64,
+}
+
+/// Must-see extent in x and y (world mm): root and LVOT, the ascending
+/// aorta where it leaves through the top, the DA (with margins).
+pub fn xy_extent(
+    cl: &Centreline,
+    profile: &RadiusProfile,
+    lvot_len: f64,
+    r_max: f64,
+    z_top: f64,
+    da_xy: [f64; 2],
+    da_r: f64,
+) -> ([f64; 2], [f64; 2]) {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    let mut include = |x: f64, y: f64, r: f64| {
+        lo[0] = lo[0].min(x - r);
+        lo[1] = lo[1].min(y - r);
+        hi[0] = hi[0].max(x + r);
+        hi[1] = hi[1].max(y + r);
+    };
+    const STEPS: usize = 20;
+    for i in 0..=STEPS {
+        let s = -lvot_len + (profile.h_stj_mm + lvot_len) * i as f64 / STEPS as f64;
+        let p = cl.station(s).point;
+        include(p.x, p.y, r_max);
+    }
+    let s_top = s_at_z(cl, z_top);
+    let top = cl.station(s_top).point;
+    include(top.x, top.y, profile.eval(s_top, 0.0).r + FOV_MARGIN_MM);
+    include(da_xy[0], da_xy[1], da_r + FOV_MARGIN_MM);
+    (lo, hi)
 }
 
 /// Random numbers for one seed, drawn in a fixed order.
@@ -189,7 +227,8 @@ impl Anatomy {
     /// Build the anatomy for `seed` and `tilt`; `fit` reports the z-range the
     /// field of view must cover and returns whether it fits, so the arc radius
     /// can shrink for a short field of view.
-    pub fn new(seed: u64, tilt_rad: f64, fov_z_mm: f64) -> Result<(Self, FovNeeds)> {
+    pub fn new(seed: u64, tilt_rad: f64, fov: [f64; 3]) -> Result<(Self, FovNeeds)> {
+        let fov_z_mm = fov[2];
         let d = Draws::new(seed);
         let deg = PI / 180.0;
 
@@ -239,10 +278,30 @@ impl Anatomy {
         let lvot_len = d.lvot_len;
         let mut arc_radius = d.arc_radius;
         let min_arc = (2.0 * r_max).max(35.0);
+        let mut da_xy = [
+            origin.x + DA_OFFSET[0] + d.da_offset[0],
+            origin.y + DA_OFFSET[1] + d.da_offset[1],
+        ];
+        let xy_fits = |cl: &Centreline, needs: &FovNeeds, da_xy: [f64; 2]| {
+            let (lo, hi) = xy_extent(
+                cl,
+                &profile,
+                lvot_len,
+                r_max,
+                needs.z_top,
+                da_xy,
+                d.da_radius,
+            );
+            // Half a millimetre of slack so the grid placement, which uses the
+            // actual top face, cannot disagree by rounding.
+            [hi[0] - lo[0] - fov[0] + 0.5, hi[1] - lo[1] - fov[1] + 0.5]
+        };
         let (centreline, needs) = loop {
             let cl = Centreline::new(origin, axis, e1, s1, arc_radius);
             let needs = z_needs(&cl, &profile, lvot_len);
-            if needs.z_top - needs.z_bottom <= fov_z_mm || arc_radius <= min_arc {
+            let excess = xy_fits(&cl, &needs, da_xy);
+            let fits_xy = excess[0] <= 0.0 && excess[1] <= 0.0;
+            if (needs.z_top - needs.z_bottom <= fov_z_mm && fits_xy) || arc_radius <= min_arc {
                 if needs.z_top - needs.z_bottom > fov_z_mm {
                     return Err(Error::value(format!(
                         "the aortic root needs {:.0} mm of z field of view at tilt {:.0}°, the grid has {:.0} mm",
@@ -255,6 +314,35 @@ impl Anatomy {
             }
             arc_radius = (arc_radius - 2.0).max(min_arc);
         };
+        // Still too wide (steep tilt, small grid): bring the DA closer to the
+        // root, as long as the two stay well apart.
+        for _ in 0..20 {
+            let excess = xy_fits(&centreline, &needs, da_xy);
+            if excess[0] <= 0.0 && excess[1] <= 0.0 {
+                break;
+            }
+            for a in 0..2 {
+                if excess[a] > 0.0 {
+                    da_xy[a] -= excess[a] + 0.5;
+                }
+            }
+        }
+        let excess = xy_fits(&centreline, &needs, da_xy);
+        let top = centreline.station(s_at_z(&centreline, needs.z_top)).point;
+        let root_to_da = (da_xy[0] - origin.x).hypot(da_xy[1] - origin.y);
+        let top_to_da = (da_xy[0] - top.x).hypot(da_xy[1] - top.y);
+        if excess[0] > 0.0
+            || excess[1] > 0.0
+            || root_to_da < r_max + d.da_radius + MIN_DA_SEPARATION_MM
+            || top_to_da < profile.r_ascending_mm * 1.1 + d.da_radius + MIN_DA_SEPARATION_MM
+        {
+            return Err(Error::value(format!(
+                "aortic root and descending aorta do not fit a {:.0}×{:.0} mm field of view at tilt {:.0}°: use a larger preset or spacing",
+                fov[0],
+                fov[1],
+                tilt_rad.to_degrees()
+            )));
+        }
         let lumen = Lumen {
             centreline,
             profile,
@@ -365,8 +453,8 @@ impl Anatomy {
 
         // --- Descending aorta, spine, sternum, body ---------------------------
         let da = ZCylinder {
-            cx: origin.x + 24.0 + d.da_offset[0],
-            cy: origin.y + 44.0 + d.da_offset[1],
+            cx: da_xy[0],
+            cy: da_xy[1],
             rx: d.da_radius,
             ry: d.da_radius,
             z_lo: f64::NEG_INFINITY,
@@ -481,6 +569,15 @@ impl Anatomy {
     pub fn pa_aorta_gap(&self, z_top: f64) -> f64 {
         let wall = wall_samples(&self.lumen, -self.lumen.lvot_length_mm, z_top);
         min_gap(&self.pa, &wall).0
+    }
+
+    /// Smallest tissue gap between the LA and the aortic lumen (the LA
+    /// distance is the ellipsoid bound, accurate to a few 0.1 mm here).
+    pub fn la_aorta_gap(&self, z_top: f64) -> f64 {
+        let wall = wall_samples(&self.lumen, -self.lumen.lvot_length_mm, z_top);
+        wall.iter()
+            .map(|p| self.la.eval(p).0)
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// Low-frequency multiplicative blood field, within ±5 %.

@@ -191,7 +191,14 @@ impl PhantomParams {
             }
         };
         check("noise", self.noise_hu, 0.0, 200.0, "HU")?;
-        check("tilt", self.tilt_rad.to_degrees(), 0.0, 60.0, "deg")?;
+        // A hair of slack so 60° survives the degree/radian round trip.
+        check(
+            "tilt",
+            self.tilt_rad.to_degrees(),
+            -1e-9,
+            60.0 + 1e-9,
+            "deg",
+        )?;
         check("blood", self.blood_hu, 100.0, 800.0, "HU")?;
         if let Some(s) = self.spacing_mm {
             for v in s {
@@ -229,8 +236,6 @@ pub struct Phantom {
 const SURFACE_VERTEX_BUDGET: f64 = 40_000.0;
 /// Share of the progress bar taken by rasterisation (the rest: blur, noise).
 const RASTER_SHARE: f64 = 0.7;
-/// Margin kept between the must-see structures and the in-plane FOV edge.
-const FOV_MARGIN_MM: f64 = 4.0;
 /// Share of the spare z field of view put below the needed range (the LV).
 const SPARE_BELOW: f64 = 0.6;
 
@@ -240,7 +245,7 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
     progress(0.0);
     let (dims, spacing) = params.grid_shape();
     let fov = [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]);
-    let (an, needs) = anatomy::Anatomy::new(params.seed, params.tilt_rad, fov[2])?;
+    let (an, needs) = anatomy::Anatomy::new(params.seed, params.tilt_rad, fov)?;
     let an = Arc::new(an);
     let cl = &an.lumen.centreline;
 
@@ -249,28 +254,16 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
     let z_bottom_face = needs.z_bottom - SPARE_BELOW * extra;
     let z_top = z_bottom_face + fov[2];
     let s_top = cl.s_at_z_vertical(z_top);
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    let mut include = |x: f64, y: f64, r: f64| {
-        lo[0] = lo[0].min(x - r);
-        lo[1] = lo[1].min(y - r);
-        hi[0] = hi[0].max(x + r);
-        hi[1] = hi[1].max(y + r);
-    };
-    let r_max = an.lumen.profile.r_max_bound();
-    for i in 0..=20 {
-        let s = -an.lumen.lvot_length_mm
-            + (an.lumen.profile.h_stj_mm + an.lumen.lvot_length_mm) * i as f64 / 20.0;
-        let p = cl.station(s).point;
-        include(p.x, p.y, r_max);
-    }
-    let top = cl.station(s_top).point;
-    include(
-        top.x,
-        top.y,
-        an.lumen.profile.eval(s_top, 0.0).r + FOV_MARGIN_MM,
+    let (lo, hi) = anatomy::xy_extent(
+        cl,
+        &an.lumen.profile,
+        an.lumen.lvot_length_mm,
+        an.lumen.r_max_mm,
+        z_top,
+        [an.da.cx, an.da.cy],
+        an.da.rx,
     );
-    include(an.da.cx, an.da.cy, an.da.rx + FOV_MARGIN_MM);
+    let r_max = an.lumen.r_max_mm;
     for a in 0..2 {
         if hi[a] - lo[a] > fov[a] {
             return Err(Error::value(format!(

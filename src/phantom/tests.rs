@@ -17,9 +17,13 @@ fn sample() -> &'static Phantom {
 /// Rebuild the analytic lumen the phantom was made from.
 fn anatomy_of(params: &PhantomParams) -> anatomy::Anatomy {
     let (dims, spacing) = params.grid_shape();
-    anatomy::Anatomy::new(params.seed, params.tilt_rad, dims[2] as f64 * spacing[2])
-        .unwrap()
-        .0
+    anatomy::Anatomy::new(
+        params.seed,
+        params.tilt_rad,
+        [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]),
+    )
+    .unwrap()
+    .0
 }
 
 fn stats(v: impl Iterator<Item = f64>) -> (f64, f64, usize) {
@@ -158,7 +162,7 @@ fn surface_vertices_and_landmarks_lie_on_the_wall() {
 
 #[test]
 fn anatomy_ranges_and_orientation() {
-    for seed in [1u64, 2, 3, 99, 12345] {
+    for seed in (0u64..10).chain([99, 12345]) {
         let params = PhantomParams::new(Preset::Sample, seed);
         let an = anatomy_of(&params);
         let p = &an.lumen.profile;
@@ -196,9 +200,26 @@ fn anatomy_ranges_and_orientation() {
             "seed {seed}: NCS {:?}",
             dir(2)
         );
-        // The PA passes 1.5–3 mm from the aortic lumen where closest.
-        let gap = an.pa_aorta_gap(-100.0);
+        // The PA passes 1.5–3 mm from the aortic lumen where closest, the LA
+        // 3–5 mm.
+        let (dims, spacing) = params.grid_shape();
+        let (_, needs) = anatomy::Anatomy::new(
+            seed,
+            params.tilt_rad,
+            [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]),
+        )
+        .unwrap();
+        let gap = an.pa_aorta_gap(needs.z_top + 30.0);
         assert!((1.5..=3.0).contains(&gap), "seed {seed}: PA gap {gap}");
+        let gap = an.la_aorta_gap(needs.z_top + 30.0);
+        assert!((3.0..=5.0).contains(&gap), "seed {seed}: LA gap {gap}");
+        // Coronary ostia halfway up the sinus, on the wall.
+        for c in &an.coronaries {
+            let f = c.ostium_height_mm / p.h_stj_mm;
+            assert!((0.4..=0.6).contains(&f));
+            let l = an.lumen.local(&c.ostium);
+            assert!((l.rho - p.eval(l.station.s, l.theta).r).abs() < 1e-9);
+        }
     }
 }
 
@@ -414,6 +435,38 @@ fn spacing_override_keeps_the_fov_and_tilt_zero_works() {
 }
 
 #[test]
+fn every_tilt_fits_the_sample_and_keeps_exact_truth() {
+    for tilt_deg in [0.0, 20.0, 45.0, 60.0] {
+        let mut p = PhantomParams::new(Preset::Sample, 3);
+        p.tilt_rad = f64::to_radians(tilt_deg);
+        p.spacing_mm = Some([1.8, 1.8, 2.0]);
+        p.noise_hu = 0.0;
+        let seen = std::sync::Mutex::new(Vec::new());
+        let ph = generate(&p, &|f| seen.lock().unwrap().push(f)).unwrap();
+        let t = &ph.truth;
+        let rel = (t.truth_surface_volume_mm3 - t.lumen_volume_mm3).abs() / t.lumen_volume_mm3;
+        assert!(rel < 0.005, "tilt {tilt_deg}: surface volume off by {rel}");
+        let axis = t.valve_frame.axis;
+        assert!((axis.z.acos().to_degrees() - tilt_deg).abs() < 1e-9);
+        // Right-anterior: both x and y components non-positive.
+        assert!(axis.x <= 1e-12 && axis.y <= 1e-12);
+        let seen = seen.into_inner().unwrap();
+        assert!(seen.iter().all(|f| (0.0..=1.0).contains(f)));
+        assert_eq!(*seen.last().unwrap(), 1.0);
+        // The lumen leaves through the top face on its vertical piece.
+        let top = t.top_cap_s_mm;
+        let s2 = t.centreline.straight_ascending.s_start_mm;
+        assert!(
+            top - s2 >= 10.0,
+            "tilt {tilt_deg}: only {} mm vertical",
+            top - s2
+        );
+        // At least 40 mm of ascending aorta above the STJ.
+        assert!(top - t.h_stj_mm >= 40.0);
+    }
+}
+
+#[test]
 fn truth_json_has_the_documented_keys() {
     let v = serde_json::to_value(&sample().truth).unwrap();
     for key in [
@@ -473,7 +526,22 @@ fn debug_views() {
         }
         std::fs::write(format!("{dir}/{name}.png"), png_rgb(w, h, &px)).unwrap();
     };
-    for k in [nk - 1, nk * 3 / 4, nk / 2, nk / 3, nk / 5] {
+    // 4×4 montage of axial slices, bottom-left to top-right.
+    const TILES: usize = 4;
+    let montage = |x: usize, y: usize| {
+        let (tx, ty) = (x / ni, y / nj);
+        let t = ty * TILES + tx;
+        let k = (t * (nk - 1)) / (TILES * TILES - 1);
+        let id = x % ni + ni * (y % nj + nj * k);
+        (ct[id], m[id])
+    };
+    write(
+        "montage",
+        ni * TILES / ZOOM * 2,
+        nj * TILES / ZOOM * 2,
+        &|x, y| montage(x * ZOOM / 2, y * ZOOM / 2),
+    );
+    for k in [nk - 1] {
         write(&format!("axial_{k:03}"), ni, nj, &|i, j| {
             let id = i + ni * (j + nj * k);
             (ct[id], m[id])
