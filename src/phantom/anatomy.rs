@@ -24,9 +24,10 @@ const NOMINAL_ANNULUS: [f64; 3] = [-15.0, 20.0, -160.0];
 const MYOCARDIUM_MM: f64 = 10.0;
 /// LV cavity semi-axes (short, short, long) in mm.
 const LV_SEMI: [f64; 3] = [22.0, 22.0, 40.0];
-/// Highest the LV cavity may reach along the valve axis (below the VAJ), so
-/// no LV blood lies above the annulus plane next to the truth region.
-const LV_MAX_HEIGHT_MM: f64 = -5.0;
+/// Highest the LV cavity may reach along the valve axis. Further below the
+/// VAJ than the LV–LVOT blend width, so the blend cannot move the lumen wall
+/// at or above the VAJ (where it is the truth).
+const LV_MAX_HEIGHT_MM: f64 = -(LV_BLEND_MM + 2.0);
 /// Smooth-union blend width between LV and LVOT.
 pub const LV_BLEND_MM: f64 = 6.0;
 /// Left-atrium semi-axes (x, y, z) before any shrinking.

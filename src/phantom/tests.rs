@@ -6,6 +6,7 @@
 
 use std::sync::OnceLock;
 
+use super::shapes::Sdf;
 use super::*;
 use crate::geom::Vector3;
 
@@ -213,6 +214,23 @@ fn anatomy_ranges_and_orientation() {
         assert!((1.5..=3.0).contains(&gap), "seed {seed}: PA gap {gap}");
         let gap = an.la_aorta_gap(needs.z_top + 30.0);
         assert!((3.0..=5.0).contains(&gap), "seed {seed}: LA gap {gap}");
+        // The LV overlaps the LVOT near its end (blood path LV → root), and
+        // stays below the VAJ by more than the blend width.
+        let cl = &an.lumen.centreline;
+        let lvot_end = cl.origin - cl.axis * (an.lumen.lvot_length_mm - 1.0);
+        assert!(
+            an.lv.eval(&lvot_end).0 < 0.0,
+            "seed {seed}: LV detached from LVOT"
+        );
+        for s in [0.0, 5.0, 10.0] {
+            for k in 0..12 {
+                let w = an.lumen.wall_point(s, k as f64 * 0.5);
+                assert!(
+                    an.lv.eval(&w).0 > anatomy::LV_BLEND_MM,
+                    "seed {seed}: LV near the root wall"
+                );
+            }
+        }
         // Coronary ostia halfway up the sinus, on the wall.
         for c in &an.coronaries {
             let f = c.ostium_height_mm / p.h_stj_mm;
@@ -507,26 +525,43 @@ fn debug_views() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(7);
-    let ph = generate(&PhantomParams::new(Preset::Sample, seed), &|_| {}).unwrap();
+    let preset: Preset = std::env::var("COAPT_PHANTOM_PRESET")
+        .unwrap_or_else(|_| "sample".into())
+        .parse()
+        .unwrap();
+    let mut params = PhantomParams::new(preset, seed);
+    if let Some(t) = std::env::var("COAPT_PHANTOM_TILT")
+        .ok()
+        .and_then(|s| s.parse::<f64>().ok())
+    {
+        params.tilt_rad = t.to_radians();
+    }
+    params.calcium = std::env::var("COAPT_PHANTOM_CALCIUM").is_ok();
+    let ph = generate(&params, &|_| {}).unwrap();
     println!("{}", serde_json::to_string_pretty(&ph.truth).unwrap());
     let [ni, nj, nk] = ph.ct.dims();
     let ct = ph.ct.as_slice();
     let m = ph.truth_mask.as_slice();
     let window = |v: i16| (((v as f64 + 200.0) / 800.0).clamp(0.0, 1.0) * 255.0) as u8;
-    const ZOOM: usize = 4;
+    // Every view is resampled (nearest) to about VIEW_PX pixels per side.
+    const VIEW_PX: usize = 640;
     let write = |name: &str, w: usize, h: usize, f: &dyn Fn(usize, usize) -> (i16, u8)| {
-        let (w, h) = (w * ZOOM, h * ZOOM);
-        let mut px = Vec::with_capacity(w * h * 3);
-        for y in 0..h {
-            for x in 0..w {
-                let (v, mk) = f(x / ZOOM, y / ZOOM);
+        let scale = VIEW_PX as f64 / w.max(h) as f64;
+        let (pw, ph) = ((w as f64 * scale) as usize, (h as f64 * scale) as usize);
+        let mut px = Vec::with_capacity(pw * ph * 3);
+        for y in 0..ph {
+            for x in 0..pw {
+                let (v, mk) = f(
+                    ((x as f64 / scale) as usize).min(w - 1),
+                    ((y as f64 / scale) as usize).min(h - 1),
+                );
                 let g = window(v);
                 px.extend([g, if mk == 1 { g / 2 + 100 } else { g }, g]);
             }
         }
-        std::fs::write(format!("{dir}/{name}.png"), png_rgb(w, h, &px)).unwrap();
+        std::fs::write(format!("{dir}/{name}.png"), png_rgb(pw, ph, &px)).unwrap();
     };
-    // 4×4 montage of axial slices, bottom-left to top-right.
+    // 4×4 montage of axial slices, bottom-left to top-right (twice the size).
     const TILES: usize = 4;
     let montage = |x: usize, y: usize| {
         let (tx, ty) = (x / ni, y / nj);
@@ -535,26 +570,27 @@ fn debug_views() {
         let id = x % ni + ni * (y % nj + nj * k);
         (ct[id], m[id])
     };
-    write(
-        "montage",
-        ni * TILES / ZOOM * 2,
-        nj * TILES / ZOOM * 2,
-        &|x, y| montage(x * ZOOM / 2, y * ZOOM / 2),
-    );
-    for k in [nk - 1] {
+    write("montage", ni * TILES, nj * TILES, &montage);
+    for k in [nk - 1, nk / 2] {
         write(&format!("axial_{k:03}"), ni, nj, &|i, j| {
             let id = i + ni * (j + nj * k);
             (ct[id], m[id])
         });
     }
-    let j = nj / 2;
-    write("coronal", ni, nk, &|i, y| {
-        let id = i + ni * (j + nj * (nk - 1 - y));
+    // Oblique-free long-axis views through the annulus centre.
+    let o = ph.ct.world_to_index(&ph.truth.valve_frame.origin_mm);
+    let j = (o[1].round() as usize).min(nj - 1);
+    let vz = ph.ct.spacing()[2] / ph.ct.spacing()[0];
+    let hz = (nk as f64 * vz) as usize;
+    write("coronal", ni, hz, &|i, y| {
+        let k = nk - 1 - ((y as f64 / vz) as usize).min(nk - 1);
+        let id = i + ni * (j + nj * k);
         (ct[id], m[id])
     });
-    let i = ni / 2;
-    write("sagittal", nj, nk, &|jj, y| {
-        let id = i + ni * (jj + nj * (nk - 1 - y));
+    let i = (o[0].round() as usize).min(ni - 1);
+    write("sagittal", nj, hz, &|jj, y| {
+        let k = nk - 1 - ((y as f64 / vz) as usize).min(nk - 1);
+        let id = i + ni * (jj + nj * k);
         (ct[id], m[id])
     });
 }
