@@ -36,6 +36,9 @@ const LA_SEMI: [f64; 3] = [22.0, 13.0, 17.0];
 const CLEARANCE_MM: f64 = 3.0;
 /// Default DA position relative to the annulus centre (x left, y posterior).
 const DA_OFFSET: [f64; 2] = [24.0, 44.0];
+/// Sternum and body-outline centres relative to the annulus (x L, y P).
+const STERNUM_FROM_ANNULUS: [f64; 2] = [8.0, -62.0];
+const BODY_FROM_ANNULUS: [f64; 2] = [5.0, 35.0];
 /// Least distance kept between the DA and the aortic lumen, beyond radii.
 const MIN_DA_SEPARATION_MM: f64 = 8.0;
 /// Margin kept between the must-see structures and the in-plane FOV edge.
@@ -158,7 +161,7 @@ struct Draws {
 
 impl Draws {
     fn new(seed: u64) -> Self {
-        let mut g = SplitMix64::new(seed ^ 0xA0A7_1C_2007);
+        let mut g = SplitMix64::new(seed ^ 0x00A0_A71C_2007);
         let deg = PI / 180.0;
         let d1 = g.range(-8.0, 8.0);
         // Third spacing is 360° minus the other two: keep it within ±8° too.
@@ -461,30 +464,51 @@ impl Anatomy {
             z_lo: f64::NEG_INFINITY,
             z_hi: f64::INFINITY,
         };
-        let spine_centre = [da.cx - 16.0, da.cy + 28.0];
+        // Vertebral body posterior-right of the DA, clear of it.
+        const SPINE_FROM_DA: [f64; 2] = [-16.0, 28.0];
+        let spine_centre = [da.cx + SPINE_FROM_DA[0], da.cy + SPINE_FROM_DA[1]];
 
         // --- Pulmonary artery: place, then slide until the gap is right -----
+        // The pulmonary valve sits anterior-left of the aortic root, a little
+        // higher; the trunk runs superior-posterior-left to the bifurcation;
+        // the left PA continues left-posterior, the right PA turns right and
+        // passes behind the ascending aorta. All offsets in mm (x L, y P, z S).
+        const PA_VALVE_HEIGHT_MM: f64 = 8.0;
+        const TRUNK_LENGTH_MM: f64 = 38.0;
+        const TRUNK_BELOW_VALVE_MM: f64 = 10.0;
+        const BRANCH_RADIUS_FRACTION: f64 = 0.8;
+        const RPA_BELOW_BIFURCATION_MM: f64 = 4.0;
         let pa_r = d.pa_radius;
+        let branch_r = BRANCH_RADIUS_FRACTION * pa_r;
         let wall = wall_samples(&lumen, -lvot_len, needs.z_top);
         let ant_left = Vector3::new(1.0, -1.3, 0.0).normalize();
         let d_pa = (ant_left - axis * ant_left.dot(&axis)).normalize();
-        let p0 = cl.station(8.0).point + d_pa * (r_max + d.pa_gap + pa_r);
-        let up = Vector3::new(0.35, 0.45, 0.82).normalize();
-        let bif = p0 + up * 38.0;
-        let s_r = s_at_z(cl, bif.z - 4.0);
+        let p0 = cl.station(PA_VALVE_HEIGHT_MM).point + d_pa * (r_max + d.pa_gap + pa_r);
+        let trunk_dir = Vector3::new(0.35, 0.45, 0.82).normalize();
+        let bif = p0 + trunk_dir * TRUNK_LENGTH_MM;
+        let z_r = bif.z - RPA_BELOW_BIFURCATION_MM;
+        let s_r = s_at_z(cl, z_r);
         let c_aa = cl.station(s_r).point;
         let r_aa = profile.eval(s_r, 0.0).r;
-        let behind = c_aa.y + r_aa + d.pa_gap + 0.8 * pa_r;
-        let z_r = bif.z - 4.0;
+        // y of the RPA axis where it passes behind the ascending aorta.
+        let behind = c_aa.y + r_aa + d.pa_gap + branch_r;
         let mut pa = vec![
-            Tube::new(vec![p0 - up * 10.0, p0, p0 + up * 20.0, bif], vec![pa_r; 3]),
+            Tube::new(
+                vec![
+                    p0 - trunk_dir * TRUNK_BELOW_VALVE_MM,
+                    p0,
+                    p0 + trunk_dir * (0.5 * TRUNK_LENGTH_MM),
+                    bif,
+                ],
+                vec![pa_r; 3],
+            ),
             Tube::new(
                 vec![
                     bif,
                     bif + Vector3::new(16.0, 16.0, -2.0),
                     bif + Vector3::new(28.0, 30.0, -8.0),
                 ],
-                vec![0.8 * pa_r; 2],
+                vec![branch_r; 2],
             ),
             Tube::new(
                 vec![
@@ -493,14 +517,20 @@ impl Anatomy {
                     Point3::new(c_aa.x - 15.0, behind + 2.0, z_r - 3.0),
                     Point3::new(c_aa.x - 40.0, behind + 8.0, z_r - 8.0),
                 ],
-                vec![0.8 * pa_r; 3],
+                vec![branch_r; 3],
             ),
         ];
         slide_to_gap(&mut pa, &wall, d.pa_gap);
 
         // --- Left atrium: posterior of the root, slid to a tissue gap --------
+        // Start position (x L, y P, z S from the annulus); y is then solved.
+        const LA_START: [f64; 3] = [-6.0, 30.0, -6.0];
         let mut la = Ellipsoid {
-            centre: Point3::new(origin.x - 6.0, origin.y + 30.0, origin.z - 6.0),
+            centre: Point3::new(
+                origin.x + LA_START[0],
+                origin.y + LA_START[1],
+                origin.z + LA_START[2],
+            ),
             rot: Matrix3::identity(),
             semi: Vector3::new(LA_SEMI[0], LA_SEMI[1], LA_SEMI[2]),
         };
@@ -556,8 +586,14 @@ impl Anatomy {
             vertebra_phase_mm: d.vertebra_phase,
             cortical_hu: d.cortical_hu,
             cancellous_hu: d.cancellous_hu,
-            sternum_centre: [origin.x + 8.0, origin.y - 62.0],
-            body_centre: [origin.x + 5.0, origin.y + 35.0],
+            sternum_centre: [
+                origin.x + STERNUM_FROM_ANNULUS[0],
+                origin.y + STERNUM_FROM_ANNULUS[1],
+            ],
+            body_centre: [
+                origin.x + BODY_FROM_ANNULUS[0],
+                origin.y + BODY_FROM_ANNULUS[1],
+            ],
             calcium,
             blood_waves: d.blood_waves,
             lumen,

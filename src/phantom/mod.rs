@@ -398,6 +398,7 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         calcium_in_lumen_mm3: calcium_in_lumen,
         pa_aorta_lumen_gap_mm: an.pa_aorta_gap(z_top),
         pa_radius_mm: an.pa_radius_mm,
+        la_aorta_gap_mm: an.la_aorta_gap(z_top),
         layers: scene.layers.iter().map(|l| l.name.clone()).collect(),
         definitions: truth::definitions(),
     };

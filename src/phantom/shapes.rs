@@ -97,6 +97,7 @@ impl Tube {
         t
     }
 
+    #[cfg(test)]
     pub fn points(&self) -> &[Point3] {
         &self.points
     }

@@ -153,10 +153,10 @@ fn surface_vertices_and_landmarks_lie_on_the_wall() {
     let off_axis = (d - vf.axis * d.dot(&vf.axis)).norm();
     assert!(off_axis < 1.0, "circumcentre {off_axis} mm off the axis");
     // Nadirs in the VAJ plane, commissures at h_comm.
-    for k in 0..3 {
+    for (k, ck) in c.iter().enumerate() {
         let (h, _, _) = vf.to_cylindrical(&ph.landmarks.get(&format!("N{}", k + 1)).unwrap());
         assert!(h.abs() < 1e-9);
-        let (h, _, _) = vf.to_cylindrical(&c[k]);
+        let (h, _, _) = vf.to_cylindrical(ck);
         assert!((h - ph.truth.h_comm_mm).abs() < 1e-9);
     }
 }
@@ -439,8 +439,8 @@ fn spacing_override_keeps_the_fov_and_tilt_zero_works() {
     let ph = generate(&p, &|_| {}).unwrap();
     assert_eq!(ph.ct.dims(), [56, 56, 56]);
     let fov = Preset::Sample.fov();
-    for a in 0..3 {
-        assert!((ph.ct.dims()[a] as f64 * ph.ct.spacing()[a] - fov[a]).abs() < 1e-9);
+    for (a, f) in fov.iter().enumerate() {
+        assert!((ph.ct.dims()[a] as f64 * ph.ct.spacing()[a] - f).abs() < 1e-9);
     }
     let t = &ph.truth;
     assert!(t.centreline.arc.is_none());

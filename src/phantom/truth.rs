@@ -82,6 +82,8 @@ pub struct Truth {
     pub calcium_in_lumen_mm3: f64,
     pub pa_aorta_lumen_gap_mm: f64,
     pub pa_radius_mm: f64,
+    /// Tissue gap between the left atrium and the aortic lumen.
+    pub la_aorta_gap_mm: f64,
     /// Tissue layers in painting order (later layers cover earlier ones).
     pub layers: Vec<String>,
     pub definitions: BTreeMap<String, String>,
