@@ -6,6 +6,7 @@
 //! are reduced per slice then combined in slice order: the output is
 //! bit-identical whatever the number of threads.
 
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
@@ -58,6 +59,45 @@ pub const PSF_FWHM_MM: f64 = 0.8;
 /// In-plane correlation of the noise (Gaussian σ in voxels).
 pub const NOISE_CORRELATION_VOXELS: f64 = 0.6;
 const FWHM_TO_SIGMA: f64 = 2.354_820_045_030_949;
+
+/// Slices finished by a parallel pass, reported every few slices. The call
+/// happens under a lock so the values a caller sees never go backwards.
+struct SliceProgress<'a> {
+    done: AtomicUsize,
+    last: Mutex<f64>,
+    total: usize,
+    from: f64,
+    to: f64,
+    report: &'a (dyn Fn(f64) + Sync),
+}
+
+/// Report every this many slices (and at the end).
+const PROGRESS_EVERY: usize = 8;
+
+impl<'a> SliceProgress<'a> {
+    fn new(total: usize, from: f64, to: f64, report: &'a (dyn Fn(f64) + Sync)) -> Self {
+        SliceProgress {
+            done: AtomicUsize::new(0),
+            last: Mutex::new(from),
+            total,
+            from,
+            to,
+            report,
+        }
+    }
+
+    fn slice_done(&self) {
+        let n = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+        if n % PROGRESS_EVERY == 0 || n == self.total {
+            let f = self.from + (self.to - self.from) * n as f64 / self.total as f64;
+            let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
+            if f > *last {
+                *last = f;
+                (self.report)(f);
+            }
+        }
+    }
+}
 
 /// In-plane tile size (voxels) for per-tile layer classification.
 const TILE: usize = 8;
@@ -168,7 +208,7 @@ pub fn rasterise(
     // Coverage ramps are at most this wide: grow culling boxes by it.
     let reach = sx + sy + sz;
     let kn = gaussian_kernel(NOISE_CORRELATION_VOXELS);
-    let done = AtomicUsize::new(0);
+    let tracker = SliceProgress::new(nk, 0.0, share, progress);
     let an = &scene.anatomy;
     let calcium = if calcium_excluded {
         an.calcium.as_slice()
@@ -274,10 +314,7 @@ pub fn rasterise(
                 s2 += (v as f64) * (v as f64);
             }
             *sums = (s, s2);
-            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if n % 8 == 0 || n == nk {
-                progress(share * n as f64 / nk as f64);
-            }
+            tracker.slice_done();
         });
     Raster {
         image,
@@ -320,7 +357,7 @@ pub fn finish(
         0.0
     };
     let rz = (kz.len() / 2) as i64;
-    let done = AtomicUsize::new(0);
+    let tracker = SliceProgress::new(nk, start, 1.0, progress);
     let mut out = vec![0i16; grid.len()];
     out.par_chunks_mut(plane).enumerate().for_each(|(k, o)| {
         let mut acc = vec![0f32; plane];
@@ -343,10 +380,7 @@ pub fn finish(
                 };
             *dst = v.round().clamp(HU_MIN, HU_MAX) as i16;
         }
-        let c = done.fetch_add(1, Ordering::Relaxed) + 1;
-        if c % 8 == 0 || c == nk {
-            progress(start + (1.0 - start) * c as f64 / nk as f64);
-        }
+        tracker.slice_done();
     });
     out
 }

@@ -470,6 +470,10 @@ fn every_tilt_fits_the_sample_and_keeps_exact_truth() {
         assert!(axis.x <= 1e-12 && axis.y <= 1e-12);
         let seen = seen.into_inner().unwrap();
         assert!(seen.iter().all(|f| (0.0..=1.0).contains(f)));
+        assert!(
+            seen.windows(2).all(|w| w[0] <= w[1]),
+            "progress went backwards"
+        );
         assert_eq!(*seen.last().unwrap(), 1.0);
         // The lumen leaves through the top face on its vertical piece.
         let top = t.top_cap_s_mm;
