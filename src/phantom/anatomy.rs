@@ -563,7 +563,9 @@ impl Anatomy {
                 // Long axis along the annulus (circumferential), short radially.
                 let circ = st.tangent.cross(&u);
                 Ellipsoid {
-                    centre: st.point + u * (r + out),
+                    // Centre in the wall, a fraction of the radial semi-axis
+                    // outside the lumen: every blob protrudes into the lumen.
+                    centre: st.point + u * (r + out * sz[2]),
                     rot: Matrix3::from_columns(&[circ, st.tangent, u]),
                     semi: Vector3::new(sz[0], sz[1], sz[2]),
                 }

@@ -393,6 +393,7 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         truth_mask_voxels: mask_voxels,
         truth_mask_volume_mm3: mask_voxels as f64 * spacing.iter().product::<f64>(),
         truth_surface_area_mm2: truth_surface.total_area(),
+        truth_wall_area_mm2: wall_area(&truth_surface),
         truth_surface_volume_mm3: truth_surface.signed_volume(),
         truth_surface_vertices: truth_surface.vertices.len(),
         calcium_in_lumen_mm3: calcium_in_lumen,
@@ -410,6 +411,17 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         truth,
         truth_surface,
     })
+}
+
+/// Area of the triangles of region 0 (the wall).
+fn wall_area(mesh: &TriMesh) -> f64 {
+    match mesh.cell_data.get("region").map(|a| &a.values) {
+        Some(crate::geom::DataValues::I32(r)) => (0..mesh.triangles.len())
+            .filter(|&t| r[t] == 0)
+            .map(|t| mesh.area(t))
+            .sum(),
+        _ => mesh.total_area(),
+    }
 }
 
 /// Volume of calcium inside the truth region, by dense point sampling.

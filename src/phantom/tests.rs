@@ -1,8 +1,9 @@
 //! Tests on the sample preset (or smaller grids) so they take seconds.
 //!
-//! `COAPT_PHANTOM_DEBUG=dir` makes `debug_views` write PNG slices of the
-//! sample for eyeballing; `COAPT_PHANTOM_TIMING=1` makes `timing_all_presets`
-//! time every preset (full included), which is too slow for the default run.
+//! `COAPT_PHANTOM_DEBUG=dir` makes `debug_views` write PNG views of a
+//! phantom for eyeballing (`COAPT_PHANTOM_PRESET`, `_SEED`, `_TILT`,
+//! `_CALCIUM` choose it); `timing_all_presets` is `#[ignore]`d: it times every
+//! preset, full included, which is too slow for the default run.
 
 use std::sync::OnceLock;
 
@@ -519,8 +520,9 @@ fn truth_json_has_the_documented_keys() {
     }
 }
 
-/// Write PNGs of a few slices (debug aid; only with COAPT_PHANTOM_DEBUG).
+/// Write PNG views (debug aid; only with COAPT_PHANTOM_DEBUG).
 #[test]
+#[ignore = "debug aid: writes PNG views to $COAPT_PHANTOM_DEBUG"]
 fn debug_views() {
     let Ok(dir) = std::env::var("COAPT_PHANTOM_DEBUG") else {
         return;
@@ -642,21 +644,18 @@ fn png_rgb(w: usize, h: usize, rgb: &[u8]) -> Vec<u8> {
     out
 }
 
-/// Generation time of every preset and the sample's compressed size
-/// (only with COAPT_PHANTOM_TIMING: the full preset is too slow for CI).
+/// Generation time of every preset and the compressed sizes (ignored by
+/// default: the full preset is too slow for CI). `COAPT_PHANTOM_TIMING`
+/// may list the presets to time, e.g. "sample,standard".
 #[test]
+#[ignore = "times every preset, full included; run with --ignored --nocapture"]
 fn timing_all_presets() {
-    if std::env::var("COAPT_PHANTOM_TIMING").is_err() {
-        return;
-    }
+    let which =
+        std::env::var("COAPT_PHANTOM_TIMING").unwrap_or_else(|_| "sample,standard,full".into());
     use std::io::Write;
     for preset in [Preset::Sample, Preset::Standard, Preset::Full]
         .into_iter()
-        .filter(|p| {
-            std::env::var("COAPT_PHANTOM_TIMING")
-                .unwrap()
-                .contains(p.name())
-        })
+        .filter(|p| which.contains(p.name()))
     {
         let t0 = std::time::Instant::now();
         let ph = generate(&PhantomParams::new(preset, 7), &|_| {}).unwrap();
