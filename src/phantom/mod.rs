@@ -65,6 +65,8 @@ use std::str::FromStr;
 use std::sync::Arc;
 
 pub use anatomy::SINUS_NAMES;
+pub use centreline::{CentrelineDescription, PieceArc, PieceLine};
+pub use lumen::RadiusProfile;
 pub use truth::{CoronaryTruth, Radii, SinusRadius, Truth};
 
 use crate::geom::volume::affine_from_parts;
@@ -107,10 +109,12 @@ impl Preset {
     }
 
     /// Target edge length of the truth surface.
+    /// Longest truth-surface edge wanted (the sample's is relaxed to its
+    /// vertex budget).
     fn surface_edge_mm(self) -> f64 {
         match self {
             Preset::Sample => 0.4,
-            Preset::Standard | Preset::Full => 0.45,
+            Preset::Standard | Preset::Full => 0.5,
         }
     }
 
@@ -263,7 +267,6 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         [an.da.cx, an.da.cy],
         an.da.rx,
     );
-    let r_max = an.lumen.r_max_mm;
     for a in 0..2 {
         if hi[a] - lo[a] > fov[a] {
             return Err(Error::value(format!(
@@ -312,13 +315,18 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
     let truth_mask = Volume::from_fortran_vec(dims, affine, raster.mask)?;
 
     // --- Truth surface.
-    let circumference = std::f64::consts::TAU * r_max;
-    let mut edge = params.preset.surface_edge_mm();
+    // Grid spacing so that even the quad diagonals respect the edge length.
+    let mut grid_mm = params.preset.surface_edge_mm() / std::f64::consts::SQRT_2;
     if params.preset == Preset::Sample {
-        // The sample is committed: keep its surface small.
-        edge = edge.max((s_top * circumference / SURFACE_VERTEX_BUDGET).sqrt());
+        // The sample is committed: keep its surface within the vertex budget.
+        while {
+            let (n_s, n_t) = an.lumen.surface_grid(s_top, grid_mm);
+            ((n_s + 1) * n_t) as f64 > SURFACE_VERTEX_BUDGET
+        } {
+            grid_mm *= 1.02;
+        }
     }
-    let mut truth_surface = an.lumen.surface(s_top, edge);
+    let mut truth_surface = an.lumen.surface(s_top, grid_mm);
     truth_surface.frame = Frame::Lps;
 
     // --- Landmarks.

@@ -86,6 +86,14 @@ fn truth_surface_is_closed_and_matches_analytic_volume() {
     );
     let region = m.cell_data.get("region").unwrap();
     assert_eq!(region.tuples(), m.triangles.len());
+    // Wall edges (the fan caps have long spokes by design).
+    let wall_edge = (0..m.triangles.len())
+        .filter(|&t| matches!(&region.values, crate::geom::DataValues::I32(r) if r[t] == 0))
+        .map(|t| m.quality(t).max_edge)
+        .fold(0.0, f64::max);
+    // The sample's ~1 MB vertex budget puts its grid near 0.5 mm, so its
+    // quad diagonals reach ~0.75 mm (standard/full keep every edge ≤ 0.5 mm).
+    assert!(wall_edge < 0.8, "longest wall edge {wall_edge} mm");
 }
 
 #[test]
@@ -660,6 +668,12 @@ fn timing_all_presets() {
         let t0 = std::time::Instant::now();
         let ph = generate(&PhantomParams::new(preset, 7), &|_| {}).unwrap();
         let dt = t0.elapsed().as_secs_f64();
+        let m = &ph.truth_surface;
+        let max_edge = (0..m.triangles.len())
+            .map(|t| m.quality(t).max_edge)
+            .filter(|&e| e < 5.0) // cap-fan spokes are long by design
+            .fold(0.0, f64::max);
+        println!("{preset}: longest wall edge {max_edge:.3} mm");
         let bytes: Vec<u8> = ph
             .ct
             .as_slice()
