@@ -209,6 +209,15 @@ impl PhantomParams {
                 check("spacing", v, 0.2, 3.0, "mm")?;
             }
         }
+        let (dims, _) = self.grid_shape();
+        let voxels: usize = dims.iter().product();
+        if voxels > MAX_VOXELS {
+            return Err(Error::value(format!(
+                "phantom grid {}×{}×{} has {voxels} voxels, more than the {MAX_VOXELS} this generator \
+                 holds in memory (~11 bytes each): use a coarser spacing",
+                dims[0], dims[1], dims[2]
+            )));
+        }
         Ok(())
     }
 
@@ -236,6 +245,9 @@ pub struct Phantom {
     pub truth_surface: TriMesh,
 }
 
+/// Largest grid generated: rendering keeps ~11 bytes per voxel in memory
+/// (image and noise as f32, CT as i16, mask), so this is ~4.4 GB.
+pub const MAX_VOXELS: usize = 400_000_000;
 /// Maximal number of truth-surface vertices of the sample (~1 MB of f64 points).
 const SURFACE_VERTEX_BUDGET: f64 = 40_000.0;
 /// Share of the progress bar taken by rasterisation (the rest: blur, noise).

@@ -56,6 +56,9 @@ fn preset_parse_and_validate() {
     let mut bad = ok.clone();
     bad.spacing_mm = Some([0.1, 1.0, 1.0]);
     assert!(bad.validate().is_err());
+    let mut bad = PhantomParams::new(Preset::Full, 1);
+    bad.spacing_mm = Some([0.2, 0.2, 0.2]);
+    assert!(bad.validate().unwrap_err().to_string().contains("voxels"));
     let mut bad = ok.clone();
     bad.blood_hu = 50.0;
     assert!(bad.validate().unwrap_err().to_string().contains("blood"));
