@@ -44,8 +44,14 @@
 //!   commissure angles; nadirs N1–N3 on the wall at height 0 at the sinus
 //!   centres.
 //!
+//!   The calcium blobs are not cut out of the surface or the lumen volume;
+//!   `calcium_in_lumen_mm3` gives their overlap with the truth region.
+//!
 //! # Imaging
-//! Layers are painted with analytic partial volume (coverage
+//! Tissue layers are painted in order (body fat and soft tissue, lungs,
+//! mediastinal fat, myocardium, vessel walls, blood pools, bone, calcium;
+//! walls come before blood so the ostia stay open, see `scene.rs`), each
+//! with analytic partial volume (coverage
 //! clamp(0.5 − d/w, 0, 1), w the voxel extent projected on the normal),
 //! blurred by a Gaussian PSF of 0.8 mm FWHM, given Gaussian noise
 //! (counter-based, lightly correlated in-plane, rescaled to exactly
