@@ -24,15 +24,25 @@ const NOMINAL_ANNULUS: [f64; 3] = [-15.0, 20.0, -160.0];
 const MYOCARDIUM_MM: f64 = 10.0;
 /// LV cavity semi-axes (short, short, long) in mm.
 const LV_SEMI: [f64; 3] = [22.0, 22.0, 40.0];
-/// Highest the LV cavity may reach along the valve axis (below the VAJ), so
-/// no LV blood lies above the annulus plane next to the truth region.
-const LV_MAX_HEIGHT_MM: f64 = -5.0;
+/// Highest the LV cavity may reach along the valve axis. Further below the
+/// VAJ than the LV–LVOT blend width, so the blend cannot move the lumen wall
+/// at or above the VAJ (where it is the truth).
+const LV_MAX_HEIGHT_MM: f64 = -(LV_BLEND_MM + 2.0);
 /// Smooth-union blend width between LV and LVOT.
 pub const LV_BLEND_MM: f64 = 6.0;
 /// Left-atrium semi-axes (x, y, z) before any shrinking.
 const LA_SEMI: [f64; 3] = [22.0, 13.0, 17.0];
 /// Minimal clearance kept between structures that are not meant to touch.
 const CLEARANCE_MM: f64 = 3.0;
+/// Default DA position relative to the annulus centre (x left, y posterior).
+const DA_OFFSET: [f64; 2] = [24.0, 44.0];
+/// Sternum and body-outline centres relative to the annulus (x L, y P).
+const STERNUM_FROM_ANNULUS: [f64; 2] = [8.0, -62.0];
+const BODY_FROM_ANNULUS: [f64; 2] = [5.0, 35.0];
+/// Least distance kept between the DA and the aortic lumen, beyond radii.
+const MIN_DA_SEPARATION_MM: f64 = 8.0;
+/// Margin kept between the must-see structures and the in-plane FOV edge.
+const FOV_MARGIN_MM: f64 = 4.0;
 /// Vertebral body radius and cranio-caudal period (body + disc).
 const VERTEBRA_RADIUS_MM: f64 = 17.0;
 const VERTEBRA_PERIOD_MM: f64 = 25.0;
@@ -81,6 +91,38 @@ pub struct FovNeeds {
     pub z_top: f64,
 }
 
+/// Must-see extent in x and y (world mm): root and LVOT, the ascending
+/// aorta where it leaves through the top, the DA (with margins).
+pub fn xy_extent(
+    cl: &Centreline,
+    profile: &RadiusProfile,
+    lvot_len: f64,
+    r_max: f64,
+    z_top: f64,
+    da_xy: [f64; 2],
+    da_r: f64,
+) -> ([f64; 2], [f64; 2]) {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    let mut include = |x: f64, y: f64, r: f64| {
+        lo[0] = lo[0].min(x - r);
+        lo[1] = lo[1].min(y - r);
+        hi[0] = hi[0].max(x + r);
+        hi[1] = hi[1].max(y + r);
+    };
+    const STEPS: usize = 20;
+    for i in 0..=STEPS {
+        let s = -lvot_len + (profile.h_stj_mm + lvot_len) * i as f64 / STEPS as f64;
+        let p = cl.station(s).point;
+        include(p.x, p.y, r_max);
+    }
+    let s_top = s_at_z(cl, z_top);
+    let top = cl.station(s_top).point;
+    include(top.x, top.y, profile.eval(s_top, 0.0).r + FOV_MARGIN_MM);
+    include(da_xy[0], da_xy[1], da_r + FOV_MARGIN_MM);
+    (lo, hi)
+}
+
 /// Random numbers for one seed, drawn in a fixed order.
 struct Draws {
     r_a: f64,
@@ -119,7 +161,7 @@ struct Draws {
 
 impl Draws {
     fn new(seed: u64) -> Self {
-        let mut g = SplitMix64::new(seed ^ 0xA0A7_1C_2007);
+        let mut g = SplitMix64::new(seed ^ 0x00A0_A71C_2007);
         let deg = PI / 180.0;
         let d1 = g.range(-8.0, 8.0);
         // Third spacing is 360° minus the other two: keep it within ±8° too.
@@ -189,7 +231,8 @@ impl Anatomy {
     /// Build the anatomy for `seed` and `tilt`; `fit` reports the z-range the
     /// field of view must cover and returns whether it fits, so the arc radius
     /// can shrink for a short field of view.
-    pub fn new(seed: u64, tilt_rad: f64, fov_z_mm: f64) -> Result<(Self, FovNeeds)> {
+    pub fn new(seed: u64, tilt_rad: f64, fov: [f64; 3]) -> Result<(Self, FovNeeds)> {
+        let fov_z_mm = fov[2];
         let d = Draws::new(seed);
         let deg = PI / 180.0;
 
@@ -239,10 +282,30 @@ impl Anatomy {
         let lvot_len = d.lvot_len;
         let mut arc_radius = d.arc_radius;
         let min_arc = (2.0 * r_max).max(35.0);
+        let mut da_xy = [
+            origin.x + DA_OFFSET[0] + d.da_offset[0],
+            origin.y + DA_OFFSET[1] + d.da_offset[1],
+        ];
+        let xy_fits = |cl: &Centreline, needs: &FovNeeds, da_xy: [f64; 2]| {
+            let (lo, hi) = xy_extent(
+                cl,
+                &profile,
+                lvot_len,
+                r_max,
+                needs.z_top,
+                da_xy,
+                d.da_radius,
+            );
+            // Half a millimetre of slack so the grid placement, which uses the
+            // actual top face, cannot disagree by rounding.
+            [hi[0] - lo[0] - fov[0] + 0.5, hi[1] - lo[1] - fov[1] + 0.5]
+        };
         let (centreline, needs) = loop {
             let cl = Centreline::new(origin, axis, e1, s1, arc_radius);
             let needs = z_needs(&cl, &profile, lvot_len);
-            if needs.z_top - needs.z_bottom <= fov_z_mm || arc_radius <= min_arc {
+            let excess = xy_fits(&cl, &needs, da_xy);
+            let fits_xy = excess[0] <= 0.0 && excess[1] <= 0.0;
+            if (needs.z_top - needs.z_bottom <= fov_z_mm && fits_xy) || arc_radius <= min_arc {
                 if needs.z_top - needs.z_bottom > fov_z_mm {
                     return Err(Error::value(format!(
                         "the aortic root needs {:.0} mm of z field of view at tilt {:.0}°, the grid has {:.0} mm",
@@ -255,10 +318,40 @@ impl Anatomy {
             }
             arc_radius = (arc_radius - 2.0).max(min_arc);
         };
+        // Still too wide (steep tilt, small grid): bring the DA closer to the
+        // root, as long as the two stay well apart.
+        for _ in 0..20 {
+            let excess = xy_fits(&centreline, &needs, da_xy);
+            if excess[0] <= 0.0 && excess[1] <= 0.0 {
+                break;
+            }
+            for a in 0..2 {
+                if excess[a] > 0.0 {
+                    da_xy[a] -= excess[a] + 0.5;
+                }
+            }
+        }
+        let excess = xy_fits(&centreline, &needs, da_xy);
+        let top = centreline.station(s_at_z(&centreline, needs.z_top)).point;
+        let root_to_da = (da_xy[0] - origin.x).hypot(da_xy[1] - origin.y);
+        let top_to_da = (da_xy[0] - top.x).hypot(da_xy[1] - top.y);
+        if excess[0] > 0.0
+            || excess[1] > 0.0
+            || root_to_da < r_max + d.da_radius + MIN_DA_SEPARATION_MM
+            || top_to_da < profile.r_ascending_mm * 1.1 + d.da_radius + MIN_DA_SEPARATION_MM
+        {
+            return Err(Error::value(format!(
+                "aortic root and descending aorta do not fit a {:.0}×{:.0} mm field of view at tilt {:.0}°: use a larger preset or spacing",
+                fov[0],
+                fov[1],
+                tilt_rad.to_degrees()
+            )));
+        }
         let lumen = Lumen {
             centreline,
             profile,
             lvot_length_mm: lvot_len,
+            r_max_mm: r_max,
         };
         let cl = &lumen.centreline;
         let profile = &lumen.profile;
@@ -364,37 +457,58 @@ impl Anatomy {
 
         // --- Descending aorta, spine, sternum, body ---------------------------
         let da = ZCylinder {
-            cx: origin.x + 24.0 + d.da_offset[0],
-            cy: origin.y + 44.0 + d.da_offset[1],
+            cx: da_xy[0],
+            cy: da_xy[1],
             rx: d.da_radius,
             ry: d.da_radius,
             z_lo: f64::NEG_INFINITY,
             z_hi: f64::INFINITY,
         };
-        let spine_centre = [da.cx - 16.0, da.cy + 28.0];
+        // Vertebral body posterior-right of the DA, clear of it.
+        const SPINE_FROM_DA: [f64; 2] = [-16.0, 28.0];
+        let spine_centre = [da.cx + SPINE_FROM_DA[0], da.cy + SPINE_FROM_DA[1]];
 
         // --- Pulmonary artery: place, then slide until the gap is right -----
+        // The pulmonary valve sits anterior-left of the aortic root, a little
+        // higher; the trunk runs superior-posterior-left to the bifurcation;
+        // the left PA continues left-posterior, the right PA turns right and
+        // passes behind the ascending aorta. All offsets in mm (x L, y P, z S).
+        const PA_VALVE_HEIGHT_MM: f64 = 8.0;
+        const TRUNK_LENGTH_MM: f64 = 38.0;
+        const TRUNK_BELOW_VALVE_MM: f64 = 10.0;
+        const BRANCH_RADIUS_FRACTION: f64 = 0.8;
+        const RPA_BELOW_BIFURCATION_MM: f64 = 4.0;
         let pa_r = d.pa_radius;
+        let branch_r = BRANCH_RADIUS_FRACTION * pa_r;
         let wall = wall_samples(&lumen, -lvot_len, needs.z_top);
         let ant_left = Vector3::new(1.0, -1.3, 0.0).normalize();
         let d_pa = (ant_left - axis * ant_left.dot(&axis)).normalize();
-        let p0 = cl.station(8.0).point + d_pa * (r_max + d.pa_gap + pa_r);
-        let up = Vector3::new(0.35, 0.45, 0.82).normalize();
-        let bif = p0 + up * 38.0;
-        let s_r = s_at_z(cl, bif.z - 4.0);
+        let p0 = cl.station(PA_VALVE_HEIGHT_MM).point + d_pa * (r_max + d.pa_gap + pa_r);
+        let trunk_dir = Vector3::new(0.35, 0.45, 0.82).normalize();
+        let bif = p0 + trunk_dir * TRUNK_LENGTH_MM;
+        let z_r = bif.z - RPA_BELOW_BIFURCATION_MM;
+        let s_r = s_at_z(cl, z_r);
         let c_aa = cl.station(s_r).point;
         let r_aa = profile.eval(s_r, 0.0).r;
-        let behind = c_aa.y + r_aa + d.pa_gap + 0.8 * pa_r;
-        let z_r = bif.z - 4.0;
+        // y of the RPA axis where it passes behind the ascending aorta.
+        let behind = c_aa.y + r_aa + d.pa_gap + branch_r;
         let mut pa = vec![
-            Tube::new(vec![p0 - up * 10.0, p0, p0 + up * 20.0, bif], vec![pa_r; 3]),
+            Tube::new(
+                vec![
+                    p0 - trunk_dir * TRUNK_BELOW_VALVE_MM,
+                    p0,
+                    p0 + trunk_dir * (0.5 * TRUNK_LENGTH_MM),
+                    bif,
+                ],
+                vec![pa_r; 3],
+            ),
             Tube::new(
                 vec![
                     bif,
                     bif + Vector3::new(16.0, 16.0, -2.0),
                     bif + Vector3::new(28.0, 30.0, -8.0),
                 ],
-                vec![0.8 * pa_r; 2],
+                vec![branch_r; 2],
             ),
             Tube::new(
                 vec![
@@ -403,14 +517,20 @@ impl Anatomy {
                     Point3::new(c_aa.x - 15.0, behind + 2.0, z_r - 3.0),
                     Point3::new(c_aa.x - 40.0, behind + 8.0, z_r - 8.0),
                 ],
-                vec![0.8 * pa_r; 3],
+                vec![branch_r; 3],
             ),
         ];
         slide_to_gap(&mut pa, &wall, d.pa_gap);
 
         // --- Left atrium: posterior of the root, slid to a tissue gap --------
+        // Start position (x L, y P, z S from the annulus); y is then solved.
+        const LA_START: [f64; 3] = [-6.0, 30.0, -6.0];
         let mut la = Ellipsoid {
-            centre: Point3::new(origin.x - 6.0, origin.y + 30.0, origin.z - 6.0),
+            centre: Point3::new(
+                origin.x + LA_START[0],
+                origin.y + LA_START[1],
+                origin.z + LA_START[2],
+            ),
             rot: Matrix3::identity(),
             semi: Vector3::new(LA_SEMI[0], LA_SEMI[1], LA_SEMI[2]),
         };
@@ -443,7 +563,9 @@ impl Anatomy {
                 // Long axis along the annulus (circumferential), short radially.
                 let circ = st.tangent.cross(&u);
                 Ellipsoid {
-                    centre: st.point + u * (r + out),
+                    // Centre in the wall, a fraction of the radial semi-axis
+                    // outside the lumen: every blob protrudes into the lumen.
+                    centre: st.point + u * (r + out * sz[2]),
                     rot: Matrix3::from_columns(&[circ, st.tangent, u]),
                     semi: Vector3::new(sz[0], sz[1], sz[2]),
                 }
@@ -466,8 +588,14 @@ impl Anatomy {
             vertebra_phase_mm: d.vertebra_phase,
             cortical_hu: d.cortical_hu,
             cancellous_hu: d.cancellous_hu,
-            sternum_centre: [origin.x + 8.0, origin.y - 62.0],
-            body_centre: [origin.x + 5.0, origin.y + 35.0],
+            sternum_centre: [
+                origin.x + STERNUM_FROM_ANNULUS[0],
+                origin.y + STERNUM_FROM_ANNULUS[1],
+            ],
+            body_centre: [
+                origin.x + BODY_FROM_ANNULUS[0],
+                origin.y + BODY_FROM_ANNULUS[1],
+            ],
             calcium,
             blood_waves: d.blood_waves,
             lumen,
@@ -480,6 +608,15 @@ impl Anatomy {
     pub fn pa_aorta_gap(&self, z_top: f64) -> f64 {
         let wall = wall_samples(&self.lumen, -self.lumen.lvot_length_mm, z_top);
         min_gap(&self.pa, &wall).0
+    }
+
+    /// Smallest tissue gap between the LA and the aortic lumen (the LA
+    /// distance is the ellipsoid bound, accurate to a few 0.1 mm here).
+    pub fn la_aorta_gap(&self, z_top: f64) -> f64 {
+        let wall = wall_samples(&self.lumen, -self.lumen.lvot_length_mm, z_top);
+        wall.iter()
+            .map(|p| self.la.eval(p).0)
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// Low-frequency multiplicative blood field, within ±5 %.
@@ -573,9 +710,7 @@ fn slide_to_gap(tubes: &mut [Tube], wall: &[Point3], gap: f64) {
         // point closest to the tube axis, so stepping along it separates.
         let step = dir * (gap - g);
         for t in tubes.iter_mut() {
-            for p in t.points.iter_mut() {
-                *p += step;
-            }
+            t.translate(&step);
         }
     }
 }

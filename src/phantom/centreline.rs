@@ -39,6 +39,9 @@ pub struct Centreline {
     /// Binormal axis × turn (rotation axis of the arc).
     binormal: Vector3,
     arc_centre: Point3,
+    /// Start point and direction of the vertical piece (cached).
+    end_point: Point3,
+    end_tangent: Vector3,
 }
 
 /// Below this turning angle the arc is dropped (a straight centreline).
@@ -84,7 +87,7 @@ impl Centreline {
         };
         let binormal = axis.cross(&turn);
         let p1 = origin + axis * s1;
-        Centreline {
+        let mut cl = Centreline {
             origin,
             axis,
             e1,
@@ -94,7 +97,13 @@ impl Centreline {
             turn,
             binormal,
             arc_centre: p1 + turn * arc_radius,
-        }
+            end_point: p1,
+            end_tangent: axis,
+        };
+        let end = cl.station(cl.s2());
+        cl.end_point = end.point;
+        cl.end_tangent = end.tangent;
+        cl
     }
 
     pub fn has_arc(&self) -> bool {
@@ -167,9 +176,9 @@ impl Centreline {
             self.arc_centre + (self.axis * phi.sin() - self.turn * phi.cos()) * self.arc_radius;
         let d2 = (p - pa).norm_squared();
         // Piece 3: vertical line from the arc end.
-        let st = self.station(self.s2());
-        let c3 = self.s2() + (p - st.point).dot(&st.tangent).max(0.0);
-        let d3 = (p - (st.point + st.tangent * (c3 - self.s2()))).norm_squared();
+        let (e, t) = (self.end_point, self.end_tangent);
+        let c3 = self.s2() + (p - e).dot(&t).max(0.0);
+        let d3 = (p - (e + t * (c3 - self.s2()))).norm_squared();
         let s = if d1 <= d2 && d1 <= d3 {
             c1
         } else if d2 <= d3 {
@@ -178,6 +187,24 @@ impl Centreline {
             c3
         };
         self.station(s)
+    }
+
+    /// A lower bound of the distance from `p` to the centreline, without
+    /// trigonometry: the arc is replaced by its full circle.
+    pub fn distance_lower_bound(&self, p: &Point3) -> f64 {
+        let s_a = (p - self.origin).dot(&self.axis);
+        if !self.has_arc() {
+            let q = p - self.origin - self.axis * s_a;
+            return q.norm();
+        }
+        let d1 = (p - (self.origin + self.axis * s_a.min(self.s1))).norm_squared();
+        let q = p - self.arc_centre;
+        let off_plane = q.dot(&self.binormal);
+        let in_plane = (q - self.binormal * off_plane).norm() - self.arc_radius;
+        let d2 = in_plane * in_plane + off_plane * off_plane;
+        let t = self.end_tangent;
+        let d3 = (p - (self.end_point + t * (p - self.end_point).dot(&t).max(0.0))).norm_squared();
+        d1.min(d2).min(d3).sqrt()
     }
 
     /// Arc length where the centreline reaches height `z` on its vertical

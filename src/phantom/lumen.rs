@@ -194,6 +194,8 @@ pub struct Lumen {
     pub profile: RadiusProfile,
     /// The tube is capped this far below the annulus (it continues as LV).
     pub lvot_length_mm: f64,
+    /// `profile.r_max_bound()`, cached for the far-field test.
+    pub r_max_mm: f64,
 }
 
 /// Gauss–Legendre nodes and weights on [−1, 1], 8 points.
@@ -229,7 +231,8 @@ impl Lumen {
         let st = self.centreline.project(p);
         let q = p - st.point;
         let (x, y) = (q.dot(&st.e1), q.dot(&st.e2));
-        let rho = x.hypot(y);
+        // sqrt rather than hypot: no overflow risk at mm scale, and much faster.
+        let rho = (x * x + y * y).sqrt();
         let radial = if rho > 1e-12 {
             (st.e1 * x + st.e2 * y) / rho
         } else {
@@ -309,13 +312,29 @@ impl Lumen {
         b
     }
 
+    /// Ring and sector counts of [`Lumen::surface`].
+    pub fn surface_grid(&self, s_top: f64, grid_mm: f64) -> (usize, usize) {
+        let cl = &self.centreline;
+        let stretch = if cl.has_arc() {
+            1.0 + self.r_max_mm / cl.arc_radius
+        } else {
+            1.0
+        };
+        let n_s = ((s_top * stretch / grid_mm).ceil() as usize).max(2);
+        let n_t = ((TAU * self.r_max_mm / grid_mm).ceil() as usize).max(12);
+        (n_s, n_t)
+    }
+
     /// Closed parametric surface of the truth region s ∈ [0, s_top]: wall
     /// vertices exactly on the analytic wall, flat fan caps at both ends.
     /// Cell data `region`: 0 wall, 1 VAJ cap, 2 top cap.
-    pub fn surface(&self, s_top: f64, edge_mm: f64) -> TriMesh {
-        let n_s = ((s_top / edge_mm).ceil() as usize).max(2);
-        let circumference = TAU * self.profile.r_max_bound();
-        let n_t = ((circumference / edge_mm).ceil() as usize).max(12);
+    ///
+    /// `grid_mm` bounds the spacing of the (s, θ) vertex grid on the wall,
+    /// both around (at the largest radius) and along (on the outside of the
+    /// arc, where rings spread by 1 + r/R_c); the quad diagonals are √2
+    /// longer.
+    pub fn surface(&self, s_top: f64, grid_mm: f64) -> TriMesh {
+        let (n_s, n_t) = self.surface_grid(s_top, grid_mm);
         let mut vertices = Vec::with_capacity((n_s + 1) * n_t + 2);
         for i in 0..=n_s {
             let s = s_top * i as f64 / n_s as f64;

@@ -44,8 +44,14 @@
 //!   commissure angles; nadirs N1–N3 on the wall at height 0 at the sinus
 //!   centres.
 //!
+//!   The calcium blobs are not cut out of the surface or the lumen volume;
+//!   `calcium_in_lumen_mm3` gives their overlap with the truth region.
+//!
 //! # Imaging
-//! Layers are painted with analytic partial volume (coverage
+//! Tissue layers are painted in order (body fat and soft tissue, lungs,
+//! mediastinal fat, myocardium, vessel walls, blood pools, bone, calcium;
+//! walls come before blood so the ostia stay open, see `scene.rs`), each
+//! with analytic partial volume (coverage
 //! clamp(0.5 − d/w, 0, 1), w the voxel extent projected on the normal),
 //! blurred by a Gaussian PSF of 0.8 mm FWHM, given Gaussian noise
 //! (counter-based, lightly correlated in-plane, rescaled to exactly
@@ -66,6 +72,8 @@ use std::str::FromStr;
 use std::sync::Arc;
 
 pub use anatomy::SINUS_NAMES;
+pub use centreline::{CentrelineDescription, PieceArc, PieceLine};
+pub use lumen::RadiusProfile;
 pub use truth::{CoronaryTruth, Radii, SinusRadius, Truth};
 
 use crate::geom::volume::affine_from_parts;
@@ -108,10 +116,12 @@ impl Preset {
     }
 
     /// Target edge length of the truth surface.
+    /// Longest truth-surface edge wanted (the sample's is relaxed to its
+    /// vertex budget).
     fn surface_edge_mm(self) -> f64 {
         match self {
             Preset::Sample => 0.4,
-            Preset::Standard | Preset::Full => 0.45,
+            Preset::Standard | Preset::Full => 0.5,
         }
     }
 
@@ -192,12 +202,28 @@ impl PhantomParams {
             }
         };
         check("noise", self.noise_hu, 0.0, 200.0, "HU")?;
-        check("tilt", self.tilt_rad.to_degrees(), 0.0, 60.0, "deg")?;
+        // A hair of slack so 60° survives the degree/radian round trip.
+        check(
+            "tilt",
+            self.tilt_rad.to_degrees(),
+            -1e-9,
+            60.0 + 1e-9,
+            "deg",
+        )?;
         check("blood", self.blood_hu, 100.0, 800.0, "HU")?;
         if let Some(s) = self.spacing_mm {
             for v in s {
                 check("spacing", v, 0.2, 3.0, "mm")?;
             }
+        }
+        let (dims, _) = self.grid_shape();
+        let voxels: usize = dims.iter().product();
+        if voxels > MAX_VOXELS {
+            return Err(Error::value(format!(
+                "phantom grid {}×{}×{} has {voxels} voxels, more than the {MAX_VOXELS} this generator \
+                 holds in memory (~11 bytes each): use a coarser spacing",
+                dims[0], dims[1], dims[2]
+            )));
         }
         Ok(())
     }
@@ -226,12 +252,13 @@ pub struct Phantom {
     pub truth_surface: TriMesh,
 }
 
+/// Largest grid generated: rendering keeps ~11 bytes per voxel in memory
+/// (image and noise as f32, CT as i16, mask), so this is ~4.4 GB.
+pub const MAX_VOXELS: usize = 400_000_000;
 /// Maximal number of truth-surface vertices of the sample (~1 MB of f64 points).
 const SURFACE_VERTEX_BUDGET: f64 = 40_000.0;
 /// Share of the progress bar taken by rasterisation (the rest: blur, noise).
 const RASTER_SHARE: f64 = 0.7;
-/// Margin kept between the must-see structures and the in-plane FOV edge.
-const FOV_MARGIN_MM: f64 = 4.0;
 /// Share of the spare z field of view put below the needed range (the LV).
 const SPARE_BELOW: f64 = 0.6;
 
@@ -241,7 +268,7 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
     progress(0.0);
     let (dims, spacing) = params.grid_shape();
     let fov = [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]);
-    let (an, needs) = anatomy::Anatomy::new(params.seed, params.tilt_rad, fov[2])?;
+    let (an, needs) = anatomy::Anatomy::new(params.seed, params.tilt_rad, fov)?;
     let an = Arc::new(an);
     let cl = &an.lumen.centreline;
 
@@ -250,28 +277,15 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
     let z_bottom_face = needs.z_bottom - SPARE_BELOW * extra;
     let z_top = z_bottom_face + fov[2];
     let s_top = cl.s_at_z_vertical(z_top);
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    let mut include = |x: f64, y: f64, r: f64| {
-        lo[0] = lo[0].min(x - r);
-        lo[1] = lo[1].min(y - r);
-        hi[0] = hi[0].max(x + r);
-        hi[1] = hi[1].max(y + r);
-    };
-    let r_max = an.lumen.profile.r_max_bound();
-    for i in 0..=20 {
-        let s = -an.lumen.lvot_length_mm
-            + (an.lumen.profile.h_stj_mm + an.lumen.lvot_length_mm) * i as f64 / 20.0;
-        let p = cl.station(s).point;
-        include(p.x, p.y, r_max);
-    }
-    let top = cl.station(s_top).point;
-    include(
-        top.x,
-        top.y,
-        an.lumen.profile.eval(s_top, 0.0).r + FOV_MARGIN_MM,
+    let (lo, hi) = anatomy::xy_extent(
+        cl,
+        &an.lumen.profile,
+        an.lumen.lvot_length_mm,
+        an.lumen.r_max_mm,
+        z_top,
+        [an.da.cx, an.da.cy],
+        an.da.rx,
     );
-    include(an.da.cx, an.da.cy, an.da.rx + FOV_MARGIN_MM);
     for a in 0..2 {
         if hi[a] - lo[a] > fov[a] {
             return Err(Error::value(format!(
@@ -314,26 +328,24 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         progress,
         RASTER_SHARE,
     );
-    let ct_values = render::finish(
-        &raster,
-        &grid,
-        noise_seed,
-        params.noise_hu,
-        progress,
-        RASTER_SHARE,
-    );
+    let ct_values = render::finish(&raster, &grid, params.noise_hu, progress, RASTER_SHARE);
     let mask_voxels = raster.mask.iter().filter(|&&m| m != 0).count();
     let ct = Volume::from_fortran_vec(dims, affine, ct_values)?;
     let truth_mask = Volume::from_fortran_vec(dims, affine, raster.mask)?;
 
     // --- Truth surface.
-    let circumference = std::f64::consts::TAU * r_max;
-    let mut edge = params.preset.surface_edge_mm();
+    // Grid spacing so that even the quad diagonals respect the edge length.
+    let mut grid_mm = params.preset.surface_edge_mm() / std::f64::consts::SQRT_2;
     if params.preset == Preset::Sample {
-        // The sample is committed: keep its surface small.
-        edge = edge.max((s_top * circumference / SURFACE_VERTEX_BUDGET).sqrt());
+        // The sample is committed: keep its surface within the vertex budget.
+        while {
+            let (n_s, n_t) = an.lumen.surface_grid(s_top, grid_mm);
+            ((n_s + 1) * n_t) as f64 > SURFACE_VERTEX_BUDGET
+        } {
+            grid_mm *= 1.02;
+        }
     }
-    let mut truth_surface = an.lumen.surface(s_top, edge);
+    let mut truth_surface = an.lumen.surface(s_top, grid_mm);
     truth_surface.frame = Frame::Lps;
 
     // --- Landmarks.
@@ -408,11 +420,13 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         truth_mask_voxels: mask_voxels,
         truth_mask_volume_mm3: mask_voxels as f64 * spacing.iter().product::<f64>(),
         truth_surface_area_mm2: truth_surface.total_area(),
+        truth_wall_area_mm2: wall_area(&truth_surface),
         truth_surface_volume_mm3: truth_surface.signed_volume(),
         truth_surface_vertices: truth_surface.vertices.len(),
         calcium_in_lumen_mm3: calcium_in_lumen,
         pa_aorta_lumen_gap_mm: an.pa_aorta_gap(z_top),
         pa_radius_mm: an.pa_radius_mm,
+        la_aorta_gap_mm: an.la_aorta_gap(z_top),
         layers: scene.layers.iter().map(|l| l.name.clone()).collect(),
         definitions: truth::definitions(),
     };
@@ -424,6 +438,17 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         truth,
         truth_surface,
     })
+}
+
+/// Area of the triangles of region 0 (the wall).
+fn wall_area(mesh: &TriMesh) -> f64 {
+    match mesh.cell_data.get("region").map(|a| &a.values) {
+        Some(crate::geom::DataValues::I32(r)) => (0..mesh.triangles.len())
+            .filter(|&t| r[t] == 0)
+            .map(|t| mesh.area(t))
+            .sum(),
+        _ => mesh.total_area(),
+    }
 }
 
 /// Volume of calcium inside the truth region, by dense point sampling.

@@ -6,6 +6,7 @@
 //! are reduced per slice then combined in slice order: the output is
 //! bit-identical whatever the number of threads.
 
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
@@ -59,11 +60,67 @@ pub const PSF_FWHM_MM: f64 = 0.8;
 pub const NOISE_CORRELATION_VOXELS: f64 = 0.6;
 const FWHM_TO_SIGMA: f64 = 2.354_820_045_030_949;
 
+/// Slices finished by a parallel pass, reported every few slices. The call
+/// happens under a lock so the values a caller sees never go backwards.
+struct SliceProgress<'a> {
+    done: AtomicUsize,
+    last: Mutex<f64>,
+    total: usize,
+    from: f64,
+    to: f64,
+    report: &'a (dyn Fn(f64) + Sync),
+}
+
+/// Report every this many slices (and at the end).
+const PROGRESS_EVERY: usize = 8;
+
+impl<'a> SliceProgress<'a> {
+    fn new(total: usize, from: f64, to: f64, report: &'a (dyn Fn(f64) + Sync)) -> Self {
+        SliceProgress {
+            done: AtomicUsize::new(0),
+            last: Mutex::new(from),
+            total,
+            from,
+            to,
+            report,
+        }
+    }
+
+    fn slice_done(&self) {
+        let n = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+        if n % PROGRESS_EVERY == 0 || n == self.total {
+            let f = self.from + (self.to - self.from) * n as f64 / self.total as f64;
+            let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
+            if f > *last {
+                *last = f;
+                (self.report)(f);
+            }
+        }
+    }
+}
+
+/// In-plane tile size (voxels) for per-tile layer classification.
+const TILE: usize = 8;
+/// Our distances are only approximately 1-Lipschitz (ellipsoid bound,
+/// normalised lumen distance, smooth unions): classify a tile as fully
+/// inside or outside only with this factor of slack, plus a fixed margin.
+const LIPSCHITZ_SAFETY: f64 = 2.0;
+const TILE_MARGIN_MM: f64 = 1.0;
+
+/// How a layer covers a tile.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Cover {
+    Full,
+    Partial,
+}
+
 /// Output of the rasterisation pass.
 pub struct Raster {
     pub image: Vec<f32>,
     pub mask: Vec<u8>,
-    /// Per-slice (sum, sum of squares) of the correlated noise field.
+    /// Correlated unit-ish noise field, kept so it is generated only once.
+    noise: Vec<f32>,
+    /// Per-slice (sum, sum of squares) of the noise field.
     noise_sums: Vec<(f64, f64)>,
 }
 
@@ -146,11 +203,12 @@ pub fn rasterise(
     let mut image = vec![0f32; grid.len()];
     let mut mask = vec![0u8; grid.len()];
     let mut noise_sums = vec![(0.0, 0.0); nk];
+    let mut noise = vec![0f32; grid.len()];
     let [sx, sy, sz] = grid.spacing;
     // Coverage ramps are at most this wide: grow culling boxes by it.
     let reach = sx + sy + sz;
     let kn = gaussian_kernel(NOISE_CORRELATION_VOXELS);
-    let done = AtomicUsize::new(0);
+    let tracker = SliceProgress::new(nk, 0.0, share, progress);
     let an = &scene.anatomy;
     let calcium = if calcium_excluded {
         an.calcium.as_slice()
@@ -161,8 +219,9 @@ pub fn rasterise(
         .par_chunks_mut(plane)
         .zip(mask.par_chunks_mut(plane))
         .zip(noise_sums.par_iter_mut())
+        .zip(noise.par_chunks_mut(plane))
         .enumerate()
-        .for_each(|(k, ((img, msk), sums))| {
+        .for_each(|(k, (((img, msk), sums), nz))| {
             let z = grid.origin.z + k as f64 * sz;
             let active: Vec<(usize, [usize; 4])> = scene
                 .layers
@@ -173,68 +232,94 @@ pub fn rasterise(
                 })
                 .collect();
             let truth_box = slice_box(grid, &scene.truth_aabb, z);
-            let mut row: Vec<(usize, usize, usize)> = Vec::with_capacity(active.len());
-            for j in 0..nj {
-                row.clear();
-                row.extend(
-                    active
-                        .iter()
-                        .filter(|(_, b)| j >= b[2] && j < b[3])
-                        .map(|&(l, b)| (l, b[0], b[1])),
-                );
-                let in_truth_row = truth_box.is_some_and(|b| j >= b[2] && j < b[3]);
-                for i in 0..ni {
-                    let p = grid.point(i, j, k);
-                    let probe = Probe::new(p, an);
-                    let mut v = AIR_HU;
-                    for &(l, i0, i1) in &row {
-                        if i < i0 || i >= i1 {
+            // Tiles of TILE×TILE voxels: each layer is classified once per
+            // tile from its distance at the tile centre (distances are close
+            // to 1-Lipschitz), so voxels deep inside or far outside a layer
+            // never evaluate it.
+            let tile_radius = 0.5 * TILE as f64 * (sx * sx + sy * sy).sqrt();
+            let margin = LIPSCHITZ_SAFETY * (tile_radius + reach) + TILE_MARGIN_MM;
+            let mut plan: Vec<(usize, [usize; 4], Cover)> = Vec::with_capacity(active.len());
+            for tj in (0..nj).step_by(TILE) {
+                for ti in (0..ni).step_by(TILE) {
+                    let (ti1, tj1) = ((ti + TILE).min(ni), (tj + TILE).min(nj));
+                    let centre = Point3::new(
+                        grid.origin.x + 0.5 * (ti + ti1 - 1) as f64 * sx,
+                        grid.origin.y + 0.5 * (tj + tj1 - 1) as f64 * sy,
+                        z,
+                    );
+                    let probe = Probe::new(centre, an);
+                    plan.clear();
+                    for &(l, b) in &active {
+                        if b[0] >= ti1 || b[1] <= ti || b[2] >= tj1 || b[3] <= tj {
                             continue;
                         }
-                        let layer = &scene.layers[l];
-                        let (d, n) = (layer.shape)(&probe);
-                        // Width of the voxel projected on the surface normal.
-                        let w = n.x.abs() * sx + n.y.abs() * sy + n.z.abs() * sz;
-                        let c = (0.5 - d / w).clamp(0.0, 1.0);
-                        if c > 0.0 {
-                            v += c * ((layer.hu)(&p) - v);
-                        }
+                        let d = (scene.layers[l].shape)(&probe).0;
+                        let cover = if d > margin {
+                            continue;
+                        } else if d < -margin {
+                            Cover::Full
+                        } else {
+                            Cover::Partial
+                        };
+                        plan.push((l, b, cover));
                     }
-                    img[i + ni * j] = v as f32;
-                    if in_truth_row {
-                        let b = truth_box.unwrap();
-                        if i >= b[0]
-                            && i < b[1]
-                            && probe.lumen().0 < 0.0
-                            && an.lumen.height(&p) >= 0.0
-                        {
-                            let calcified = calcium.iter().any(|e| {
-                                let q = e.rot.transpose() * (p - e.centre);
-                                q.component_div(&e.semi).norm_squared() < 1.0
-                            });
-                            msk[i + ni * j] = u8::from(!calcified);
+                    for j in tj..tj1 {
+                        let in_truth_row = truth_box.is_some_and(|b| j >= b[2] && j < b[3]);
+                        for i in ti..ti1 {
+                            let p = grid.point(i, j, k);
+                            let probe = Probe::new(p, an);
+                            let mut v = AIR_HU;
+                            for &(l, b, cover) in &plan {
+                                if i < b[0] || i >= b[1] || j < b[2] || j >= b[3] {
+                                    continue;
+                                }
+                                let layer = &scene.layers[l];
+                                if cover == Cover::Full {
+                                    v = (layer.hu)(&p);
+                                    continue;
+                                }
+                                let (d, n) = (layer.shape)(&probe);
+                                // Width of the voxel projected on the surface normal.
+                                let w = n.x.abs() * sx + n.y.abs() * sy + n.z.abs() * sz;
+                                let c = (0.5 - d / w).clamp(0.0, 1.0);
+                                if c > 0.0 {
+                                    v += c * ((layer.hu)(&p) - v);
+                                }
+                            }
+                            img[i + ni * j] = v as f32;
+                            if in_truth_row {
+                                let b = truth_box.unwrap();
+                                if i >= b[0]
+                                    && i < b[1]
+                                    && probe.lumen().0 < 0.0
+                                    && an.lumen.height(&p) >= 0.0
+                                {
+                                    let calcified = calcium.iter().any(|e| {
+                                        let q = e.rot.transpose() * (p - e.centre);
+                                        q.component_div(&e.semi).norm_squared() < 1.0
+                                    });
+                                    msk[i + ni * j] = u8::from(!calcified);
+                                }
+                            }
                         }
                     }
                 }
             }
             // Noise statistics of this slice, in a fixed order.
-            let mut nz = vec![0f32; plane];
             let mut tmp = vec![0f32; plane];
-            noise_slice(noise_seed, grid, k, &mut nz, &mut tmp, &kn);
+            noise_slice(noise_seed, grid, k, nz, &mut tmp, &kn);
             let (mut s, mut s2) = (0.0f64, 0.0f64);
-            for &v in &nz {
+            for &v in nz.iter() {
                 s += v as f64;
                 s2 += (v as f64) * (v as f64);
             }
             *sums = (s, s2);
-            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if n % 8 == 0 || n == nk {
-                progress(share * n as f64 / nk as f64);
-            }
+            tracker.slice_done();
         });
     Raster {
         image,
         mask,
+        noise,
         noise_sums,
     }
 }
@@ -248,7 +333,6 @@ pub const HU_MAX: f64 = 3071.0;
 pub fn finish(
     raster: &Raster,
     grid: &Grid,
-    noise_seed: u64,
     noise_hu: f64,
     progress: &(dyn Fn(f64) + Sync),
     start: f64,
@@ -259,7 +343,6 @@ pub fn finish(
     let kx = gaussian_kernel(sigma_mm / grid.spacing[0]);
     let ky = gaussian_kernel(sigma_mm / grid.spacing[1]);
     let kz = gaussian_kernel(sigma_mm / grid.spacing[2]);
-    let kn = gaussian_kernel(NOISE_CORRELATION_VOXELS);
     // Noise mean and std over the whole volume, summed in slice order.
     let (s, s2) = raster
         .noise_sums
@@ -274,7 +357,7 @@ pub fn finish(
         0.0
     };
     let rz = (kz.len() / 2) as i64;
-    let done = AtomicUsize::new(0);
+    let tracker = SliceProgress::new(nk, start, 1.0, progress);
     let mut out = vec![0i16; grid.len()];
     out.par_chunks_mut(plane).enumerate().for_each(|(k, o)| {
         let mut acc = vec![0f32; plane];
@@ -287,11 +370,8 @@ pub fn finish(
         }
         let mut tmp = vec![0f32; plane];
         blur_slice(&mut acc, &mut tmp, ni, nj, &kx, &ky);
-        let mut nz = vec![0f32; plane];
-        if scale > 0.0 {
-            noise_slice(noise_seed, grid, k, &mut nz, &mut tmp, &kn);
-        }
-        for ((dst, &a), &e) in o.iter_mut().zip(&acc).zip(&nz) {
+        let nz = &raster.noise[k * plane..(k + 1) * plane];
+        for ((dst, &a), &e) in o.iter_mut().zip(&acc).zip(nz) {
             let v = a as f64
                 + if scale > 0.0 {
                     (e as f64 - mean) * scale
@@ -300,10 +380,7 @@ pub fn finish(
                 };
             *dst = v.round().clamp(HU_MIN, HU_MAX) as i16;
         }
-        let c = done.fetch_add(1, Ordering::Relaxed) + 1;
-        if c % 8 == 0 || c == nk {
-            progress(start + (1.0 - start) * c as f64 / nk as f64);
-        }
+        tracker.slice_done();
     });
     out
 }

@@ -55,6 +55,11 @@ const FAT_BLEND_MM: f64 = 8.0;
 /// surrounded by myocardium instead).
 const WALL_START_BELOW_VAJ_MM: f64 = 3.0;
 
+/// Beyond this distance shapes may return a lower bound of their distance
+/// instead of the distance (cheap far-field): it exceeds every layer's
+/// offset + blend width + voxel extent, so no coverage depends on it.
+const FAR_MM: f64 = 25.0;
+
 /// A voxel centre and a lazily computed aortic-lumen distance, which several
 /// layers and the truth mask share.
 pub struct Probe<'a> {
@@ -76,7 +81,13 @@ impl<'a> Probe<'a> {
         if let Some(v) = self.lumen.get() {
             return v;
         }
-        let v = self.anatomy.lumen.sdf(&self.p);
+        let lumen = &self.anatomy.lumen;
+        let lb = lumen.centreline.distance_lower_bound(&self.p) - lumen.r_max_mm;
+        let v = if lb > FAR_MM {
+            (lb, Vector3::z())
+        } else {
+            lumen.sdf(&self.p)
+        };
         self.lumen.set(Some(v));
         v
     }
@@ -118,7 +129,7 @@ fn offset(s: (f64, Vector3), by: f64) -> (f64, Vector3) {
 fn tubes_sdf(tubes: &[Tube], p: &Point3) -> (f64, Vector3) {
     tubes
         .iter()
-        .map(|t| t.eval(p))
+        .map(|t| t.eval_within(p, FAR_MM))
         .fold((f64::INFINITY, Vector3::z()), union)
 }
 
@@ -178,11 +189,14 @@ impl Scene {
         }
 
         // --- Lungs, both sides of the mediastinum ---------------------------
+        // Centres (x L, y P from the annulus) and semi-axes: tall ellipsoids
+        // whose medial parts the mediastinal layers paint over.
+        const LUNG_SEMI: [f64; 3] = [60.0, 85.0, 220.0];
         for (name, dx, dy) in [("lung_right", -85.0, 25.0), ("lung_left", 80.0, 30.0)] {
             let e = super::shapes::Ellipsoid {
                 centre: Point3::new(o.x + dx, o.y + dy, o.z),
                 rot: crate::geom::Matrix3::identity(),
-                semi: Vector3::new(60.0, 85.0, 220.0),
+                semi: Vector3::new(LUNG_SEMI[0], LUNG_SEMI[1], LUNG_SEMI[2]),
             };
             let aabb = e.aabb().grow(2.0);
             layers.push(Layer {
@@ -194,9 +208,11 @@ impl Scene {
         }
         {
             const PARASPINAL_RADIUS_MM: f64 = 32.0;
+            // Centred a little behind the vertebral body (paraspinal muscles).
+            const PARASPINAL_BEHIND_BODY_MM: f64 = 10.0;
             let c = ZCylinder {
                 cx: an.spine_centre[0],
-                cy: an.spine_centre[1] + 10.0,
+                cy: an.spine_centre[1] + PARASPINAL_BEHIND_BODY_MM,
                 rx: PARASPINAL_RADIUS_MM,
                 ry: PARASPINAL_RADIUS_MM,
                 z_lo: f64::NEG_INFINITY,
@@ -243,17 +259,19 @@ impl Scene {
 
         // --- Myocardium: LV shell reaching up around the LVOT ---------------
         {
+            // Outer radius of the basal myocardium around the LVOT, where its
+            // flat top lies below the VAJ, and the rounding of its rim.
             const LVOT_MYOCARDIUM_MM: f64 = 9.0;
-            const MYO_TOP_BELOW_VAJ_MM: f64 = 3.0;
+            const MYO_TOP_BELOW_VAJ_MM: f64 = 1.0;
+            const ROUNDING_MM: f64 = 3.0;
+            const BELOW_LVOT_MM: f64 = 8.0;
             let cl = &an.lumen.centreline;
+            let top = MYO_TOP_BELOW_VAJ_MM + ROUNDING_MM;
             let basal = Tube::new(
-                vec![
-                    o - cl.axis * (lvot + 8.0),
-                    o - cl.axis * MYO_TOP_BELOW_VAJ_MM,
-                ],
-                vec![an.lumen.profile.r_annulus_mm + LVOT_MYOCARDIUM_MM - 3.0],
+                vec![o - cl.axis * (lvot + BELOW_LVOT_MM), o - cl.axis * top],
+                vec![an.lumen.profile.r_annulus_mm + LVOT_MYOCARDIUM_MM - ROUNDING_MM],
             );
-            // The capsule's round top is trimmed flat below the annulus.
+            // Capsule trimmed flat, then dilated: a cylinder with a rounded rim.
             let axis = cl.axis;
             let a = anatomy.clone();
             let aabb = an.myocardium.aabb().union(&basal.aabb()).grow(LV_BLEND_MM);
@@ -262,11 +280,11 @@ impl Scene {
                 shape: Box::new(move |pr| {
                     let p = &pr.p;
                     let mut b = basal.eval(p);
-                    let cap = (p - a.lumen.centreline.origin).dot(&axis) + MYO_TOP_BELOW_VAJ_MM;
+                    let cap = (p - a.lumen.centreline.origin).dot(&axis) + top;
                     if cap > b.0 {
                         b = (cap, axis);
                     }
-                    smooth_union(a.myocardium.eval(p), offset(b, 3.0), LV_BLEND_MM)
+                    smooth_union(a.myocardium.eval(p), offset(b, ROUNDING_MM), LV_BLEND_MM)
                 }),
                 hu: constant(if contrast.enabled {
                     MYOCARDIUM_ENHANCED_HU

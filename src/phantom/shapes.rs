@@ -47,6 +47,14 @@ impl Aabb {
         }
     }
 
+    /// Euclidean distance from `p` to the box (0 inside).
+    pub fn distance(&self, p: &Point3) -> f64 {
+        let dx = (self.lo.x - p.x).max(p.x - self.hi.x).max(0.0);
+        let dy = (self.lo.y - p.y).max(p.y - self.hi.y).max(0.0);
+        let dz = (self.lo.z - p.z).max(p.z - self.hi.z).max(0.0);
+        (dx * dx + dy * dy + dz * dz).sqrt()
+    }
+
     pub fn grow(&self, m: f64) -> Aabb {
         let d = Vector3::new(m, m, m);
         Aabb {
@@ -71,15 +79,47 @@ pub trait Sdf: Send + Sync {
 /// distance outside), which the PA–aorta gap check relies on.
 #[derive(Debug, Clone)]
 pub struct Tube {
-    pub points: Vec<Point3>,
+    points: Vec<Point3>,
     /// Radius per segment; a taper is a sequence of slightly smaller radii.
-    pub radii: Vec<f64>,
+    radii: Vec<f64>,
+    bound: Aabb,
 }
 
 impl Tube {
     pub fn new(points: Vec<Point3>, radii: Vec<f64>) -> Self {
         assert!(points.len() >= 2 && radii.len() == points.len() - 1);
-        Tube { points, radii }
+        let mut t = Tube {
+            points,
+            radii,
+            bound: Aabb::empty(),
+        };
+        t.bound = t.aabb();
+        t
+    }
+
+    #[cfg(test)]
+    pub fn points(&self) -> &[Point3] {
+        &self.points
+    }
+
+    /// Move the whole tube.
+    pub fn translate(&mut self, v: &Vector3) {
+        for p in self.points.iter_mut() {
+            *p += v;
+        }
+        self.bound = self.aabb();
+    }
+}
+
+impl Tube {
+    /// As `eval`, but a point farther than `cutoff` from the tube's box only
+    /// gets that box distance (a lower bound): far voxels cost one box test.
+    pub fn eval_within(&self, p: &Point3, cutoff: f64) -> (f64, Vector3) {
+        let d = self.bound.distance(p);
+        if d > cutoff {
+            return (d, Vector3::z());
+        }
+        self.eval(p)
     }
 }
 
@@ -171,8 +211,8 @@ impl Sdf for ZCylinder {
         // 2-D ellipse distance by the same first-order bound as the ellipsoid.
         let (ax, ay) = (x / self.rx, y / self.ry);
         let (bx, by) = (ax / self.rx, ay / self.ry);
-        let k0 = ax.hypot(ay);
-        let k1 = bx.hypot(by);
+        let k0 = (ax * ax + ay * ay).sqrt();
+        let k1 = (bx * bx + by * by).sqrt();
         let (dr, nr) = if k1 < 1e-12 {
             (-self.rx.min(self.ry), Vector3::x())
         } else {

@@ -1,11 +1,13 @@
 //! Tests on the sample preset (or smaller grids) so they take seconds.
 //!
-//! `COAPT_PHANTOM_DEBUG=dir` makes `debug_views` write PNG slices of the
-//! sample for eyeballing; `COAPT_PHANTOM_TIMING=1` makes `timing_all_presets`
-//! time every preset (full included), which is too slow for the default run.
+//! `COAPT_PHANTOM_DEBUG=dir` makes `debug_views` write PNG views of a
+//! phantom for eyeballing (`COAPT_PHANTOM_PRESET`, `_SEED`, `_TILT`,
+//! `_CALCIUM` choose it); `timing_all_presets` is `#[ignore]`d: it times every
+//! preset, full included, which is too slow for the default run.
 
 use std::sync::OnceLock;
 
+use super::shapes::Sdf;
 use super::*;
 use crate::geom::Vector3;
 
@@ -17,9 +19,13 @@ fn sample() -> &'static Phantom {
 /// Rebuild the analytic lumen the phantom was made from.
 fn anatomy_of(params: &PhantomParams) -> anatomy::Anatomy {
     let (dims, spacing) = params.grid_shape();
-    anatomy::Anatomy::new(params.seed, params.tilt_rad, dims[2] as f64 * spacing[2])
-        .unwrap()
-        .0
+    anatomy::Anatomy::new(
+        params.seed,
+        params.tilt_rad,
+        [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]),
+    )
+    .unwrap()
+    .0
 }
 
 fn stats(v: impl Iterator<Item = f64>) -> (f64, f64, usize) {
@@ -50,6 +56,9 @@ fn preset_parse_and_validate() {
     let mut bad = ok.clone();
     bad.spacing_mm = Some([0.1, 1.0, 1.0]);
     assert!(bad.validate().is_err());
+    let mut bad = PhantomParams::new(Preset::Full, 1);
+    bad.spacing_mm = Some([0.2, 0.2, 0.2]);
+    assert!(bad.validate().unwrap_err().to_string().contains("voxels"));
     let mut bad = ok.clone();
     bad.blood_hu = 50.0;
     assert!(bad.validate().unwrap_err().to_string().contains("blood"));
@@ -80,6 +89,14 @@ fn truth_surface_is_closed_and_matches_analytic_volume() {
     );
     let region = m.cell_data.get("region").unwrap();
     assert_eq!(region.tuples(), m.triangles.len());
+    // Wall edges (the fan caps have long spokes by design).
+    let wall_edge = (0..m.triangles.len())
+        .filter(|&t| matches!(&region.values, crate::geom::DataValues::I32(r) if r[t] == 0))
+        .map(|t| m.quality(t).max_edge)
+        .fold(0.0, f64::max);
+    // The sample's ~1 MB vertex budget puts its grid near 0.5 mm, so its
+    // quad diagonals reach ~0.75 mm (standard/full keep every edge ≤ 0.5 mm).
+    assert!(wall_edge < 0.8, "longest wall edge {wall_edge} mm");
 }
 
 #[test]
@@ -115,7 +132,7 @@ fn surface_vertices_and_landmarks_lie_on_the_wall() {
         }
     }
     let mut checked = 0;
-    for (v, p) in m.vertices.iter().enumerate().step_by(7) {
+    for (v, p) in m.vertices.iter().enumerate() {
         if on_cap[v] {
             continue;
         }
@@ -148,17 +165,17 @@ fn surface_vertices_and_landmarks_lie_on_the_wall() {
     let off_axis = (d - vf.axis * d.dot(&vf.axis)).norm();
     assert!(off_axis < 1.0, "circumcentre {off_axis} mm off the axis");
     // Nadirs in the VAJ plane, commissures at h_comm.
-    for k in 0..3 {
+    for (k, ck) in c.iter().enumerate() {
         let (h, _, _) = vf.to_cylindrical(&ph.landmarks.get(&format!("N{}", k + 1)).unwrap());
         assert!(h.abs() < 1e-9);
-        let (h, _, _) = vf.to_cylindrical(&c[k]);
+        let (h, _, _) = vf.to_cylindrical(ck);
         assert!((h - ph.truth.h_comm_mm).abs() < 1e-9);
     }
 }
 
 #[test]
 fn anatomy_ranges_and_orientation() {
-    for seed in [1u64, 2, 3, 99, 12345] {
+    for seed in (0u64..10).chain([99, 12345]) {
         let params = PhantomParams::new(Preset::Sample, seed);
         let an = anatomy_of(&params);
         let p = &an.lumen.profile;
@@ -196,9 +213,43 @@ fn anatomy_ranges_and_orientation() {
             "seed {seed}: NCS {:?}",
             dir(2)
         );
-        // The PA passes 1.5–3 mm from the aortic lumen where closest.
-        let gap = an.pa_aorta_gap(-100.0);
+        // The PA passes 1.5–3 mm from the aortic lumen where closest, the LA
+        // 3–5 mm.
+        let (dims, spacing) = params.grid_shape();
+        let (_, needs) = anatomy::Anatomy::new(
+            seed,
+            params.tilt_rad,
+            [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]),
+        )
+        .unwrap();
+        let gap = an.pa_aorta_gap(needs.z_top + 30.0);
         assert!((1.5..=3.0).contains(&gap), "seed {seed}: PA gap {gap}");
+        let gap = an.la_aorta_gap(needs.z_top + 30.0);
+        assert!((3.0..=5.0).contains(&gap), "seed {seed}: LA gap {gap}");
+        // The LV overlaps the LVOT near its end (blood path LV → root), and
+        // stays below the VAJ by more than the blend width.
+        let cl = &an.lumen.centreline;
+        let lvot_end = cl.origin - cl.axis * (an.lumen.lvot_length_mm - 1.0);
+        assert!(
+            an.lv.eval(&lvot_end).0 < 0.0,
+            "seed {seed}: LV detached from LVOT"
+        );
+        for s in [0.0, 5.0, 10.0] {
+            for k in 0..12 {
+                let w = an.lumen.wall_point(s, k as f64 * 0.5);
+                assert!(
+                    an.lv.eval(&w).0 > anatomy::LV_BLEND_MM,
+                    "seed {seed}: LV near the root wall"
+                );
+            }
+        }
+        // Coronary ostia halfway up the sinus, on the wall.
+        for c in &an.coronaries {
+            let f = c.ostium_height_mm / p.h_stj_mm;
+            assert!((0.4..=0.6).contains(&f));
+            let l = an.lumen.local(&c.ostium);
+            assert!((l.rho - p.eval(l.station.s, l.theta).r).abs() < 1e-9);
+        }
     }
 }
 
@@ -338,7 +389,8 @@ fn coronaries_connect_to_the_sinus_lumen() {
     for cor in &an.coronaries {
         // A point 6 mm beyond the ostium along the artery.
         let t = &cor.tubes[0];
-        let q = t.points[1] + (t.points[2] - t.points[1]).normalize() * 2.0;
+        let pts = t.points();
+        let q = pts[1] + (pts[2] - pts[1]).normalize() * 2.0;
         let qi = ct.world_to_index(&q).map(|x| x.round() as usize);
         let id = ct.linear_index(qi[0], qi[1], qi[2]);
         assert!(comp[id], "{} not connected to the sinus lumen", cor.name);
@@ -399,8 +451,8 @@ fn spacing_override_keeps_the_fov_and_tilt_zero_works() {
     let ph = generate(&p, &|_| {}).unwrap();
     assert_eq!(ph.ct.dims(), [56, 56, 56]);
     let fov = Preset::Sample.fov();
-    for a in 0..3 {
-        assert!((ph.ct.dims()[a] as f64 * ph.ct.spacing()[a] - fov[a]).abs() < 1e-9);
+    for (a, f) in fov.iter().enumerate() {
+        assert!((ph.ct.dims()[a] as f64 * ph.ct.spacing()[a] - f).abs() < 1e-9);
     }
     let t = &ph.truth;
     assert!(t.centreline.arc.is_none());
@@ -410,6 +462,42 @@ fn spacing_override_keeps_the_fov_and_tilt_zero_works() {
     assert!(rel < 0.005);
     let rel = (t.truth_mask_volume_mm3 - t.lumen_volume_mm3).abs() / t.lumen_volume_mm3;
     assert!(rel < 0.06, "coarse mask {rel}");
+}
+
+#[test]
+fn every_tilt_fits_the_sample_and_keeps_exact_truth() {
+    for tilt_deg in [0.0, 20.0, 45.0, 60.0] {
+        let mut p = PhantomParams::new(Preset::Sample, 3);
+        p.tilt_rad = f64::to_radians(tilt_deg);
+        p.spacing_mm = Some([1.8, 1.8, 2.0]);
+        p.noise_hu = 0.0;
+        let seen = std::sync::Mutex::new(Vec::new());
+        let ph = generate(&p, &|f| seen.lock().unwrap().push(f)).unwrap();
+        let t = &ph.truth;
+        let rel = (t.truth_surface_volume_mm3 - t.lumen_volume_mm3).abs() / t.lumen_volume_mm3;
+        assert!(rel < 0.005, "tilt {tilt_deg}: surface volume off by {rel}");
+        let axis = t.valve_frame.axis;
+        assert!((axis.z.acos().to_degrees() - tilt_deg).abs() < 1e-9);
+        // Right-anterior: both x and y components non-positive.
+        assert!(axis.x <= 1e-12 && axis.y <= 1e-12);
+        let seen = seen.into_inner().unwrap();
+        assert!(seen.iter().all(|f| (0.0..=1.0).contains(f)));
+        assert!(
+            seen.windows(2).all(|w| w[0] <= w[1]),
+            "progress went backwards"
+        );
+        assert_eq!(*seen.last().unwrap(), 1.0);
+        // The lumen leaves through the top face on its vertical piece.
+        let top = t.top_cap_s_mm;
+        let s2 = t.centreline.straight_ascending.s_start_mm;
+        assert!(
+            top - s2 >= 10.0,
+            "tilt {tilt_deg}: only {} mm vertical",
+            top - s2
+        );
+        // At least 40 mm of ascending aorta above the STJ.
+        assert!(top - t.h_stj_mm >= 40.0);
+    }
 }
 
 #[test]
@@ -443,8 +531,9 @@ fn truth_json_has_the_documented_keys() {
     }
 }
 
-/// Write PNGs of a few slices (debug aid; only with COAPT_PHANTOM_DEBUG).
+/// Write PNG views (debug aid; only with COAPT_PHANTOM_DEBUG).
 #[test]
+#[ignore = "debug aid: writes PNG views to $COAPT_PHANTOM_DEBUG"]
 fn debug_views() {
     let Ok(dir) = std::env::var("COAPT_PHANTOM_DEBUG") else {
         return;
@@ -453,39 +542,72 @@ fn debug_views() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(7);
-    let ph = generate(&PhantomParams::new(Preset::Sample, seed), &|_| {}).unwrap();
+    let preset: Preset = std::env::var("COAPT_PHANTOM_PRESET")
+        .unwrap_or_else(|_| "sample".into())
+        .parse()
+        .unwrap();
+    let mut params = PhantomParams::new(preset, seed);
+    if let Some(t) = std::env::var("COAPT_PHANTOM_TILT")
+        .ok()
+        .and_then(|s| s.parse::<f64>().ok())
+    {
+        params.tilt_rad = t.to_radians();
+    }
+    params.calcium = std::env::var("COAPT_PHANTOM_CALCIUM").is_ok();
+    let ph = generate(&params, &|_| {}).unwrap();
     println!("{}", serde_json::to_string_pretty(&ph.truth).unwrap());
     let [ni, nj, nk] = ph.ct.dims();
     let ct = ph.ct.as_slice();
     let m = ph.truth_mask.as_slice();
     let window = |v: i16| (((v as f64 + 200.0) / 800.0).clamp(0.0, 1.0) * 255.0) as u8;
-    const ZOOM: usize = 4;
+    // Every view is resampled (nearest) to about VIEW_PX pixels per side.
+    const VIEW_PX: usize = 640;
     let write = |name: &str, w: usize, h: usize, f: &dyn Fn(usize, usize) -> (i16, u8)| {
-        let (w, h) = (w * ZOOM, h * ZOOM);
-        let mut px = Vec::with_capacity(w * h * 3);
-        for y in 0..h {
-            for x in 0..w {
-                let (v, mk) = f(x / ZOOM, y / ZOOM);
+        let scale = VIEW_PX as f64 / w.max(h) as f64;
+        let (pw, ph) = ((w as f64 * scale) as usize, (h as f64 * scale) as usize);
+        let mut px = Vec::with_capacity(pw * ph * 3);
+        for y in 0..ph {
+            for x in 0..pw {
+                let (v, mk) = f(
+                    ((x as f64 / scale) as usize).min(w - 1),
+                    ((y as f64 / scale) as usize).min(h - 1),
+                );
                 let g = window(v);
                 px.extend([g, if mk == 1 { g / 2 + 100 } else { g }, g]);
             }
         }
-        std::fs::write(format!("{dir}/{name}.png"), png_rgb(w, h, &px)).unwrap();
+        std::fs::write(format!("{dir}/{name}.png"), png_rgb(pw, ph, &px)).unwrap();
     };
-    for k in [nk - 1, nk * 3 / 4, nk / 2, nk / 3, nk / 5] {
+    // 4×4 montage of axial slices, bottom-left to top-right (twice the size).
+    const TILES: usize = 4;
+    let montage = |x: usize, y: usize| {
+        let (tx, ty) = (x / ni, y / nj);
+        let t = ty * TILES + tx;
+        let k = (t * (nk - 1)) / (TILES * TILES - 1);
+        let id = x % ni + ni * (y % nj + nj * k);
+        (ct[id], m[id])
+    };
+    write("montage", ni * TILES, nj * TILES, &montage);
+    for k in [nk - 1, nk / 2] {
         write(&format!("axial_{k:03}"), ni, nj, &|i, j| {
             let id = i + ni * (j + nj * k);
             (ct[id], m[id])
         });
     }
-    let j = nj / 2;
-    write("coronal", ni, nk, &|i, y| {
-        let id = i + ni * (j + nj * (nk - 1 - y));
+    // Oblique-free long-axis views through the annulus centre.
+    let o = ph.ct.world_to_index(&ph.truth.valve_frame.origin_mm);
+    let j = (o[1].round() as usize).min(nj - 1);
+    let vz = ph.ct.spacing()[2] / ph.ct.spacing()[0];
+    let hz = (nk as f64 * vz) as usize;
+    write("coronal", ni, hz, &|i, y| {
+        let k = nk - 1 - ((y as f64 / vz) as usize).min(nk - 1);
+        let id = i + ni * (j + nj * k);
         (ct[id], m[id])
     });
-    let i = ni / 2;
-    write("sagittal", nj, nk, &|jj, y| {
-        let id = i + ni * (jj + nj * (nk - 1 - y));
+    let i = (o[0].round() as usize).min(ni - 1);
+    write("sagittal", nj, hz, &|jj, y| {
+        let k = nk - 1 - ((y as f64 / vz) as usize).min(nk - 1);
+        let id = i + ni * (jj + nj * k);
         (ct[id], m[id])
     });
 }
@@ -533,18 +655,28 @@ fn png_rgb(w: usize, h: usize, rgb: &[u8]) -> Vec<u8> {
     out
 }
 
-/// Generation time of every preset and the sample's compressed size
-/// (only with COAPT_PHANTOM_TIMING: the full preset is too slow for CI).
+/// Generation time of every preset and the compressed sizes (ignored by
+/// default: the full preset is too slow for CI). `COAPT_PHANTOM_TIMING`
+/// may list the presets to time, e.g. "sample,standard".
 #[test]
+#[ignore = "times every preset, full included; run with --ignored --nocapture"]
 fn timing_all_presets() {
-    if std::env::var("COAPT_PHANTOM_TIMING").is_err() {
-        return;
-    }
+    let which =
+        std::env::var("COAPT_PHANTOM_TIMING").unwrap_or_else(|_| "sample,standard,full".into());
     use std::io::Write;
-    for preset in [Preset::Sample, Preset::Standard, Preset::Full] {
+    for preset in [Preset::Sample, Preset::Standard, Preset::Full]
+        .into_iter()
+        .filter(|p| which.contains(p.name()))
+    {
         let t0 = std::time::Instant::now();
         let ph = generate(&PhantomParams::new(preset, 7), &|_| {}).unwrap();
         let dt = t0.elapsed().as_secs_f64();
+        let m = &ph.truth_surface;
+        let max_edge = (0..m.triangles.len())
+            .map(|t| m.quality(t).max_edge)
+            .filter(|&e| e < 5.0) // cap-fan spokes are long by design
+            .fold(0.0, f64::max);
+        println!("{preset}: longest wall edge {max_edge:.3} mm");
         let bytes: Vec<u8> = ph
             .ct
             .as_slice()

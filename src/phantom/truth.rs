@@ -53,6 +53,7 @@ pub struct Truth {
     /// Voxel index → LPS mm, row-major 4×4.
     pub affine: [[f64; 4]; 4],
     pub noise_hu: f64,
+    /// Aortic blood HU actually painted (40 without contrast).
     pub blood_hu: f64,
     pub contrast: bool,
     pub calcium: bool,
@@ -74,7 +75,10 @@ pub struct Truth {
     pub lumen_volume_mm3: f64,
     pub truth_mask_voxels: usize,
     pub truth_mask_volume_mm3: f64,
+    /// Area of the closed truth surface, caps included.
     pub truth_surface_area_mm2: f64,
+    /// Area of its wall part only (region 0).
+    pub truth_wall_area_mm2: f64,
     pub truth_surface_volume_mm3: f64,
     pub truth_surface_vertices: usize,
     /// Volume of calcium inside the truth region (removed from the mask);
@@ -82,6 +86,8 @@ pub struct Truth {
     pub calcium_in_lumen_mm3: f64,
     pub pa_aorta_lumen_gap_mm: f64,
     pub pa_radius_mm: f64,
+    /// Tissue gap between the left atrium and the aortic lumen.
+    pub la_aorta_gap_mm: f64,
     /// Tissue layers in painting order (later layers cover earlier ones).
     pub layers: Vec<String>,
     pub definitions: BTreeMap<String, String>,
