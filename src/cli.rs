@@ -299,7 +299,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 force: sub.get_flag("force"),
             };
             let report = runner::run(&opts, pipeline::registry(), &inv)?;
-            if !log.quiet && !log.json {
+            if !log.quiet && !log.json && !report.stages.is_empty() {
                 eprintln!("run directory: {}", report.run_dir.display());
             }
             Ok(())

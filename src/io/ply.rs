@@ -229,22 +229,4 @@ mod tests {
         assert!(write(&p, &m).is_err());
         assert!(!p.exists());
     }
-
-    /// With COAPT_VTP_XCHECK_DIR set, leave a file for `tools/vtp_crosscheck.py`.
-    #[test]
-    fn write_crosscheck_file() {
-        let Some(dir) = std::env::var_os("COAPT_VTP_XCHECK_DIR") else {
-            return;
-        };
-        let dir = std::path::PathBuf::from(dir);
-        let m = mesh();
-        write(&dir.join("mesh.ply"), &m).unwrap();
-        let expect = serde_json::json!({
-            "points": 4,
-            "polys": 2,
-            "points_flat": m.vertices.iter().flat_map(|p| [p.x, p.y, p.z]).collect::<Vec<_>>(),
-            "polys_flat": m.triangles.iter().flatten().collect::<Vec<_>>(),
-        });
-        std::fs::write(dir.join("mesh.ply.expect.json"), expect.to_string()).unwrap();
-    }
 }

@@ -167,16 +167,4 @@ mod tests {
         assert!(write(&p, &m).is_err());
         assert!(!p.exists());
     }
-
-    /// With COAPT_VTP_XCHECK_DIR set, leave a file for `tools/vtp_crosscheck.py`.
-    #[test]
-    fn write_crosscheck_file() {
-        let Some(dir) = std::env::var_os("COAPT_VTP_XCHECK_DIR") else {
-            return;
-        };
-        let dir = std::path::PathBuf::from(dir);
-        write(&dir.join("octahedron.stl"), &octahedron()).unwrap();
-        let expect = serde_json::json!({"points": 6, "polys": 8});
-        std::fs::write(dir.join("octahedron.stl.expect.json"), expect.to_string()).unwrap();
-    }
 }

@@ -62,9 +62,13 @@ impl RunConfig {
                     let t = table(path, key, value)?;
                     for (k, v) in t {
                         match (k.as_str(), v) {
-                            ("dir", toml::Value::String(s)) => cfg.run_dir = Some(base.join(s)),
+                            ("dir", toml::Value::String(s)) => cfg.run_dir = Some(normalize(&base.join(s))),
                             ("dir", _) => {
-                                return Err(Error::config(path, "run.dir", "must be a path string"));
+                                return Err(Error::config(
+                                    path,
+                                    "run.dir",
+                                    "must be a path string",
+                                ));
                             }
                             _ => {
                                 return Err(Error::config(
@@ -95,7 +99,7 @@ impl RunConfig {
                                 "must be a path string",
                             ));
                         };
-                        cfg.inputs.insert(k.clone(), base.join(s));
+                        cfg.inputs.insert(k.clone(), normalize(&base.join(s)));
                     }
                 }
                 name => {
@@ -133,6 +137,27 @@ impl RunConfig {
             }
         }
         Ok(cfg)
+    }
+}
+
+/// Remove `.` and `dir/..` lexically so paths in logs and manifests read
+/// as written ("runs/x", not "pipelines/../runs/x"). Leading `..` stay.
+fn normalize(p: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out: Vec<Component> = Vec::new();
+    for c in p.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir if matches!(out.last(), Some(Component::Normal(_))) => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    if out.is_empty() {
+        PathBuf::from(".")
+    } else {
+        out.iter().collect()
     }
 }
 
@@ -227,6 +252,9 @@ pub(crate) mod tests {
             Value::Quantity(0.012, Kind::Pressure)
         );
         assert_eq!(cfg.inputs["a"], Path::new("cfg/x.txt"));
+        assert_eq!(normalize(Path::new("pipelines/../runs/./x")), Path::new("runs/x"));
+        assert_eq!(normalize(Path::new("../a/../../b")), Path::new("../../b"));
+        assert_eq!(normalize(Path::new("/a/../b")), Path::new("/b"));
     }
 
     #[test]

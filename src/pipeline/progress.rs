@@ -32,10 +32,19 @@ pub fn init_logging(mode: LogMode) {
             .with_span_list(false)
             .try_init()
     } else {
+        // People read the message; the structured fields are for --log-json.
+        let message_only = tracing_subscriber::fmt::format::debug_fn(|w, field, value| {
+            if field.name() == "message" {
+                write!(w, "{value:?}")
+            } else {
+                Ok(())
+            }
+        });
         builder
             .without_time()
             .with_ansi(std::io::stderr().is_terminal())
-            .compact()
+            .with_level(false)
+            .fmt_fields(message_only)
             .try_init()
     };
 }
