@@ -130,7 +130,9 @@ pub fn phantom(presets: &[String], repeat: u32, threads: usize) -> Result<String
         ));
     }
     rows.push(format!(
-        "({threads} threads, median of {repeat} run(s), release build recommended)"
+        "({threads} thread{}, median of {repeat} run{}; use a release build)",
+        if threads == 1 { "" } else { "s" },
+        if repeat == 1 { "" } else { "s" }
     ));
     Ok(rows.join("\n"))
 }

@@ -59,6 +59,9 @@ const WALL_START_BELOW_VAJ_MM: f64 = 3.0;
 /// instead of the distance (cheap far-field): it exceeds every layer's
 /// offset + blend width + voxel extent, so no coverage depends on it.
 const FAR_MM: f64 = 25.0;
+/// Bounding boxes reach this far past a shape, beyond the widest partial-volume
+/// ramp (half a voxel diagonal), so culling never clips a boundary voxel.
+const AABB_MARGIN_MM: f64 = 2.0;
 
 /// A voxel centre and a lazily computed aortic-lumen distance, which several
 /// layers and the truth mask share.
@@ -122,6 +125,16 @@ fn constant(v: f64) -> HuFn {
     Box::new(move |_| v)
 }
 
+/// A layer of constant HU filling an elliptic cylinder along z.
+fn cylinder_layer(name: impl Into<String>, c: ZCylinder, hu: f64) -> Layer {
+    Layer {
+        name: name.into(),
+        aabb: c.aabb().grow(AABB_MARGIN_MM),
+        shape: Box::new(move |pr| c.eval(&pr.p)),
+        hu: constant(hu),
+    }
+}
+
 fn offset(s: (f64, Vector3), by: f64) -> (f64, Vector3) {
     (s.0 - by, s.1)
 }
@@ -179,13 +192,7 @@ impl Scene {
                 z_lo: f64::NEG_INFINITY,
                 z_hi: f64::INFINITY,
             };
-            let aabb = c.aabb().grow(2.0);
-            layers.push(Layer {
-                name: name.into(),
-                shape: Box::new(move |pr| c.eval(&pr.p)),
-                hu: constant(hu),
-                aabb,
-            });
+            layers.push(cylinder_layer(name, c, hu));
         }
 
         // --- Lungs, both sides of the mediastinum ---------------------------
@@ -198,7 +205,7 @@ impl Scene {
                 rot: crate::geom::Matrix3::identity(),
                 semi: Vector3::new(LUNG_SEMI[0], LUNG_SEMI[1], LUNG_SEMI[2]),
             };
-            let aabb = e.aabb().grow(2.0);
+            let aabb = e.aabb().grow(AABB_MARGIN_MM);
             layers.push(Layer {
                 name: name.into(),
                 shape: Box::new(move |pr| e.eval(&pr.p)),
@@ -218,13 +225,7 @@ impl Scene {
                 z_lo: f64::NEG_INFINITY,
                 z_hi: f64::INFINITY,
             };
-            let aabb = c.aabb().grow(2.0);
-            layers.push(Layer {
-                name: "paraspinal".into(),
-                shape: Box::new(move |pr| c.eval(&pr.p)),
-                hu: constant(SOFT_TISSUE_HU),
-                aabb,
-            });
+            layers.push(cylinder_layer("paraspinal", c, SOFT_TISSUE_HU));
         }
 
         // --- Mediastinal fat around heart and great vessels -----------------
@@ -397,13 +398,7 @@ impl Scene {
                     z_lo: f64::NEG_INFINITY,
                     z_hi: f64::INFINITY,
                 };
-                let aabb = c.aabb().grow(2.0);
-                layers.push(Layer {
-                    name: name.into(),
-                    shape: Box::new(move |pr| c.eval(&pr.p)),
-                    hu: constant(hu),
-                    aabb,
-                });
+                layers.push(cylinder_layer(name, c, hu));
             }
             let [vx, vy] = an.spine_centre;
             let rv = an.vertebra_radius_mm;
@@ -415,13 +410,7 @@ impl Scene {
                 z_lo: f64::NEG_INFINITY,
                 z_hi: f64::INFINITY,
             };
-            let aabb = column.aabb().grow(2.0);
-            layers.push(Layer {
-                name: "discs".into(),
-                shape: Box::new(move |pr| column.eval(&pr.p)),
-                hu: constant(DISC_HU),
-                aabb,
-            });
+            layers.push(cylinder_layer("discs", column, DISC_HU));
             let period = an.vertebra_period_mm;
             let first = ((z_range.0 - an.vertebra_phase_mm) / period).floor() as i64 - 1;
             let last = ((z_range.1 - an.vertebra_phase_mm) / period).ceil() as i64 + 1;
@@ -440,13 +429,7 @@ impl Scene {
                         z_lo: z0 + shrink,
                         z_hi: z1 - shrink,
                     };
-                    let aabb = c.aabb().grow(2.0);
-                    layers.push(Layer {
-                        name: format!("vertebra_{k}_{part}"),
-                        shape: Box::new(move |pr| c.eval(&pr.p)),
-                        hu: constant(hu),
-                        aabb,
-                    });
+                    layers.push(cylinder_layer(format!("vertebra_{k}_{part}"), c, hu));
                 }
             }
             const CANAL_RADIUS_MM: f64 = 8.0;
@@ -468,13 +451,7 @@ impl Scene {
                     z_lo: f64::NEG_INFINITY,
                     z_hi: f64::INFINITY,
                 };
-                let aabb = c.aabb().grow(2.0);
-                layers.push(Layer {
-                    name: name.into(),
-                    shape: Box::new(move |pr| c.eval(&pr.p)),
-                    hu: constant(hu),
-                    aabb,
-                });
+                layers.push(cylinder_layer(name, c, hu));
             }
         }
 
@@ -482,7 +459,7 @@ impl Scene {
         if contrast.calcium {
             for (i, e) in an.calcium.iter().enumerate() {
                 let e = e.clone();
-                let aabb = e.aabb().grow(2.0);
+                let aabb = e.aabb().grow(AABB_MARGIN_MM);
                 layers.push(Layer {
                     name: format!("calcium_{i}"),
                     shape: Box::new(move |pr| e.eval(&pr.p)),

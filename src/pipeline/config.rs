@@ -62,7 +62,9 @@ impl RunConfig {
                     let t = table(path, key, value)?;
                     for (k, v) in t {
                         match (k.as_str(), v) {
-                            ("dir", toml::Value::String(s)) => cfg.run_dir = Some(normalize(&base.join(s))),
+                            ("dir", toml::Value::String(s)) => {
+                                cfg.run_dir = Some(normalize(&base.join(s)))
+                            }
                             ("dir", _) => {
                                 return Err(Error::config(
                                     path,
@@ -252,7 +254,10 @@ pub(crate) mod tests {
             Value::Quantity(0.012, Kind::Pressure)
         );
         assert_eq!(cfg.inputs["a"], Path::new("cfg/x.txt"));
-        assert_eq!(normalize(Path::new("pipelines/../runs/./x")), Path::new("runs/x"));
+        assert_eq!(
+            normalize(Path::new("pipelines/../runs/./x")),
+            Path::new("runs/x")
+        );
         assert_eq!(normalize(Path::new("../a/../../b")), Path::new("../../b"));
         assert_eq!(normalize(Path::new("/a/../b")), Path::new("/b"));
     }
