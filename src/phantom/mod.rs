@@ -193,7 +193,9 @@ impl PhantomParams {
 
     pub fn validate(&self) -> Result<()> {
         let check = |name: &str, v: f64, lo: f64, hi: f64, unit: &str| {
-            if v.is_finite() && (lo..=hi).contains(&v) {
+            // A hair of slack so 60° survives the degree/radian round trip.
+            let slack = 1e-9 * hi.abs().max(1.0);
+            if v.is_finite() && (lo - slack..=hi + slack).contains(&v) {
                 Ok(())
             } else {
                 Err(Error::value(format!(
@@ -202,14 +204,7 @@ impl PhantomParams {
             }
         };
         check("noise", self.noise_hu, 0.0, 200.0, "HU")?;
-        // A hair of slack so 60° survives the degree/radian round trip.
-        check(
-            "tilt",
-            self.tilt_rad.to_degrees(),
-            -1e-9,
-            60.0 + 1e-9,
-            "deg",
-        )?;
+        check("tilt", self.tilt_rad.to_degrees(), 0.0, 60.0, "deg")?;
         check("blood", self.blood_hu, 100.0, 800.0, "HU")?;
         if let Some(s) = self.spacing_mm {
             for v in s {

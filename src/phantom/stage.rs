@@ -109,6 +109,7 @@ pub static SPEC: StageSpec = StageSpec {
             help: "add annular calcium near the nadirs",
         },
     ],
+    check: |p| params_from(p).map(|_| ()),
     run,
 };
 

@@ -196,6 +196,7 @@ pub(crate) mod tests {
         }],
         out_dir: Some("out"),
         params: &[],
+        check: |_| Ok(()),
         run: noop,
     };
 
@@ -225,6 +226,7 @@ pub(crate) mod tests {
             default: Some("80 mmHg"),
             help: "",
         }],
+        check: |_| Ok(()),
         run: noop,
     };
 

@@ -198,6 +198,16 @@ pub fn run(
         }
     }
 
+    // Every stage's parameters, judged before anything runs.
+    let mut resolved = Vec::with_capacity(chain.len());
+    for spec in &chain[first..=last] {
+        let given = cfg.sections.get(spec.name).cloned().unwrap_or_default();
+        let params = Params::resolve(spec, given)
+            .and_then(|p| (spec.check)(&p).map(|_| p))
+            .map_err(|e| Error::config(&cfg.path, spec.name, e.to_string()))?;
+        resolved.push(params);
+    }
+
     std::fs::create_dir_all(&run_dir).map_err(|e| Error::write(&run_dir, e))?;
     let mut manifest = Manifest::load(&run_dir)?;
     manifest.config = Some(FileRecord::of(&opts.config, &run_dir)?);
@@ -207,7 +217,7 @@ pub fn run(
         stages: Vec::new(),
     };
 
-    for spec in &chain[first..=last] {
+    for (spec, params) in chain[first..=last].iter().zip(resolved) {
         let io = StageIo {
             inputs: spec
                 .inputs
@@ -220,9 +230,6 @@ pub fn run(
                 .map(|p| (p.name, run_dir.join(p.file)))
                 .collect(),
         };
-        let given = cfg.sections.get(spec.name).cloned().unwrap_or_default();
-        let params = Params::resolve(spec, given)
-            .map_err(|e| Error::config(&cfg.path, spec.name, e.to_string()))?;
         let inputs = execute::hash_inputs(&io, &run_dir)?;
         let previous = manifest.stage(spec.name).cloned();
         let reason = if opts.force {
@@ -266,6 +273,7 @@ pub fn run_single(
     out_dir: Option<&Path>,
     inv: &Invocation,
 ) -> Result<()> {
+    (spec.check)(params)?;
     for (name, path) in &io.inputs {
         if let Some(port) = spec.input(name) {
             validate::input(port.kind, path)?;

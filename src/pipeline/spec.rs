@@ -98,6 +98,9 @@ pub struct StageSpec {
     /// its run-directory file name there (with a manifest). `None`: one flag per output.
     pub out_dir: Option<&'static str>,
     pub params: &'static [Param],
+    /// Judge the resolved parameters together (ranges, combinations) before
+    /// any stage of a run starts, so a bad value fails fast.
+    pub check: fn(&Params) -> Result<()>,
     /// Carry the stage out; returns a summary recorded in the manifest.
     /// Must write its outputs atomically (all or nothing).
     pub run: fn(&StageIo, &Params, &Progress) -> Result<Json>,

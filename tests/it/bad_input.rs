@@ -197,3 +197,20 @@ fn missing_file_and_unknown_format() {
     let o = coapt(&["info", q.to_str().unwrap()]);
     assert_bad_input(&o, &q, &["format"]);
 }
+
+#[test]
+fn out_of_range_parameters_fail_before_any_work() {
+    let d = tmpdir("range");
+    let cfg = d.join("run.toml");
+    std::fs::write(&cfg, "[phantom]\ntilt = \"70 deg\"\n").unwrap();
+    let out = d.join("run");
+    let o = coapt(&["run", cfg.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_bad_input(&o, &cfg, &["phantom", "tilt", "70 deg", "[0, 60] deg"]);
+    assert!(!out.exists());
+
+    let o = coapt(&["phantom", "--out", out.to_str().unwrap(), "--spacing", "0.1, 0.1, 0.1 mm"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(err.contains("spacing") && !err.contains("running"), "{err}");
+    assert!(!out.exists());
+}
