@@ -338,7 +338,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                     .map(|s| s.trim().to_string())
                     .collect();
                 let repeat = *b.get_one::<u32>("repeat").expect("has default");
-                let table = bench::phantom(&presets, repeat, threads)?;
+                let table = bench::phantom::run(&presets, repeat, threads)?;
                 println!("{table}");
                 Ok(())
             }

@@ -208,7 +208,13 @@ fn out_of_range_parameters_fail_before_any_work() {
     assert_bad_input(&o, &cfg, &["phantom", "tilt", "70 deg", "[0, 60] deg"]);
     assert!(!out.exists());
 
-    let o = coapt(&["phantom", "--out", out.to_str().unwrap(), "--spacing", "0.1, 0.1, 0.1 mm"]);
+    let o = coapt(&[
+        "phantom",
+        "--out",
+        out.to_str().unwrap(),
+        "--spacing",
+        "0.1, 0.1, 0.1 mm",
+    ]);
     assert_eq!(o.status.code(), Some(2));
     let err = stderr(&o);
     assert!(err.contains("spacing") && !err.contains("running"), "{err}");
