@@ -60,6 +60,11 @@ pub fn plan(cfg: &RunConfig, registry: &[&'static StageSpec]) -> Result<Vec<&'st
             }
             continue;
         }
+        // A stage the config does not name is left out when the config
+        // already gives what it would make (e.g. a mask segmented elsewhere).
+        if !configured && spec.outputs.iter().any(|o| cfg.inputs.contains_key(o.name)) {
+            continue;
+        }
         for out in spec.outputs {
             if cfg.inputs.contains_key(out.name) {
                 return Err(Error::config(
@@ -332,7 +337,10 @@ mod tests {
         // Configured but starved: an error naming what is missing.
         let e = plan(&cfg("[close]\n"), &r).unwrap_err().to_string();
         assert!(e.contains("needs a"), "{e}");
-        // Made by a stage and given as input: ambiguous.
+        // Not named, and its output is given: the stage is left out.
+        let chain = plan(&cfg("[inputs]\na = \"a.txt\"\nb = \"b.txt\"\n"), &r).unwrap();
+        assert!(chain.is_empty());
+        // Named, and its output is given as well: ambiguous.
         let e = plan(&cfg("[make]\n[inputs]\na = \"a.txt\"\n"), &r)
             .unwrap_err()
             .to_string();
