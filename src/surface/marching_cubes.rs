@@ -23,17 +23,25 @@ use crate::geom::{Matrix4, Point3, Volume};
 
 /// Sample types the extractor reads.
 pub trait Sample: Copy + Send + Sync {
+    /// What the inside test compares against (an integer for integer samples,
+    /// so that the classification loops vectorise).
+    type Threshold: Copy + Send + Sync;
+    fn threshold(iso: f64) -> Self::Threshold;
+    /// value > iso
+    fn above(self, t: Self::Threshold) -> bool;
     fn value(self) -> f64;
 }
 
 impl Sample for u8 {
-    #[inline]
-    fn value(self) -> f64 {
-        self as f64
+    type Threshold = i16;
+    fn threshold(iso: f64) -> i16 {
+        // v > iso ⇔ v > ⌊iso⌋ for integers.
+        iso.floor().clamp(-1.0, 255.0) as i16
     }
-}
-
-impl Sample for f32 {
+    #[inline]
+    fn above(self, t: i16) -> bool {
+        self as i16 > t
+    }
     #[inline]
     fn value(self) -> f64 {
         self as f64
@@ -41,6 +49,29 @@ impl Sample for f32 {
 }
 
 impl Sample for i16 {
+    type Threshold = i32;
+    fn threshold(iso: f64) -> i32 {
+        iso.floor().clamp(-32769.0, 32767.0) as i32
+    }
+    #[inline]
+    fn above(self, t: i32) -> bool {
+        self as i32 > t
+    }
+    #[inline]
+    fn value(self) -> f64 {
+        self as f64
+    }
+}
+
+impl Sample for f32 {
+    type Threshold = f64;
+    fn threshold(iso: f64) -> f64 {
+        iso
+    }
+    #[inline]
+    fn above(self, t: f64) -> bool {
+        self as f64 > t
+    }
     #[inline]
     fn value(self) -> f64 {
         self as f64
@@ -56,192 +87,164 @@ pub struct Isosurface {
     pub on_border: Vec<bool>,
 }
 
-/// Node box [lo, hi] (inclusive, volume index, may reach −1 and dims) of the
-/// padded bounding box of samples above `iso`; `None` when there are none.
-fn padded_box<T: Sample>(vol: &Volume<T>, iso: f64) -> Option<([i64; 3], [i64; 3])> {
-    let [nx, ny, _] = vol.dims();
-    let slice = vol.as_slice();
-    if slice.is_empty() {
-        return None;
-    }
-    let per_slice: Vec<Option<([usize; 3], [usize; 3])>> = slice
-        .par_chunks(nx * ny)
-        .enumerate()
-        .map(|(k, s)| {
-            let mut b: Option<([usize; 3], [usize; 3])> = None;
-            for (j, row) in s.chunks_exact(nx).enumerate() {
-                let first = row.iter().position(|v| v.value() > iso);
-                if let Some(f) = first {
-                    let l = nx - 1 - row.iter().rev().position(|v| v.value() > iso).unwrap();
-                    let bb = b.get_or_insert(([f, j, k], [l, j, k]));
-                    bb.0[0] = bb.0[0].min(f);
-                    bb.1[0] = bb.1[0].max(l);
-                    bb.1[1] = j;
-                }
-            }
-            b
-        })
-        .collect();
-    let mut out: Option<([usize; 3], [usize; 3])> = None;
-    for (lo, hi) in per_slice.into_iter().flatten() {
-        let b = out.get_or_insert((lo, hi));
-        for a in 0..3 {
-            b.0[a] = b.0[a].min(lo[a]);
-            b.1[a] = b.1[a].max(hi[a]);
-        }
-    }
-    out.map(|(lo, hi)| {
-        (
-            lo.map(|v| v as i64 - 1),
-            [hi[0] as i64 + 1, hi[1] as i64 + 1, hi[2] as i64 + 1],
-        )
-    })
+/// [first, last + 1) of the samples above the threshold in one row; (0, 0)
+/// when none. Blocks are tested without early exit so the test vectorises.
+#[inline]
+fn row_extent<T: Sample>(row: &[T], t: T::Threshold) -> (u32, u32) {
+    const B: usize = 64;
+    let any = |c: &[T]| c.iter().fold(false, |acc, &v| acc | v.above(t));
+    let Some(bf) = row.chunks(B).position(any) else {
+        return (0, 0);
+    };
+    let first = bf * B + row[bf * B..].iter().position(|v| v.above(t)).unwrap();
+    let nb = row.len().div_ceil(B);
+    let bl = (0..nb)
+        .rev()
+        .find(|&b| any(&row[b * B..((b + 1) * B).min(row.len())]))
+        .unwrap();
+    let end = ((bl + 1) * B).min(row.len());
+    let last = bl * B + row[bl * B..end].iter().rposition(|v| v.above(t)).unwrap();
+    (first as u32, last as u32 + 1)
 }
 
 /// Extract the `iso` surface of `vol` (inside: value > iso) in world
 /// coordinates, closed at the grid border, outward-facing.
 pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
-    let Some((lo, hi)) = padded_box(vol, iso) else {
-        return Isosurface::default();
-    };
+    let thr = T::threshold(iso);
     let dims = vol.dims();
+    let data = vol.as_slice();
+    if data.is_empty() {
+        return Isosurface::default();
+    }
+    let (dx, dy) = (dims[0], dims[1]);
+
+    // Pass 1: the one full read. Extent of the inside samples of every row.
+    let extent: Vec<(u32, u32)> = data
+        .par_chunks(dx)
+        .with_min_len(64)
+        .map(|row| row_extent(row, thr))
+        .collect();
+    let mut lo = [i64::MAX; 3];
+    let mut hi = [i64::MIN; 3];
+    for (r, &(f, l)) in extent.iter().enumerate() {
+        if l > f {
+            let (j, k) = ((r % dy) as i64, (r / dy) as i64);
+            lo = [lo[0].min(f as i64), lo[1].min(j), lo[2].min(k)];
+            hi = [hi[0].max(l as i64 - 1), hi[1].max(j), hi[2].max(k)];
+        }
+    }
+    if lo[0] == i64::MAX {
+        return Isosurface::default();
+    }
+    // Node box: the inside box plus one node of outside on every side.
+    let lo = lo.map(|v| v - 1);
+    let hi = hi.map(|v| v + 1);
     let n = [0, 1, 2].map(|a| (hi[a] - lo[a] + 1) as usize);
     let rows = n[1] * n[2];
-    let data = vol.as_slice();
-    let at = |i: i64, j: i64, k: i64| -> Option<T> {
-        if i < 0
-            || j < 0
-            || k < 0
-            || i >= dims[0] as i64
-            || j >= dims[1] as i64
-            || k >= dims[2] as i64
-        {
-            None
-        } else {
-            Some(data[i as usize + dims[0] * (j as usize + dims[1] * k as usize)])
-        }
+    // Volume row of node row r, when it lies inside the volume.
+    let vrow = |r: usize| -> Option<usize> {
+        let (j, k) = (lo[1] + (r % n[1]) as i64, lo[2] + (r / n[1]) as i64);
+        (j >= 0 && k >= 0 && j < dy as i64 && k < dims[2] as i64)
+            .then(|| j as usize + dy * k as usize)
     };
 
-    // Pass 2: inside bits per node and the trimmed extent [first, last+1) of each row.
+    // Pass 2: inside bits of the nodes, within each row's extent.
     let mut ins = vec![0u8; n[0] * rows];
     let trim: Vec<(usize, usize)> = ins
         .par_chunks_mut(n[0])
+        .with_min_len(16)
         .enumerate()
         .map(|(r, row)| {
-            let (j, k) = (lo[1] + (r % n[1]) as i64, lo[2] + (r / n[1]) as i64);
-            let (mut first, mut last) = (usize::MAX, 0);
-            if j >= 0 && k >= 0 && j < dims[1] as i64 && k < dims[2] as i64 {
-                let base = dims[0] * (j as usize + dims[1] * k as usize);
-                // Nodes 1..n-1 map to volume i = lo+1 .. hi-1, always in range.
-                let src = &data[base + (lo[0] + 1) as usize..base + hi[0] as usize];
-                for (a, v) in src.iter().enumerate() {
-                    if v.value() > iso {
-                        row[a + 1] = 1;
-                        first = first.min(a + 1);
-                        last = a + 1;
-                    }
-                }
+            let Some(vr) = vrow(r) else { return (0, 0) };
+            let (f, l) = extent[vr];
+            if l <= f {
+                return (0, 0);
             }
-            if first == usize::MAX {
-                (0, 0)
-            } else {
-                (first, last + 1)
+            let src = &data[vr * dx + f as usize..vr * dx + l as usize];
+            let a0 = (f as i64 - lo[0]) as usize;
+            for (o, v) in row[a0..a0 + src.len()].iter_mut().zip(src) {
+                *o = v.above(thr) as u8;
             }
+            (a0, a0 + src.len())
         })
         .collect();
 
-    // Pass 3: edge bits per node (bit 0 x, 1 y, 2 z), vertex and triangle counts per row.
+    // Pass 3: cut-edge bits of each node (bit 0 x, 1 y, 2 z) and vertex count
+    // per node row; cases and triangle count per cell row.
     let tab = table();
+    let zeros = vec![0u8; n[0]];
+    let ins_row = |r: usize| &ins[r * n[0]..(r + 1) * n[0]];
+    let neighbour = |r: usize, dj: usize, dk: usize| -> Option<usize> {
+        let (j, k) = (r % n[1] + dj, r / n[1] + dk);
+        (j < n[1] && k < n[2]).then_some(j + n[1] * k)
+    };
+    // Nodes (or cells) of a set of rows that can touch an inside node: from
+    // one before the first inside node to the last one, below `len`.
+    let span = |rs: &[Option<usize>], len: usize| -> (usize, usize) {
+        let (mut a, mut b) = (usize::MAX, 0);
+        for &r in rs.iter().flatten() {
+            if trim[r].1 > trim[r].0 {
+                a = a.min(trim[r].0);
+                b = b.max(trim[r].1);
+            }
+        }
+        if a >= b { (0, 0) } else { (a - 1, b.min(len)) }
+    };
     let mut ebits = vec![0u8; n[0] * rows];
-    let counts: Vec<(u32, u32, usize)> = ebits
+    // (vertices, triangles, first and end node with cut edges)
+    let counts: Vec<(u32, u32, usize, usize)> = ebits
         .par_chunks_mut(n[0])
+        .with_min_len(16)
         .enumerate()
         .map(|(r, eb)| {
-            let (j, k) = (r % n[1], r / n[1]);
-            let row = |dj: usize, dk: usize| -> Option<(&[u8], (usize, usize))> {
-                (j + dj < n[1] && k + dk < n[2]).then(|| {
-                    let rr = (j + dj) + n[1] * (k + dk);
-                    (&ins[rr * n[0]..(rr + 1) * n[0]], trim[rr])
-                })
-            };
-            let r00 = row(0, 0).unwrap();
-            let (r10, r01, r11) = (row(1, 0), row(0, 1), row(1, 1));
-            let span = |rs: &[Option<(&[u8], (usize, usize))>]| {
-                let mut s = (usize::MAX, 0);
-                for (_, t) in rs.iter().flatten() {
-                    if t.1 > t.0 {
-                        s = (s.0.min(t.0), s.1.max(t.1));
-                    }
-                }
-                s
-            };
+            let (r10, r01, r11) = (neighbour(r, 1, 0), neighbour(r, 0, 1), neighbour(r, 1, 1));
+            let (e0, e1) = span(&[Some(r), r10, r01], n[0] - 1);
+            let i00 = ins_row(r);
+            let i10 = r10.map_or(&zeros[..], ins_row);
+            let i01 = r01.map_or(&zeros[..], ins_row);
             let mut nv = 0u32;
-            let (e0, e1) = span(&[Some(r00), r10, r01]);
-            let estart = e0.saturating_sub(1);
-            if e0 < e1 {
-                // A node's edges can be cut from one node before the first inside one.
-                for a in e0.saturating_sub(1)..e1.min(n[0]) {
-                    let v = r00.0[a];
-                    let mut b = 0u8;
-                    if a + 1 < n[0] && r00.0[a + 1] != v {
-                        b |= 1;
-                    }
-                    if r10.is_some_and(|r| r.0[a] != v) {
-                        b |= 2;
-                    }
-                    if r01.is_some_and(|r| r.0[a] != v) {
-                        b |= 4;
-                    }
-                    eb[a] = b;
-                    nv += b.count_ones();
-                }
+            for a in e0..e1 {
+                let v = i00[a];
+                let (x, y, z) = (v ^ i00[a + 1], v ^ i10[a], v ^ i01[a]);
+                eb[a] = x | y << 1 | z << 2;
+                nv += (x + y + z) as u32;
             }
             let mut nt = 0u32;
             if let (Some(r10), Some(r01), Some(r11)) = (r10, r01, r11) {
-                let (c0, c1) = span(&[Some(r00), Some(r10), Some(r01), Some(r11)]);
-                if c0 < c1 {
-                    for a in c0.saturating_sub(1)..c1.min(n[0] - 1) {
-                        nt += tab.count(case_at(a, r00.0, r10.0, r01.0, r11.0));
-                    }
+                let (c0, c1) = span(&[Some(r), Some(r10), Some(r01), Some(r11)], n[0] - 1);
+                let (i10, i01, i11) = (ins_row(r10), ins_row(r01), ins_row(r11));
+                for a in c0..c1 {
+                    nt += tab.count(case_at(a, i00, i10, i01, i11));
                 }
             }
-            (nv, nt, estart)
+            (nv, nt, e0, e1)
         })
         .collect();
 
     // Pass 4: prefix sums → exact output sizes and each row's offsets.
     let mut voff = Vec::with_capacity(rows + 1);
-    let mut toff = Vec::with_capacity(rows + 1);
     let (mut sv, mut st) = (0usize, 0usize);
-    for &(v, t, _) in &counts {
+    for &(v, t, _, _) in &counts {
         voff.push(sv);
-        toff.push(st);
         sv += v as usize;
         st += t as usize;
     }
     voff.push(sv);
-    toff.push(st);
     assert!(sv <= u32::MAX as usize, "more than 2³² vertices");
 
     let mut vertices = vec![Point3::origin(); sv];
     let mut on_border = vec![false; sv];
     let mut triangles = vec![[0u32; 3]; st];
-    let mut vslices = Vec::with_capacity(rows);
-    let mut bslices = Vec::with_capacity(rows);
-    let mut tslices = Vec::with_capacity(rows);
+    let mut slices = Vec::with_capacity(rows);
     {
         let (mut vrest, mut brest, mut trest) =
             (&mut vertices[..], &mut on_border[..], &mut triangles[..]);
-        for &(v, t, _) in &counts {
-            let (a, b) = vrest.split_at_mut(v as usize);
-            vslices.push(a);
-            vrest = b;
-            let (a, b) = brest.split_at_mut(v as usize);
-            bslices.push(a);
-            brest = b;
-            let (a, b) = trest.split_at_mut(t as usize);
-            tslices.push(a);
-            trest = b;
+        for &(v, t, _, _) in &counts {
+            let (va, vb) = vrest.split_at_mut(v as usize);
+            let (ba, bb) = brest.split_at_mut(v as usize);
+            let (ta, tb) = trest.split_at_mut(t as usize);
+            slices.push((va, ba, ta));
+            (vrest, brest, trest) = (vb, bb, tb);
         }
     }
 
@@ -255,37 +258,48 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
             m[(2, 0)] * p[0] + m[(2, 1)] * p[1] + m[(2, 2)] * p[2] + m[(2, 3)],
         )
     };
+    let data_row = |r: Option<usize>| -> Option<&[T]> {
+        let vr = vrow(r?)?;
+        Some(&data[vr * dx..(vr + 1) * dx])
+    };
 
-    // Pass 5: emit.
-    vslices
+    // Pass 5: emit vertices (node row) and triangles (cell row).
+    slices
         .into_par_iter()
-        .zip(bslices)
-        .zip(tslices)
+        .with_min_len(16)
         .enumerate()
-        .for_each(|(r, ((vs, bs), ts))| {
-            let (j, k) = (r % n[1], r / n[1]);
+        .for_each(|(r, (vs, bs, ts))| {
             let eb = &ebits[r * n[0]..(r + 1) * n[0]];
+            let (_, _, e0, e1) = counts[r];
             if !vs.is_empty() {
-                let (vj, vk) = (lo[1] + j as i64, lo[2] + k as i64);
+                let (r10, r01) = (neighbour(r, 1, 0), neighbour(r, 0, 1));
+                let rows3 = [data_row(Some(r)), data_row(r10), data_row(r01)];
+                let (vj, vk) = (lo[1] + (r % n[1]) as i64, lo[2] + (r / n[1]) as i64);
+                let sample = |q: usize, i: i64| -> Option<f64> {
+                    let row = rows3[q]?;
+                    (i >= 0 && (i as usize) < dx).then(|| row[i as usize].value())
+                };
                 let mut w = 0;
-                for (a, &b) in eb.iter().enumerate() {
+                for a in e0..e1 {
+                    let b = eb[a];
                     if b == 0 {
                         continue;
                     }
                     let vi = lo[0] + a as i64;
-                    let f0 = at(vi, vj, vk);
-                    for (axis, d) in [(0usize, [1i64, 0, 0]), (1, [0, 1, 0]), (2, [0, 0, 1])] {
+                    let f0 = sample(0, vi);
+                    for axis in 0..3 {
                         if b >> axis & 1 == 0 {
                             continue;
                         }
-                        let f1 = at(vi + d[0], vj + d[1], vk + d[2]);
+                        let f1 = match axis {
+                            0 => sample(0, vi + 1),
+                            1 => sample(1, vi),
+                            _ => sample(2, vi),
+                        };
                         // A padding node sits just outside: the vertex goes
                         // half-way, as if the mask continued to the border.
                         let t = match (f0, f1) {
-                            (Some(x), Some(y)) => {
-                                let (x, y) = (x.value(), y.value());
-                                (iso - x) / (y - x)
-                            }
+                            (Some(x), Some(y)) => (iso - x) / (y - x),
                             _ => 0.5,
                         };
                         let mut p = [vi as f64, vj as f64, vk as f64];
@@ -298,57 +312,51 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
                 debug_assert_eq!(w, vs.len());
             }
             if !ts.is_empty() {
-                let rr = |dj: usize, dk: usize| (j + dj) + n[1] * (k + dk);
-                let ids = [rr(0, 0), rr(1, 0), rr(0, 1), rr(1, 1)];
-                let ins_row = |q: usize| &ins[ids[q] * n[0]..(ids[q] + 1) * n[0]];
-                let eb_row = |q: usize| &ebits[ids[q] * n[0]..(ids[q] + 1) * n[0]];
-                let (i00, i10, i01, i11) = (ins_row(0), ins_row(1), ins_row(2), ins_row(3));
-                let ebs = [eb_row(0), eb_row(1), eb_row(2), eb_row(3)];
-                // Trim to the cells that can have a corner inside.
-                let (mut c0, mut c1) = (usize::MAX, 0);
-                for &id in &ids {
-                    if trim[id].1 > trim[id].0 {
-                        c0 = c0.min(trim[id].0);
-                        c1 = c1.max(trim[id].1);
-                    }
-                }
-                let start = c0.saturating_sub(1);
+                let ids = [
+                    r,
+                    neighbour(r, 1, 0).unwrap(),
+                    neighbour(r, 0, 1).unwrap(),
+                    neighbour(r, 1, 1).unwrap(),
+                ];
+                let (i00, i10, i01, i11) = (
+                    ins_row(ids[0]),
+                    ins_row(ids[1]),
+                    ins_row(ids[2]),
+                    ins_row(ids[3]),
+                );
+                let ebs = ids.map(|q| &ebits[q * n[0]..(q + 1) * n[0]]);
+                let (c0, c1) = span(&ids.map(Some), n[0] - 1);
                 // Running vertex id of node a in each of the four node rows:
                 // the row's first id plus the cut edges before node a.
                 let mut base = [0usize; 4];
                 for q in 0..4 {
-                    let from = counts[ids[q]].2.min(start);
+                    let from = counts[ids[q]].2.min(c0);
                     base[q] = voff[ids[q]]
-                        + ebs[q][from..start]
+                        + ebs[q][from..c0]
                             .iter()
                             .map(|b| b.count_ones() as usize)
                             .sum::<usize>();
                 }
                 let mut w = 0;
-                for a in start..c1.min(n[0] - 1) {
+                for a in c0..c1 {
                     let case = case_at(a, i00, i10, i01, i11);
                     let tris = tab.triangles(case);
                     if !tris.is_empty() {
-                        let id = |q: usize, node: usize, axis: u32| -> u32 {
+                        // Vertex id of each of the 12 cell edges.
+                        let mut id = [0u32; 12];
+                        for (e, slot) in id.iter_mut().enumerate() {
+                            let [c, _] = EDGE_CORNERS[e];
+                            let q = (c >> 1 & 1) as usize + 2 * (c >> 2) as usize;
+                            let (node, axis) = ((c & 1) as usize, e / 4);
                             let mut v = base[q];
-                            let b = ebs[q][a];
                             if node == 1 {
-                                v += b.count_ones() as usize;
+                                v += ebs[q][a].count_ones() as usize;
                             }
-                            let bb = ebs[q][a + node];
-                            (v + (bb & ((1u8 << axis) - 1)).count_ones() as usize) as u32
-                        };
-                        let edge_id = |e: u8| -> u32 {
-                            let [c0, _] = EDGE_CORNERS[e as usize];
-                            let (dx, dy, dz) = (
-                                (c0 & 1) as usize,
-                                (c0 >> 1 & 1) as usize,
-                                (c0 >> 2) as usize,
-                            );
-                            id(dy + 2 * dz, dx, e as u32 / 4)
-                        };
+                            let bits = ebs[q][a + node] & ((1u8 << axis) - 1);
+                            *slot = (v + bits.count_ones() as usize) as u32;
+                        }
                         for t in tris {
-                            let v = [edge_id(t[0]), edge_id(t[1]), edge_id(t[2])];
+                            let v = t.map(|e| id[e as usize]);
                             ts[w] = if flip { [v[0], v[2], v[1]] } else { v };
                             w += 1;
                         }
