@@ -20,10 +20,12 @@ const MAX_CAP_CURVATURE: f64 = 0.02;
 ///
 /// Border caps are exact: every triangle whose corners all came from the
 /// padding. A cut cap is found as a flat, round patch: regions grown from the
-/// flattest triangles while normals stay within 12° of the seed's, kept when
-/// their plane fit is tight (rms < 0.15 h), they are flat (fitted curvature
-/// below [`MAX_CAP_CURVATURE`]) and disc-like (area over 2π·mean r² above
-/// 0.5; a strip of tube wall is long and thin), then
+/// flattest triangles while normals stay within 20° of the seed's (the
+/// smoothed staircase of an oblique cut keeps ~±10° of normal noise), kept
+/// when their plane fit is tight (rms < 0.15 h), they are flat in every
+/// direction (both principal curvatures of a fitted quadric below
+/// [`MAX_CAP_CURVATURE`]: a strip of tube wall is flat along the tube only)
+/// and disc-like (area over 2π·mean r² above 0.5), then
 /// regrown against the fitted plane (normal within 25°, within one voxel).
 pub fn label(mesh: &TriMesh, on_border: &[bool], h: f64) -> Vec<u8> {
     let nt = mesh.triangles.len();
@@ -82,7 +84,7 @@ pub fn label(mesh: &TriMesh, on_border: &[bool], h: f64) -> Vec<u8> {
         .collect();
     order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
 
-    let cos12 = 12f64.to_radians().cos();
+    let cos_seed = 20f64.to_radians().cos();
     let cos25 = 25f64.to_radians().cos();
     let mut seen: Vec<bool> = region.iter().map(|&r| r != WALL).collect();
     let mut stack = Vec::new();
@@ -97,7 +99,7 @@ pub fn label(mesh: &TriMesh, on_border: &[bool], h: f64) -> Vec<u8> {
         while let Some(t) = stack.pop() {
             members.push(t);
             for u in neighbours(t) {
-                if !seen[u] && normals[u].dot(&normals[seed]) > cos12 {
+                if !seen[u] && normals[u].dot(&normals[seed]) > cos_seed {
                     seen[u] = true;
                     stack.push(u);
                 }
@@ -110,31 +112,11 @@ pub fn label(mesh: &TriMesh, on_border: &[bool], h: f64) -> Vec<u8> {
         let Some((c, n)) = plane_fit(&members, &areas, &centroid, &normals) else {
             continue;
         };
-        // Height z over the plane against squared radius ρ²: the slope of
-        // the weighted least-squares line z = α ρ² + β is half the curvature.
-        let (mut sw, mut sz, mut sr, mut szr, mut srr, mut szz) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        for &t in &members {
-            let v = centroid[t] - c;
-            let z = v.dot(&n);
-            let r2 = v.norm_squared() - z * z;
-            let w = areas[t];
-            sw += w;
-            sz += w * z;
-            sr += w * r2;
-            szr += w * z * r2;
-            srr += w * r2 * r2;
-            szz += w * z * z;
-        }
-        let mean_r2 = sr / sw;
-        let var_r2 = srr / sw - mean_r2 * mean_r2;
-        let alpha = if var_r2 > 0.0 {
-            (szr / sw - sz / sw * mean_r2) / var_r2
-        } else {
-            0.0
+        let Some(shape) = patch_shape(&members, &areas, &centroid, c, n) else {
+            continue;
         };
-        let rms = (szz / sw - (sz / sw).powi(2)).max(0.0).sqrt();
-        let roundness = area / (2.0 * std::f64::consts::PI * mean_r2);
-        if rms > 0.15 * h || roundness < 0.5 || 2.0 * alpha.abs() > MAX_CAP_CURVATURE {
+        if shape.rms > 0.15 * h || shape.roundness < 0.5 || shape.max_curvature > MAX_CAP_CURVATURE
+        {
             continue;
         }
         // Regrow against the plane, across the seeds' 12° limit, so the
@@ -176,4 +158,57 @@ fn plane_fit(
     }
     (a > 0.0).then_some(())?;
     Some((Point3::from(c / a), n.try_normalize(1e-12)?))
+}
+
+struct PatchShape {
+    /// Weighted rms height over the fitted plane, mm.
+    rms: f64,
+    /// Area over 2π·(mean squared in-plane radius): 1 for a disc.
+    roundness: f64,
+    /// Largest |principal curvature| of z = a u² + b uv + c v² + d u + e v + f, 1/mm.
+    max_curvature: f64,
+}
+
+/// Shape of a patch in the frame of its plane (centre `c`, normal `n`),
+/// from the triangle centroids weighted by area.
+fn patch_shape(
+    members: &[usize],
+    areas: &[f64],
+    centroid: &[Point3],
+    c: Point3,
+    n: Vector3,
+) -> Option<PatchShape> {
+    let helper = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let e1 = n.cross(&helper).normalize();
+    let e2 = n.cross(&e1);
+    let mut ata = nalgebra::SMatrix::<f64, 6, 6>::zeros();
+    let mut atz = nalgebra::SVector::<f64, 6>::zeros();
+    let (mut sw, mut sz, mut szz, mut sr2) = (0.0, 0.0, 0.0, 0.0);
+    for &t in members {
+        let v = centroid[t] - c;
+        let (u, w, z) = (v.dot(&e1), v.dot(&e2), v.dot(&n));
+        let row = nalgebra::SVector::<f64, 6>::from([u * u, u * w, w * w, u, w, 1.0]);
+        let a = areas[t];
+        ata += a * row * row.transpose();
+        atz += a * z * row;
+        sw += a;
+        sz += a * z;
+        szz += a * z * z;
+        sr2 += a * (u * u + w * w);
+    }
+    let coef = ata.cholesky()?.solve(&atz);
+    // Hessian [[2a, b], [b, 2c]]: eigenvalues are the principal curvatures
+    // at the centre (the slope there is small on a fitted plane).
+    let (p, q, r) = (2.0 * coef[0], coef[1], 2.0 * coef[2]);
+    let mean = 0.5 * (p + r);
+    let rad = (0.25 * (p - r) * (p - r) + q * q).sqrt();
+    Some(PatchShape {
+        rms: (szz / sw - (sz / sw).powi(2)).max(0.0).sqrt(),
+        roundness: sw / (2.0 * std::f64::consts::PI * sr2 / sw),
+        max_curvature: (mean.abs() + rad),
+    })
 }
