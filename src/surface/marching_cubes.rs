@@ -196,25 +196,33 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
         .par_chunks_mut(n[0])
         .with_min_len(16)
         .enumerate()
-        .map(|(r, eb)| {
+        .map_init(Vec::new, |cases, (r, eb)| {
             let (r10, r01, r11) = (neighbour(r, 1, 0), neighbour(r, 0, 1), neighbour(r, 1, 1));
             let (e0, e1) = span(&[Some(r), r10, r01], n[0] - 1);
             let i00 = ins_row(r);
             let i10 = r10.map_or(&zeros[..], ins_row);
             let i01 = r01.map_or(&zeros[..], ins_row);
+            // Equal-length slices: no bounds checks, the loop vectorises.
+            let l = e1 - e0;
+            let (v0, vx) = (&i00[e0..e0 + l], &i00[e0 + 1..e0 + 1 + l]);
+            let (vy, vz) = (&i10[e0..e0 + l], &i01[e0..e0 + l]);
+            let out = &mut eb[e0..e0 + l];
             let mut nv = 0u32;
-            for a in e0..e1 {
-                let v = i00[a];
-                let (x, y, z) = (v ^ i00[a + 1], v ^ i10[a], v ^ i01[a]);
-                eb[a] = x | y << 1 | z << 2;
+            for k in 0..l {
+                let (x, y, z) = (v0[k] ^ vx[k], v0[k] ^ vy[k], v0[k] ^ vz[k]);
+                out[k] = x | y << 1 | z << 2;
                 nv += (x + y + z) as u32;
             }
             let mut nt = 0u32;
             if let (Some(r10), Some(r01), Some(r11)) = (r10, r01, r11) {
                 let (c0, c1) = span(&[Some(r), Some(r10), Some(r01), Some(r11)], n[0] - 1);
-                let (i10, i01, i11) = (ins_row(r10), ins_row(r01), ins_row(r11));
-                for a in c0..c1 {
-                    nt += tab.count(case_at(a, i00, i10, i01, i11));
+                let rows4 = [i00, ins_row(r10), ins_row(r01), ins_row(r11)];
+                cases_into(cases, rows4, c0, c1);
+                for chunk in cases.chunks(8) {
+                    if uniform(chunk) {
+                        continue;
+                    }
+                    nt += chunk.iter().map(|&c| tab.count(c)).sum::<u32>();
                 }
             }
             (nv, nt, e0, e1)
@@ -251,12 +259,10 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
     let m: &Matrix4 = vol.affine();
     // A mirroring affine turns outward index-space triangles inward.
     let flip = m.fixed_view::<3, 3>(0, 0).determinant() < 0.0;
+    let mm: [[f64; 4]; 3] = [0, 1, 2].map(|r| [0, 1, 2, 3].map(|c| m[(r, c)]));
     let world = |p: [f64; 3]| {
-        Point3::new(
-            m[(0, 0)] * p[0] + m[(0, 1)] * p[1] + m[(0, 2)] * p[2] + m[(0, 3)],
-            m[(1, 0)] * p[0] + m[(1, 1)] * p[1] + m[(1, 2)] * p[2] + m[(1, 3)],
-            m[(2, 0)] * p[0] + m[(2, 1)] * p[1] + m[(2, 2)] * p[2] + m[(2, 3)],
-        )
+        let row = |r: usize| mm[r][0] * p[0] + mm[r][1] * p[1] + mm[r][2] * p[2] + mm[r][3];
+        Point3::new(row(0), row(1), row(2))
     };
     let data_row = |r: Option<usize>| -> Option<&[T]> {
         let vr = vrow(r?)?;
@@ -268,7 +274,7 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
         .into_par_iter()
         .with_min_len(16)
         .enumerate()
-        .for_each(|(r, (vs, bs, ts))| {
+        .for_each_init(Vec::new, |cases, (r, (vs, bs, ts))| {
             let eb = &ebits[r * n[0]..(r + 1) * n[0]];
             let (_, _, e0, e1) = counts[r];
             if !vs.is_empty() {
@@ -337,32 +343,45 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
                             .map(|b| b.count_ones() as usize)
                             .sum::<usize>();
                 }
+                cases_into(cases, [i00, i10, i01, i11], c0, c1);
                 let mut w = 0;
-                for a in c0..c1 {
-                    let case = case_at(a, i00, i10, i01, i11);
-                    let tris = tab.triangles(case);
-                    if !tris.is_empty() {
-                        // Vertex id of each of the 12 cell edges.
-                        let mut id = [0u32; 12];
-                        for (e, slot) in id.iter_mut().enumerate() {
-                            let [c, _] = EDGE_CORNERS[e];
-                            let q = (c >> 1 & 1) as usize + 2 * (c >> 2) as usize;
-                            let (node, axis) = ((c & 1) as usize, e / 4);
-                            let mut v = base[q];
-                            if node == 1 {
-                                v += ebs[q][a].count_ones() as usize;
-                            }
-                            let bits = ebs[q][a + node] & ((1u8 << axis) - 1);
-                            *slot = (v + bits.count_ones() as usize) as u32;
+                for (ci, chunk) in cases.chunks(8).enumerate() {
+                    let a0 = c0 + 8 * ci;
+                    if uniform(chunk) {
+                        // No triangle here; the rows' cut edges still count.
+                        for q in 0..4 {
+                            base[q] += ebs[q][a0..a0 + chunk.len()]
+                                .iter()
+                                .map(|b| b.count_ones() as usize)
+                                .sum::<usize>();
                         }
-                        for t in tris {
-                            let v = t.map(|e| id[e as usize]);
-                            ts[w] = if flip { [v[0], v[2], v[1]] } else { v };
-                            w += 1;
-                        }
+                        continue;
                     }
-                    for q in 0..4 {
-                        base[q] += ebs[q][a].count_ones() as usize;
+                    for (a, &case) in (a0..).zip(chunk) {
+                        let tris = tab.triangles(case);
+                        if !tris.is_empty() {
+                            // Vertex id of each of the 12 cell edges.
+                            let mut id = [0u32; 12];
+                            for (e, slot) in id.iter_mut().enumerate() {
+                                let [c, _] = EDGE_CORNERS[e];
+                                let q = (c >> 1 & 1) as usize + 2 * (c >> 2) as usize;
+                                let (node, axis) = ((c & 1) as usize, e / 4);
+                                let mut v = base[q];
+                                if node == 1 {
+                                    v += ebs[q][a].count_ones() as usize;
+                                }
+                                let bits = ebs[q][a + node] & ((1u8 << axis) - 1);
+                                *slot = (v + bits.count_ones() as usize) as u32;
+                            }
+                            for t in tris {
+                                let v = t.map(|e| id[e as usize]);
+                                ts[w] = if flip { [v[0], v[2], v[1]] } else { v };
+                                w += 1;
+                            }
+                        }
+                        for q in 0..4 {
+                            base[q] += ebs[q][a].count_ones() as usize;
+                        }
                     }
                 }
                 debug_assert_eq!(w, ts.len());
@@ -376,14 +395,30 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
     }
 }
 
+/// Cases of cells [c0, c1) of a cell row from its four node rows
+/// (y, z) = (0,0), (1,0), (0,1), (1,1); bit c of a case is corner
+/// c = dx + 2·dy + 4·dz. Equal-length slices so the loop vectorises.
+fn cases_into(out: &mut Vec<u8>, rows: [&[u8]; 4], c0: usize, c1: usize) {
+    let l = c1.saturating_sub(c0);
+    out.clear();
+    out.resize(l, 0);
+    let lo = rows.map(|r| &r[c0..c0 + l]);
+    let hi = rows.map(|r| &r[c0 + 1..c0 + 1 + l]);
+    for k in 0..l {
+        out[k] = lo[0][k]
+            | hi[0][k] << 1
+            | lo[1][k] << 2
+            | hi[1][k] << 3
+            | lo[2][k] << 4
+            | hi[2][k] << 5
+            | lo[3][k] << 6
+            | hi[3][k] << 7;
+    }
+}
+
+/// All cells of the chunk entirely outside or entirely inside (no triangle).
 #[inline]
-fn case_at(a: usize, r00: &[u8], r10: &[u8], r01: &[u8], r11: &[u8]) -> u8 {
-    r00[a]
-        | r00[a + 1] << 1
-        | r10[a] << 2
-        | r10[a + 1] << 3
-        | r01[a] << 4
-        | r01[a + 1] << 5
-        | r11[a] << 6
-        | r11[a + 1] << 7
+fn uniform(chunk: &[u8]) -> bool {
+    let first = chunk[0];
+    (first == 0 || first == 255) && chunk.iter().all(|&c| c == first)
 }
