@@ -2,11 +2,12 @@
 //!
 //! The volume is seen through a one-node frame of "outside" around the
 //! bounding box of its inside samples (the padding that closes surfaces
-//! touching the grid border). Over that box:
-//! 1. bounding box of the samples above iso (one read of the volume);
-//! 2. per node row: inside bits and the first/last inside node (trimming);
-//! 3. per row: cut x/y/z edges of each node and vertex count; cases of the
-//!    cell row and triangle count;
+//! touching the grid border). Passes:
+//! 1. the one full read: first and last inside sample of every row (the
+//!    bounding box and the per-row trimming follow);
+//! 2. per node row of the box: inside bits, within the row's extent only;
+//! 3. per row: cut x/y/z edges of each node and the vertex count; cases of
+//!    the cell row (vectorised) and the triangle count;
 //! 4. prefix sums give every row its exact slice of the output arrays;
 //! 5. per row: vertices in node order (x, y, z edge), then triangles, whose
 //!    vertex ids follow from running counts along the four node rows of the
