@@ -287,11 +287,21 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
                     (i >= 0 && (i as usize) < dx).then(|| row[i as usize].value())
                 };
                 let mut w = 0;
-                for a in e0..e1 {
+                let mut a = e0;
+                while a < e1 {
+                    // Skip eight nodes without a cut edge at once.
+                    if a + 8 <= e1
+                        && u64::from_le_bytes(eb[a..a + 8].try_into().expect("8 bytes")) == 0
+                    {
+                        a += 8;
+                        continue;
+                    }
                     let b = eb[a];
+                    a += 1;
                     if b == 0 {
                         continue;
                     }
+                    let a = a - 1;
                     let vi = lo[0] + a as i64;
                     let f0 = sample(0, vi);
                     for axis in 0..3 {
@@ -420,6 +430,11 @@ fn cases_into(out: &mut Vec<u8>, rows: [&[u8]; 4], c0: usize, c1: usize) {
 /// All cells of the chunk entirely outside or entirely inside (no triangle).
 #[inline]
 fn uniform(chunk: &[u8]) -> bool {
+    if let Ok(b) = <[u8; 8]>::try_from(chunk) {
+        // One word compare instead of eight byte compares.
+        let w = u64::from_le_bytes(b);
+        return w == 0 || w == u64::MAX;
+    }
     let first = chunk[0];
     (first == 0 || first == 255) && chunk.iter().all(|&c| c == first)
 }
