@@ -438,7 +438,7 @@ fn caps_are_labelled_where_the_mask_was_cut() {
         wrong < 0.01 * (area[0] + area[1] + area[2]),
         "mislabelled {wrong} mm² of {area:?}"
     );
-    assert_eq!(rep.cap_triangles[0] > 0, true);
+    assert!(rep.cap_triangles[0] > 0);
 }
 
 #[test]
