@@ -3,6 +3,7 @@
 //! file per benchmark.
 
 pub mod phantom;
+pub mod surface;
 
 use std::path::Path;
 use std::process::Command;

@@ -1,0 +1,467 @@
+//! Geometry tests of the surface stage: exhaustive case-table checks,
+//! analytic sphere and torus (Euler characteristic, O(h²) area and volume),
+//! random-noise volumes (closed, manifold), orientation under mirroring and
+//! oblique affines, padding, smoothing, cap labels, thread independence.
+
+use super::marching_cubes::extract;
+use super::tables::{self, EDGE_CORNERS, faces};
+use super::*;
+use crate::geom::{Matrix3, Matrix4, Point3, Vector3, volume::affine_from_parts};
+use crate::rng::SplitMix64 as Rng;
+
+/// f32 volume sampling `f(world)` on a grid with the given affine.
+fn sampled(dims: [usize; 3], affine: Matrix4, f: impl Fn(Point3) -> f64) -> Volume<f32> {
+    let mut v = Vec::with_capacity(dims[0] * dims[1] * dims[2]);
+    let probe = Volume::filled([1, 1, 1], affine, 0u8).unwrap();
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                v.push(f(probe.index_to_world([i as f64, j as f64, k as f64])) as f32);
+            }
+        }
+    }
+    Volume::from_fortran_vec(dims, affine, v).unwrap()
+}
+
+fn scaled(h: f64) -> Matrix4 {
+    affine_from_parts([h; 3], &Matrix3::identity(), Point3::origin())
+}
+
+fn mesh_of(s: &Isosurface) -> TriMesh {
+    TriMesh::new(s.vertices.clone(), s.triangles.clone())
+}
+
+/// Closed, manifold, consistently oriented, no repeated or degenerate triangle.
+fn assert_closed_manifold(m: &TriMesh) {
+    m.sanity_check().unwrap();
+    let topo = m.topology();
+    assert_eq!(topo.boundary_edges, 0, "open edges");
+    assert_eq!(topo.nonmanifold_edges, 0);
+    assert_eq!(topo.used_vertices, topo.vertices, "unused vertices");
+    // Every edge shared by exactly two triangles ⇔ 3F = 2E.
+    assert_eq!(3 * topo.triangles, 2 * topo.edges);
+    for t in 0..m.triangles.len() {
+        assert!(m.area(t) > 0.0, "degenerate triangle {t}");
+    }
+}
+
+fn sphere_sdf(c: Point3, r: f64) -> impl Fn(Point3) -> f64 {
+    move |p| r - (p - c).norm()
+}
+
+#[test]
+fn every_case_closes_into_cycles() {
+    let tab = tables::table();
+    let mut max = 0;
+    for c in 0..=255u8 {
+        // Cycles assert that each cut edge starts exactly one segment and
+        // that they close.
+        let cycles = tables::cycles(c);
+        let cut = (0..12)
+            .filter(|&e| {
+                let [a, b] = EDGE_CORNERS[e];
+                (c >> a & 1) != (c >> b & 1)
+            })
+            .count();
+        assert_eq!(cycles.iter().map(Vec::len).sum::<usize>(), cut);
+        let tris = tab.triangles(c);
+        assert_eq!(tris.len(), cut - 2 * cycles.len());
+        max = max.max(tris.len());
+        // Within a cube, each directed edge appears once, and diagonals twice
+        // (once each way); segments once, in the direction opposite to the
+        // face segment (triangles are reversed cycles).
+        let mut directed: Vec<(u8, u8)> = tris
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .collect();
+        directed.sort_unstable();
+        directed.dedup();
+        assert_eq!(
+            directed.len(),
+            3 * tris.len(),
+            "case {c}: repeated directed edge"
+        );
+        let segs = tables::face_segments(c);
+        for &(a, b) in &directed {
+            let seg_rev = segs.contains(&(b as usize, a as usize));
+            let diag = directed.contains(&(b, a));
+            assert!(
+                seg_rev ^ diag,
+                "case {c}: edge {a}→{b} neither a segment nor a diagonal"
+            );
+        }
+    }
+    assert_eq!(tab.count(0), 0);
+    assert_eq!(tab.count(255), 0);
+    assert!(max <= 6, "at most {max} triangles per cube");
+}
+
+#[test]
+fn neighbouring_cubes_agree_on_every_shared_face() {
+    // For every pair of cases that agree on a shared face, the segments one
+    // cube draws on it are the other's, reversed: no crack, whatever the
+    // rest of the two cubes.
+    let fs = faces();
+    for axis in 0..3 {
+        let (lo_face, hi_face) = (fs[2 * axis].0, fs[2 * axis + 1].0);
+        let step = 1u8 << axis;
+        // Edge of cube A on its upper face → the same edge in cube B's lower face.
+        let to_b = |e: usize| {
+            let [a, b] = EDGE_CORNERS[e];
+            tables::edge_of(a - step, b - step)
+        };
+        let face_state = |c: u8, q: [u8; 4]| q.map(|k| c >> k & 1);
+        for ca in 0..=255u8 {
+            let segs_a: Vec<(usize, usize)> = tables::face_segments(ca)
+                .into_iter()
+                .filter(|&(a, b)| {
+                    let on = |e: usize| EDGE_CORNERS[e].iter().all(|&k| k & step != 0);
+                    on(a) && on(b)
+                })
+                .map(|(a, b)| (to_b(b), to_b(a)))
+                .collect();
+            for cb in 0..=255u8 {
+                let sa = face_state(ca, hi_face);
+                let sb = face_state(cb, lo_face);
+                if sa != sb {
+                    continue;
+                }
+                let mut segs_b: Vec<(usize, usize)> = tables::face_segments(cb)
+                    .into_iter()
+                    .filter(|&(a, b)| {
+                        let on = |e: usize| EDGE_CORNERS[e].iter().all(|&k| k & step == 0);
+                        on(a) && on(b)
+                    })
+                    .collect();
+                let mut expect = segs_a.clone();
+                segs_b.sort_unstable();
+                expect.sort_unstable();
+                assert_eq!(segs_b, expect, "axis {axis}, cases {ca} | {cb}");
+            }
+        }
+    }
+}
+
+#[test]
+fn sphere_is_closed_genus_zero_and_converges_as_h_squared() {
+    let r = 4.0;
+    let c = Point3::new(5.013, 4.987, 5.021);
+    let (a_true, v_true) = (
+        4.0 * std::f64::consts::PI * r * r,
+        4.0 / 3.0 * std::f64::consts::PI * r * r * r,
+    );
+    let mut errs = Vec::new();
+    for h in [1.0, 0.5, 0.25] {
+        let n = (10.0 / h) as usize + 1;
+        let vol = sampled([n; 3], scaled(h), sphere_sdf(c, r));
+        let m = mesh_of(&extract(&vol, 0.0));
+        assert_closed_manifold(&m);
+        assert_eq!(m.topology().euler_characteristic, 2);
+        assert_eq!(m.topology().components, 1);
+        let (ea, ev) = (
+            (m.total_area() - a_true).abs() / a_true,
+            (m.signed_volume() - v_true).abs() / v_true,
+        );
+        assert!(m.signed_volume() > 0.0, "outward orientation");
+        errs.push((h, ea, ev));
+    }
+    for w in errs.windows(2) {
+        // Halving h must cut the error by ~4 (≥ 3 allows for the sampling phase).
+        assert!(w[0].1 / w[1].1 > 3.0, "area errors {errs:?}");
+        assert!(w[0].2 / w[1].2 > 3.0, "volume errors {errs:?}");
+    }
+    assert!(errs[2].1 < 3e-3 && errs[2].2 < 3e-3, "{errs:?}");
+}
+
+#[test]
+fn torus_has_euler_characteristic_zero() {
+    let (big, small) = (6.0, 2.0);
+    let c = Point3::new(10.03, 9.98, 10.01);
+    let sdf = move |p: Point3| {
+        let d = p - c;
+        let q = ((d.x * d.x + d.y * d.y).sqrt() - big).hypot(d.z);
+        small - q
+    };
+    let mut errs = Vec::new();
+    for h in [0.5, 0.25] {
+        let n = (20.0 / h) as usize + 1;
+        let m = mesh_of(&extract(&sampled([n; 3], scaled(h), sdf), 0.0));
+        assert_closed_manifold(&m);
+        let topo = m.topology();
+        assert_eq!((topo.euler_characteristic, topo.components), (0, 1));
+        let pi2 = std::f64::consts::PI * std::f64::consts::PI;
+        let (a, v) = (4.0 * pi2 * big * small, 2.0 * pi2 * big * small * small);
+        errs.push((
+            (m.total_area() - a).abs() / a,
+            (m.signed_volume() - v).abs() / v,
+        ));
+    }
+    assert!(
+        errs[0].0 / errs[1].0 > 3.0 && errs[0].1 / errs[1].1 > 3.0,
+        "{errs:?}"
+    );
+}
+
+#[test]
+fn random_noise_gives_closed_manifold_surfaces() {
+    let mut rng = Rng::new(11);
+    for (n, iso) in [(7usize, 0.5), (16, 0.3), (23, 0.7)] {
+        let vals: Vec<f32> = (0..n * n * n).map(|_| rng.uniform() as f32).collect();
+        let vol = Volume::from_fortran_vec([n; 3], scaled(1.0), vals).unwrap();
+        let s = extract(&vol, iso);
+        let m = mesh_of(&s);
+        assert!(m.triangles.len() > 100);
+        assert_closed_manifold(&m);
+        // Each closed component has an even Euler characteristic.
+        assert_eq!(m.topology().euler_characteristic % 2, 0);
+        // Vertices lie on grid edges, at the interpolated crossing.
+        for p in &m.vertices {
+            let frac = [p.x, p.y, p.z].map(|x| (x - x.round()).abs() > 1e-12);
+            assert!(frac.iter().filter(|&&f| f).count() <= 1);
+        }
+        assert!(m.signed_volume() > 0.0);
+    }
+    // Binary noise: every face ambiguity the mask can show.
+    let vals: Vec<u8> = (0..20 * 20 * 20)
+        .map(|_| (rng.uniform() < 0.5) as u8)
+        .collect();
+    let vol = Volume::from_fortran_vec([20; 3], scaled(0.7), vals).unwrap();
+    let m = mesh_of(&extract(&vol, 0.5));
+    assert_closed_manifold(&m);
+}
+
+/// A rotation about a skew axis.
+fn rotation() -> Matrix3 {
+    *nalgebra::Rotation3::from_axis_angle(
+        &nalgebra::Unit::new_normalize(Vector3::new(0.3, -0.5, 0.8)),
+        0.7,
+    )
+    .matrix()
+}
+
+#[test]
+fn oblique_and_mirrored_affines_map_vertices_and_keep_outward_winding() {
+    // Same samples, index-space extraction mapped by hand vs extraction
+    // through the affine, for a right- and a left-handed oblique grid.
+    let mut rng = Rng::new(5);
+    let n = 14;
+    let vals: Vec<f32> = (0..n * n * n)
+        .map(|q| {
+            let (i, j, k) = ((q % n) as f64, ((q / n) % n) as f64, (q / n / n) as f64);
+            let d = ((i - 6.5).powi(2) + (j - 7.0).powi(2) + (k - 6.2).powi(2)).sqrt();
+            (5.0 - d + 0.3 * rng.uniform()) as f32
+        })
+        .collect();
+    let index_space = Volume::from_fortran_vec([n; 3], scaled(1.0), vals.clone()).unwrap();
+    let reference = extract(&index_space, 0.0);
+    for mirror in [1.0, -1.0] {
+        let dir = rotation() * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, mirror));
+        let affine = affine_from_parts([0.6, 0.9, 1.3], &dir, Point3::new(-40.0, 12.0, 100.0));
+        let vol = Volume::from_fortran_vec([n; 3], affine, vals.clone()).unwrap();
+        let s = extract(&vol, 0.0);
+        assert_eq!(s.triangles.len(), reference.triangles.len());
+        for (p, q) in s.vertices.iter().zip(&reference.vertices) {
+            let direct = vol.index_to_world([q.x, q.y, q.z]);
+            assert!((p - direct).norm() < 1e-9);
+        }
+        let m = mesh_of(&s);
+        assert_closed_manifold(&m);
+        let v_index = mesh_of(&reference).signed_volume();
+        assert!(v_index > 0.0);
+        let v = m.signed_volume();
+        assert!(
+            (v - v_index * vol.voxel_volume()).abs() < 1e-9 * v.abs(),
+            "{v} vs {}",
+            v_index * vol.voxel_volume()
+        );
+        if mirror < 0.0 {
+            // Same vertex ids, winding reversed.
+            for (a, b) in s.triangles.iter().zip(&reference.triangles) {
+                assert_eq!(*a, [b[0], b[2], b[1]]);
+            }
+        }
+    }
+}
+
+#[test]
+fn mask_filling_the_grid_closes_at_half_a_voxel_beyond_the_border() {
+    let n = [5, 4, 3];
+    let vol = Volume::filled(n, scaled(2.0), 1u8).unwrap();
+    let s = extract(&vol, 0.5);
+    assert!(s.on_border.iter().all(|&b| b));
+    let m = mesh_of(&s);
+    assert_closed_manifold(&m);
+    assert_eq!(m.topology().euler_characteristic, 2);
+    // The box [−½, n−½] voxels (with the corners bevelled by the padding
+    // cells): volume of the box minus the 8 corner and 12 edge bevels.
+    let box_v = (5.0 * 4.0 * 3.0) * 8.0;
+    assert!(m.signed_volume() < box_v && m.signed_volume() > 0.9 * box_v);
+    for p in &m.vertices {
+        let idx = [p.x / 2.0, p.y / 2.0, p.z / 2.0];
+        let on_face = (0..3)
+            .any(|a| (idx[a] + 0.5).abs() < 1e-12 || (idx[a] - (n[a] as f64 - 0.5)).abs() < 1e-12);
+        assert!(on_face, "{p:?}");
+    }
+}
+
+#[test]
+fn empty_mask_fails() {
+    let vol = Volume::filled([4, 4, 4], scaled(1.0), 0u8).unwrap();
+    assert!(extract(&vol, 0.5).triangles.is_empty());
+    let err = surface_from_mask(&vol, &SurfaceParams::default()).unwrap_err();
+    assert!(matches!(err, Error::Failed { .. }), "{err}");
+}
+
+/// Binary ball of radius r mm (voxel centres inside), spacing h, plus a
+/// small far-away speck that the component filter must drop.
+fn ball_mask(r: f64, h: f64) -> (Volume<u8>, Point3) {
+    let n = (2.0 * r / h) as usize + 12;
+    let c = Point3::new(
+        0.5 * n as f64 * h + 0.013,
+        0.5 * n as f64 * h - 0.021,
+        0.5 * n as f64 * h + 0.007,
+    );
+    let mut v = sampled([n; 3], scaled(h), |p| ((p - c).norm() < r) as u8 as f64).map(|&x| x as u8);
+    v[[1, 1, 1]] = 1;
+    (v, c)
+}
+
+fn radial_errors(m: &TriMesh, c: Point3, r: f64) -> (f64, f64) {
+    let e: Vec<f64> = m
+        .vertices
+        .iter()
+        .map(|p| ((p - c).norm() - r).abs())
+        .collect();
+    (
+        e.iter().sum::<f64>() / e.len() as f64,
+        e.iter().cloned().fold(0.0, f64::max),
+    )
+}
+
+#[test]
+fn taubin_removes_the_staircase_without_shrinking() {
+    let (r, h) = (6.0, 0.5);
+    let (mask, c) = ball_mask(r, h);
+    let raw_params = SurfaceParams {
+        taubin: Taubin {
+            iterations: 0,
+            ..Taubin::default()
+        },
+        ..SurfaceParams::default()
+    };
+    let (raw, raw_rep) = surface_from_mask(&mask, &raw_params).unwrap();
+    let (smooth, rep) = surface_from_mask(&mask, &SurfaceParams::default()).unwrap();
+    assert_eq!(raw_rep.components_dropped, 1);
+    assert_closed_manifold(&smooth);
+    assert_eq!(rep.euler_characteristic, 2);
+    let (raw_mean, raw_max) = radial_errors(&raw, c, r);
+    let (mean, max) = radial_errors(&smooth, c, r);
+    assert!(
+        mean < 0.5 * raw_mean && max < raw_max,
+        "{mean} {max} vs {raw_mean} {raw_max}"
+    );
+    assert!(mean < 0.06 && max < 0.25, "mean {mean} max {max} mm");
+    assert!(rep.smoothing_volume_change_pct.abs() < 1.0, "{rep:?}");
+    let v_true = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+    // Marching cubes on a binary mask cuts the voxel corners: ~1 % low at r = 12 h.
+    assert!(
+        (rep.enclosed_volume_mm3 - v_true).abs() / v_true < 0.02,
+        "{rep:?}"
+    );
+    // A voxelised ball has flat plateaus at its poles: they are not caps.
+    assert_eq!(rep.cap_triangles, [0, 0]);
+}
+
+#[test]
+fn caps_are_labelled_where_the_mask_was_cut() {
+    // A tube along z, cut by an oblique plane at the bottom and by the grid
+    // top: region 1 on the plane, 2 on the top face, 0 on the wall.
+    let h = 0.5;
+    let (nx, nz) = (40usize, 50usize);
+    let axis_c = Point3::new(0.5 * (nx - 1) as f64 * h, 0.5 * (nx - 1) as f64 * h, 0.0);
+    let normal = Vector3::new(0.35, -0.2, -1.0).normalize();
+    let on_plane = Point3::new(axis_c.x, axis_c.y, 6.0);
+    let radius = 7.0;
+    let vol = sampled([nx, nx, nz], scaled(h), |p| {
+        let d = p - axis_c;
+        let inside = d.x.hypot(d.y) < radius && (p - on_plane).dot(&normal) < 0.0;
+        inside as u8 as f64
+    })
+    .map(|&x| x as u8);
+    let (m, rep) = surface_from_mask(&vol, &SurfaceParams::default()).unwrap();
+    assert_closed_manifold(&m);
+    let region = match &m.cell_data.get("region").unwrap().values {
+        DataValues::I32(v) => v.clone(),
+        other => panic!("{other:?}"),
+    };
+    let normals = m.face_normals();
+    let top = (nz - 1) as f64 * h + 0.5 * h;
+    let (mut area, mut wrong) = ([0.0; 3], 0.0);
+    for t in 0..m.triangles.len() {
+        let a = m.area(t);
+        area[region[t] as usize] += a;
+        let n = normals[t].normalize();
+        let ctr = m.corners(t).iter().map(|p| p.coords).sum::<Vector3>() / 3.0;
+        match region[t] {
+            1 => {
+                if n.dot(&normal) < 0.9 || (Point3::from(ctr) - on_plane).dot(&normal).abs() > h {
+                    wrong += a;
+                }
+            }
+            2 => {
+                // Taubin rounds the rim; the cap's interior stays in its plane.
+                if (ctr.z - top).abs() > 0.5 * h {
+                    wrong += a;
+                }
+            }
+            _ => {
+                // Flat cap interior left as wall?
+                let deep = (Point3::from(ctr) - on_plane).dot(&normal).abs() < 0.1 * h
+                    && (ctr - axis_c.coords).xy().norm() < radius - 2.0;
+                if deep || (ctr.z - top).abs() < 1e-6 {
+                    wrong += a;
+                }
+            }
+        }
+    }
+    let pi = std::f64::consts::PI;
+    let ellipse = pi * radius * radius / normal.z.abs();
+    assert!(
+        (area[1] - ellipse).abs() < 0.15 * ellipse,
+        "cut cap {area:?} vs {ellipse}"
+    );
+    assert!(
+        (area[2] - pi * radius * radius).abs() < 0.15 * pi * radius * radius,
+        "{area:?}"
+    );
+    assert!(
+        wrong < 0.01 * (area[0] + area[1] + area[2]),
+        "mislabelled {wrong} mm² of {area:?}"
+    );
+    assert!(rep.cap_triangles[0] > 0);
+}
+
+#[test]
+fn output_is_bit_identical_with_one_or_two_threads() {
+    let (mask, _) = ball_mask(5.0, 0.6);
+    let run = |n: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .unwrap()
+            .install(|| {
+                surface_from_mask(&mask, &SurfaceParams::default())
+                    .unwrap()
+                    .0
+            })
+    };
+    let (a, b) = (run(1), run(2));
+    assert_eq!(a.triangles, b.triangles);
+    assert!(
+        a.vertices
+            .iter()
+            .zip(&b.vertices)
+            .all(|(p, q)| p.coords.map(f64::to_bits) == q.coords.map(f64::to_bits))
+    );
+    assert_eq!(a.cell_data, b.cell_data);
+}

@@ -1,0 +1,261 @@
+#!/usr/bin/env python3
+"""Cross-check and time coapt's marching cubes against VTK and scikit-image.
+
+    tools/surface_crosscheck.py PHANTOM_DIR [--coapt BIN] [--threads 1,2]
+                                [--repeat 5] [--hu 150] [--json OUT]
+
+PHANTOM_DIR is what `coapt phantom` writes (truth_mask.nii.gz, ct.nii.gz,
+truth_surface.vtp). Two masks are meshed, unsmoothed, at iso 0.5:
+  truth   the truth mask;
+  ct>HU   the CT thresholded at --hu (millions of triangles).
+For each: coapt (`coapt surface --smooth 0 --keep-all`, timed in process by
+`coapt bench surface`), vtkFlyingEdges3D and vtkMarchingCubes (timed around
+Update(), vtkSMPTools initialised to the same thread count), and
+skimage.measure.marching_cubes (Lewiner, single-threaded). Compared:
+vertex and triangle counts, the symmetric Hausdorff distance between the
+vertex sets (mm), how many triangles are the same vertex triples, and how
+many edges of each output are not shared by exactly two triangles.
+
+VTK and scikit-image get the mask padded by one voxel of zeros (outside the
+timing), as coapt pads internally, so that surfaces cut by the grid border
+close in all outputs and the vertex sets can agree.
+
+On the truth mask it also measures accuracy: distances from the default
+(smoothed) coapt surface to the phantom's analytic truth_surface.vtp, both
+ways (mean, 95th percentile, max), and the smoothing volume change.
+
+Needs numpy, nibabel, vtk, scipy, scikit-image (tools/requirements.txt).
+"""
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import nibabel as nib
+import numpy as np
+import vtk
+from scipy.spatial import cKDTree
+from skimage.measure import marching_cubes
+from vtk.util import numpy_support as ns
+
+RAS_TO_LPS = np.diag([-1.0, -1.0, 1.0, 1.0])
+
+
+def lps_affine(img):
+    return RAS_TO_LPS @ img.affine
+
+
+def to_world(ijk, affine):
+    return ijk @ affine[:3, :3].T + affine[:3, 3]
+
+
+def read_vtp(path):
+    r = vtk.vtkXMLPolyDataReader()
+    r.SetFileName(str(path))
+    r.Update()
+    return polydata_arrays(r.GetOutput())
+
+
+def polydata_arrays(pd):
+    pts = ns.vtk_to_numpy(pd.GetPoints().GetData()).astype(np.float64)
+    polys = pd.GetPolys()
+    if hasattr(polys, "GetConnectivityArray"):
+        tris = ns.vtk_to_numpy(polys.GetConnectivityArray()).reshape(-1, 3)
+    else:
+        tris = ns.vtk_to_numpy(polys.GetData()).reshape(-1, 4)[:, 1:]
+    return pts, tris.astype(np.int64)
+
+
+def image_data(padded):
+    img = vtk.vtkImageData()
+    img.SetDimensions(*padded.shape)
+    img.SetOrigin(-1.0, -1.0, -1.0)  # index of the padding layer
+    img.SetSpacing(1.0, 1.0, 1.0)
+    arr = ns.numpy_to_vtk(padded.ravel(order="F"), deep=True, array_type=vtk.VTK_UNSIGNED_CHAR)
+    img.GetPointData().SetScalars(arr)
+    return img
+
+
+def run_vtk(cls, img, iso, repeat):
+    f = cls()
+    f.SetInputData(img)
+    f.SetValue(0, iso)
+    f.ComputeNormalsOff()
+    f.ComputeScalarsOff()
+    if hasattr(f, "ComputeGradientsOff"):
+        f.ComputeGradientsOff()
+    times = []
+    for _ in range(repeat):
+        f.Modified()
+        t = time.perf_counter()
+        f.Update()
+        times.append(time.perf_counter() - t)
+    return min(times), float(np.median(times)), polydata_arrays(f.GetOutput())
+
+
+def open_edges(tris):
+    e = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    return int((counts != 2).sum())
+
+
+def compare(ref_pts, ref_tris, pts, tris):
+    """Hausdorff (mm) between vertex sets; triangles equal as vertex triples."""
+    d_ab, _ = cKDTree(ref_pts).query(pts)
+    d_ba, idx = cKDTree(pts).query(ref_pts)
+    out = {"hausdorff_mm": float(max(d_ab.max(), d_ba.max()))}
+    if out["hausdorff_mm"] < 1e-3 and len(pts) == len(ref_pts):
+        # Map reference vertex ids onto ours, then compare triangle sets.
+        mapped = np.sort(idx[ref_tris], axis=1)
+        mine = np.sort(tris, axis=1)
+        a = {tuple(t) for t in mapped.tolist()}
+        b = {tuple(t) for t in mine.tolist()}
+        out["same_triangles"] = len(a & b)
+        out["triangles_only_in_reference"] = len(a - b)
+        out["triangles_only_in_coapt"] = len(b - a)
+    return out
+
+
+def distances(points, surface_pd):
+    loc = vtk.vtkStaticCellLocator()
+    loc.SetDataSet(surface_pd)
+    loc.BuildLocator()
+    d = np.empty(len(points))
+    cp = [0.0, 0.0, 0.0]
+    cell, sub, d2 = vtk.reference(0), vtk.reference(0), vtk.reference(0.0)
+    for n, p in enumerate(points):
+        loc.FindClosestPoint(p.tolist(), cp, cell, sub, d2)
+        d[n] = float(d2) ** 0.5
+    return {
+        "mean_mm": float(d.mean()),
+        "p95_mm": float(np.percentile(d, 95)),
+        "max_mm": float(d.max()),
+    }
+
+
+def vtp_polydata(path):
+    r = vtk.vtkXMLPolyDataReader()
+    r.SetFileName(str(path))
+    r.Update()
+    return r.GetOutput()
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("phantom", type=Path)
+    ap.add_argument("--coapt", default="target/release/coapt")
+    ap.add_argument("--threads", default="1,2")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--hu", type=float, default=150.0)
+    ap.add_argument("--json", type=Path)
+    a = ap.parse_args()
+    threads = [int(t) for t in a.threads.split(",")]
+    tmp = Path(tempfile.mkdtemp(prefix="surface-xcheck-"))
+    results = {"threads": threads, "vtk": vtk.vtkVersion.GetVTKVersion(), "masks": {}}
+
+    truth_img = nib.load(a.phantom / "truth_mask.nii.gz")
+    ct_img = nib.load(a.phantom / "ct.nii.gz")
+    ct_mask = (np.asanyarray(ct_img.dataobj) > a.hu).astype(np.uint8)
+    hu_path = tmp / "ct_threshold.nii.gz"
+    out_img = nib.Nifti1Image(ct_mask, ct_img.affine)
+    out_img.set_qform(ct_img.affine, int(ct_img.header["qform_code"]) or 1)
+    out_img.set_sform(ct_img.affine, int(ct_img.header["sform_code"]) or 1)
+    nib.save(out_img, hu_path)
+    masks = {
+        "truth": (a.phantom / "truth_mask.nii.gz", truth_img),
+        f"ct>{a.hu:g}HU": (hu_path, nib.load(hu_path)),
+    }
+
+    for name, (path, img) in masks.items():
+        data = np.asanyarray(img.dataobj).astype(np.uint8)
+        aff = lps_affine(img)
+        padded = np.pad(data, 1)
+        r = {"dims": list(data.shape), "voxels": int(data.size), "inside": int(data.sum())}
+        raw = tmp / f"{len(results['masks'])}_raw.vtp"
+        subprocess.run(
+            [a.coapt, "surface", "--mask", str(path), "--out", str(raw), "--smooth", "0",
+             "--keep-all", "--quiet"], check=True)
+        c_pts, c_tris = read_vtp(raw)
+        r["coapt"] = {"vertices": len(c_pts), "triangles": len(c_tris), "open_or_nonmanifold_edges": open_edges(c_tris)}
+        img_vtk = image_data(padded)
+        for t in threads:
+            bench = json.loads(subprocess.run(
+                [a.coapt, "bench", "surface", "--mask", str(path), "--repeat", str(a.repeat),
+                 "--threads", str(t), "--quiet"], check=True, capture_output=True, text=True).stdout)
+            vtk.vtkSMPTools.SetBackend("STDThread")
+            vtk.vtkSMPTools.Initialize(t)
+            fe_min, fe_med, (fe_pts, fe_tris) = run_vtk(vtk.vtkFlyingEdges3D, img_vtk, 0.5, a.repeat)
+            row = {
+                "coapt_s": bench["marching_cubes_s"]["min"],
+                "one_pass_s": bench["one_pass_s"]["min"],
+                "coapt_over_one_pass": bench["marching_cubes_over_one_pass"],
+                "coapt_stage_default_s": bench["stage_default_s"]["min"],
+                "vtk_flying_edges_s": fe_min,
+                "vtk_smp_threads": vtk.vtkSMPTools.GetEstimatedNumberOfThreads(),
+                "flying_edges_over_coapt": fe_min / bench["marching_cubes_s"]["min"],
+            }
+            r[f"threads_{t}"] = row
+        fe_pts = to_world(fe_pts, aff)
+        r["vtkFlyingEdges3D"] = {"vertices": len(fe_pts), "triangles": len(fe_tris), "open_or_nonmanifold_edges": open_edges(fe_tris),
+                                 **compare(fe_pts, fe_tris, c_pts, c_tris)}
+        mc_min, _, (mc_pts, mc_tris) = run_vtk(vtk.vtkMarchingCubes, img_vtk, 0.5, min(a.repeat, 3))
+        mc_pts = to_world(mc_pts, aff)
+        r["vtkMarchingCubes"] = {"vertices": len(mc_pts), "triangles": len(mc_tris), "seconds": mc_min, "open_or_nonmanifold_edges": open_edges(mc_tris),
+                                 **compare(mc_pts, mc_tris, c_pts, c_tris)}
+        times = []
+        for _ in range(min(a.repeat, 3)):
+            t0 = time.perf_counter()
+            sk_v, sk_f, _, _ = marching_cubes(padded, 0.5)
+            times.append(time.perf_counter() - t0)
+        sk_pts = to_world(sk_v - 1.0, aff)
+        r["skimage_lewiner"] = {"vertices": len(sk_pts), "triangles": len(sk_f), "seconds": min(times), "open_or_nonmanifold_edges": open_edges(sk_f.astype(np.int64)),
+                                **compare(sk_pts, sk_f.astype(np.int64), c_pts, c_tris)}
+        results["masks"][name] = r
+        print(json.dumps({name: r}, indent=1), flush=True)
+
+    # Accuracy of the default (smoothed) surface against the analytic truth.
+    smooth = tmp / "aorta.vtp"
+    subprocess.run([a.coapt, "surface", "--mask", str(a.phantom / "truth_mask.nii.gz"), "--out", str(smooth), "--quiet"], check=True)
+    rep = json.loads((tmp / "surface.json").read_text())
+    truth_pd = vtp_polydata(a.phantom / "truth_surface.vtp")
+    mine_pd = vtp_polydata(smooth)
+    c_pts, _ = polydata_arrays(mine_pd)
+    t_pts, _ = polydata_arrays(truth_pd)
+    acc = {
+        "spacing_mm": [float(x) for x in truth_img.header.get_zooms()[:3]],
+        "coapt_to_truth": distances(c_pts, truth_pd),
+        "truth_to_coapt": distances(t_pts, mine_pd),
+        "smoothing_volume_change_pct": rep["smoothing_volume_change_pct"],
+        "enclosed_volume_mm3": rep["enclosed_volume_mm3"],
+        "truth_surface_volume_mm3": json.loads((a.phantom / "truth.json").read_text()).get("truth_surface_volume_mm3"),
+    }
+    # Cap labels against the truth's: region of the nearest truth cell.
+    truth_region = ns.vtk_to_numpy(truth_pd.GetCellData().GetArray("region"))
+    mine_region = ns.vtk_to_numpy(mine_pd.GetCellData().GetArray("region"))
+    cc = vtk.vtkCellCenters()
+    cc.SetInputData(mine_pd)
+    cc.Update()
+    centres = ns.vtk_to_numpy(cc.GetOutput().GetPoints().GetData())
+    loc = vtk.vtkStaticCellLocator()
+    loc.SetDataSet(truth_pd)
+    loc.BuildLocator()
+    cp, cell, sub, d2 = [0.0, 0.0, 0.0], vtk.reference(0), vtk.reference(0), vtk.reference(0.0)
+    nearest = np.empty(len(centres), dtype=np.int64)
+    for n, p in enumerate(centres):
+        loc.FindClosestPoint(p.tolist(), cp, cell, sub, d2)
+        nearest[n] = int(cell)
+    want = truth_region[nearest]
+    acc["region_agreement"] = float((want == mine_region).mean())
+    acc["region_confusion"] = {f"{w}->{m}": int(((want == w) & (mine_region == m)).sum()) for w in range(3) for m in range(3)}
+    results["accuracy"] = acc
+    print(json.dumps({"accuracy": acc}, indent=1))
+    if a.json:
+        a.json.write_text(json.dumps(results, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
