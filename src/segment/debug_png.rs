@@ -1,0 +1,1 @@
+//! Debug images (filled in below).
