@@ -32,7 +32,7 @@ impl Default for HoughParams {
         HoughParams {
             r_min_mm: 10.0,
             r_max_mm: 35.0,
-            sigma_mm: 1.0,
+            sigma_mm: 1.5,
             grad_min: 30.0,
             bright_min: 150.0,
         }

@@ -13,6 +13,10 @@ const XY_MARGIN_MM: f64 = 30.0;
 /// How far below the last tracked slice the box reaches (mm): the root,
 /// the LVOT and the LV entrance the IDT must see to stop before it.
 const BELOW_MM: f64 = 70.0;
+/// The box reaches at least this far below the top slice (mm), whatever the
+/// tracking did: tracking may stop early in a noisy scan, and the root of an
+/// adult aorta lies 60–120 mm below the top of a cardiac CTA.
+const MIN_DEPTH_MM: f64 = 130.0;
 /// Lateral reach around the last tracked centre over that depth (mm): the
 /// root of a tilted valve sits off the tracked axis.
 const BELOW_LATERAL_MM: f64 = 50.0;
@@ -49,7 +53,14 @@ pub fn roi_box(ct: &Volume<i16>, track: &[TrackPoint], dk: isize, landmarks: &[P
         add([t.i, t.j, t.k as f64], [m / sp[0], m / sp[1], 0.0]);
     }
     let last = track.last().expect("a track has its seed");
-    let below = last.k as f64 + dk as f64 * BELOW_MM / sp[2];
+    let top = track[0].k as f64;
+    let below_last = last.k as f64 + dk as f64 * BELOW_MM / sp[2];
+    let below_top = top + dk as f64 * MIN_DEPTH_MM / sp[2];
+    let below = if dk < 0 {
+        below_last.min(below_top)
+    } else {
+        below_last.max(below_top)
+    };
     for kk in [last.k as f64, below] {
         add(
             [last.i, last.j, kk],

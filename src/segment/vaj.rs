@@ -12,7 +12,7 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use crate::geom::{Matrix3, Point3, Vector3};
+use crate::geom::{Point3, Vector3};
 
 /// A plane with its normal pointing into the aorta.
 #[derive(Debug, Clone, Copy, serde::Serialize)]
@@ -111,13 +111,26 @@ pub fn geodesic(
 /// Result of the measured VAJ.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Profile {
-    /// Cross-section area (mm²) per 1 mm of geodesic distance from the top.
+    /// Geodesic distance from the top (mm) of each station.
+    pub station_mm: Vec<f64>,
+    /// Cross-section area (mm²) perpendicular to the centreline there.
     pub area_mm2: Vec<f64>,
     pub sinus_mm: f64,
     pub vaj_mm: f64,
 }
 
-/// VAJ from the area profile; `world(v)` maps a grid index to LPS mm.
+/// Stations this close to the far end of the region are not judged: their
+/// 1-mm slab leaves the region where the IDT cut it.
+const END_MARGIN_MM: usize = 6;
+/// Slab half-thickness and lateral reach of a cross-section (mm).
+const SLAB_MM: f64 = 0.5;
+const REACH_MM: f64 = 30.0;
+/// The VAJ: first station past the sinus peak within this fraction of the
+/// way from the narrowest section below to the peak.
+const VAJ_LEVEL: f64 = 0.03;
+
+/// VAJ from the area profile along a centreline made of the centroids of
+/// geodesic shells (1 mm); `world(v)` maps a grid index to LPS mm.
 pub fn measure(
     dist: &[f64],
     region: &[bool],
@@ -131,74 +144,99 @@ pub fn measure(
         .map(|(d, _)| *d)
         .fold(0.0, f64::max);
     let nb = dmax.floor() as usize + 1;
-    if nb < 10 {
+    if nb < 20 {
         return None;
     }
-    let mut count = vec![0usize; nb];
-    for (d, r) in dist.iter().zip(region) {
+    let mut shells: Vec<Vec<Point3>> = vec![Vec::new(); nb];
+    for (v, (d, r)) in dist.iter().zip(region).enumerate() {
         if *r && d.is_finite() {
-            count[*d as usize] += 1;
+            shells[*d as usize].push(world(v));
         }
     }
-    let raw: Vec<f64> = count.iter().map(|&c| c as f64 * voxel_mm3).collect();
-    let area: Vec<f64> = (0..nb)
-        .map(|b| {
-            let (lo, hi) = (b.saturating_sub(1), (b + 1).min(nb - 1));
-            raw[lo..=hi].iter().sum::<f64>() / (hi - lo + 1) as f64
+    let centroid = |b: usize| -> Vector3 {
+        let (lo, hi) = (b.saturating_sub(3), (b + 3).min(nb - 1));
+        let mut c = Vector3::zeros();
+        let mut n = 0usize;
+        for s in &shells[lo..=hi] {
+            for p in s {
+                c += p.coords;
+                n += 1;
+            }
+        }
+        c / n.max(1) as f64
+    };
+    let centres: Vec<Vector3> = (0..nb).map(centroid).collect();
+    let tangent = |b: usize| -> Vector3 {
+        let (lo, hi) = (b.saturating_sub(3), (b + 3).min(nb - 1));
+        (centres[hi] - centres[lo])
+            .try_normalize(1e-9)
+            .unwrap_or(Vector3::z())
+    };
+    let first = nb / 3;
+    let last = nb.checked_sub(END_MARGIN_MM + 1)?;
+    if last <= first + 3 {
+        return None;
+    }
+    let mut stations = Vec::new();
+    let mut area = Vec::new();
+    for b in first..=last {
+        let (c, t) = (centres[b], tangent(b));
+        let (lo, hi) = (
+            b.saturating_sub(REACH_MM as usize),
+            (b + REACH_MM as usize).min(nb - 1),
+        );
+        let mut n = 0usize;
+        for s in &shells[lo..=hi] {
+            for p in s {
+                let d = p.coords - c;
+                if d.dot(&t).abs() < SLAB_MM && d.norm() < REACH_MM {
+                    n += 1;
+                }
+            }
+        }
+        stations.push(b as f64 + 0.5);
+        area.push(n as f64 * voxel_mm3 / (2.0 * SLAB_MM));
+    }
+    let m = area.len();
+    let sinus = (m / 3..m).max_by(|&a, &b| area[a].total_cmp(&area[b]).then(b.cmp(&a)))?;
+    if sinus + 2 >= m {
+        return None;
+    }
+    // The annulus is the first local minimum of the (3-station smoothed)
+    // area past the sinus peak, once the section has narrowed by 10 %;
+    // if the section keeps narrowing to the end, the first station within
+    // 3 % of the way from the narrowest section to the peak.
+    let sm: Vec<f64> = (0..m)
+        .map(|x| {
+            area[x.saturating_sub(1)..=(x + 1).min(m - 1)]
+                .iter()
+                .sum::<f64>()
+                / ((x + 1).min(m - 1) - x.saturating_sub(1) + 1) as f64
         })
         .collect();
-    // Sinus peak: the widest section in the lower half of the region.
-    let lower = nb / 2;
-    let sinus = (lower..nb).max_by(|&a, &b| area[a].total_cmp(&area[b]).then(b.cmp(&a)))?;
-    if sinus + 2 >= nb {
-        return None;
-    }
-    let floor = area[sinus + 1..]
-        .iter()
-        .cloned()
-        .fold(f64::INFINITY, f64::min);
-    let level = floor + 0.05 * (area[sinus] - floor);
-    let vaj = (sinus + 1..nb).find(|&b| area[b] <= level)?;
-    // Plane fit to the voxels of that section.
-    let pts: Vec<Point3> = dist
-        .iter()
-        .zip(region)
-        .enumerate()
-        .filter(|(_, (d, r))| **r && d.is_finite() && (**d as usize) == vaj)
-        .map(|(v, _)| world(v))
-        .collect();
-    if pts.len() < 10 {
-        return None;
-    }
-    let c = pts.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / pts.len() as f64;
-    let mut cov = Matrix3::zeros();
-    for p in &pts {
-        let d = p.coords - c;
-        cov += d * d.transpose();
-    }
-    let eig = cov.symmetric_eigen();
-    let imin = (0..3).min_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]))?;
-    let mut n: Vector3 = eig.eigenvectors.column(imin).into();
-    // Toward the aorta: the section one step nearer the top lies on the + side.
-    let above: Vec<Point3> = dist
-        .iter()
-        .zip(region)
-        .enumerate()
-        .filter(|(_, (d, r))| **r && d.is_finite() && (**d as usize) + 5 == vaj)
-        .map(|(v, _)| world(v))
-        .collect();
-    if !above.is_empty() {
-        let ca = above.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / above.len() as f64;
-        if (ca - c).dot(&n) < 0.0 {
-            n = -n;
+    let local_min = (sinus + 1..m - 1)
+        .find(|&x| sm[x] < 0.9 * sm[sinus] && sm[x] <= sm[x - 1] && sm[x] < sm[x + 1]);
+    let x = match local_min {
+        Some(x) => x,
+        None => {
+            let floor = sm[sinus + 1..]
+                .iter()
+                .cloned()
+                .fold(f64::INFINITY, f64::min);
+            let level = floor + VAJ_LEVEL * (sm[sinus] - floor);
+            (sinus + 1..m).find(|&x| sm[x] <= level)?
         }
-    }
+    };
+    let b = first + x;
+    // Normal toward the aorta: against the direction of increasing distance.
+    let n = -tangent(b);
     Some((
-        Plane::new(Point3::from(c), n),
+        Plane::new(Point3::from(centres[b]), n),
         Profile {
+            station_mm: stations.clone(),
             area_mm2: area,
-            sinus_mm: sinus as f64 + 0.5,
-            vaj_mm: vaj as f64 + 0.5,
+            sinus_mm: stations[sinus],
+            vaj_mm: stations[x],
         },
     ))
 }
