@@ -158,6 +158,23 @@ fn command() -> Command {
                             .default_value("1")
                             .value_parser(clap::value_parser!(u32).range(1..=20)),
                     ),
+            )
+            .subcommand(
+                Command::new("segment")
+                    .about("Segmentation accuracy against the phantom truth and seconds per step")
+                    .arg(
+                        Arg::new("cases")
+                            .long("cases")
+                            .value_name("SET")
+                            .default_value("quick")
+                            .help("quick: sample variations; grid: plus spacings and the full preset"),
+                    )
+                    .arg(
+                        Arg::new("baseline")
+                            .long("baseline")
+                            .value_name("CMD")
+                            .help("run this SimpleITK baseline (tools/segment_baseline.py) on each case"),
+                    ),
             ),
     )
 }
@@ -342,7 +359,15 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 println!("{table}");
                 Ok(())
             }
-            _ => Err(Error::usage("coapt bench: name a benchmark (phantom)")),
+            Some(("segment", b)) => {
+                let set = b.get_one::<String>("cases").expect("has default");
+                let baseline = b.get_one::<String>("baseline").map(String::as_str);
+                println!("{}", bench::segment::run(set, baseline)?);
+                Ok(())
+            }
+            _ => Err(Error::usage(
+                "coapt bench: name a benchmark (phantom, segment)",
+            )),
         },
         stage => {
             let spec = pipeline::registry()

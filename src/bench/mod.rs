@@ -3,6 +3,7 @@
 //! file per benchmark.
 
 pub mod phantom;
+pub mod segment;
 
 use std::path::Path;
 use std::process::Command;
