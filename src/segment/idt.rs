@@ -209,16 +209,29 @@ pub fn steepest_rise(cut: &[u32], lim: &RiseLimits) -> Option<usize> {
             }
         }
     }
-    // The rise starts at the lowest point of the smoothed cut between the
-    // pair (the narrowest section before the chamber, e.g. the LVOT), not
-    // at a dip among the sinuses that happened to pair best.
+    // The pair locates the rise; the stop is where the rise really starts:
+    // the first point past the lowest section between the pair (the LVOT)
+    // where the smoothed cut has climbed a quarter of the way to the top of
+    // the rise. Stopping at the lowest section itself would be too early:
+    // the sinus pockets hang off the tree's trunk and are swept after parts
+    // of the LVOT (measured on the sample phantoms); what the sweep adds past
+    // the annulus is removed by the VAJ cut.
     let (slope, i, j) = best?;
     if slope <= 0.0 {
         return None;
     }
-    let start = (i..=j).min_by(|&a, &b| smooth[a].total_cmp(&smooth[b]).then(b.cmp(&a)))?;
-    Some(start + 1)
+    let low = (i..=j).min_by(|&a, &b| smooth[a].total_cmp(&smooth[b]).then(b.cmp(&a)))?;
+    let top = smooth[low..=j]
+        .iter()
+        .cloned()
+        .fold(f64::NEG_INFINITY, f64::max);
+    let level = smooth[low] + RISE_FRACTION * (top - smooth[low]);
+    let stop = (low..=j).find(|&x| smooth[x] > level).unwrap_or(j);
+    Some(stop.max(1))
 }
+
+/// Fraction of the rise after which the sweep is stopped.
+const RISE_FRACTION: f64 = 0.25;
 
 /// Sliding minimum (`max == false`) or maximum over a centred window.
 fn sliding(f: &[f64], window: usize, max: bool) -> Vec<f64> {
