@@ -281,7 +281,17 @@ pub fn segment(
     clock.lap("sweep_stop");
 
     // --- Morphology --------------------------------------------------------------
-    let opened = morphology::open_ball(&idt_region, dims, rsp, p.open_mm);
+    // On the region's bounding box only (plus the ball): the IDT region is a
+    // small part of the ROI, which still holds the LV.
+    let pad = [0, 1, 2].map(|a| (p.open_mm / rsp[a]).ceil() as usize + 2);
+    let sub = morphology::SubBox::around(&idt_region, dims, pad);
+    let sd = sub.dims();
+    let local = morphology::open_ball(&sub.extract(&idt_region, dims), sd, rsp, p.open_mm);
+    let mut opened = vec![false; n];
+    for (v, &m) in local.iter().enumerate() {
+        opened[sub.to_outer(v, dims)] = m;
+    }
+    drop(local);
     let opened = morphology::flood_fill(&opened, dims, ground);
     let opened = morphology::fill_holes(&opened, dims);
     let opened_n = opened.iter().filter(|&&v| v).count();

@@ -91,3 +91,47 @@ pub fn fill_holes(inside: &[bool], dims: [usize; 3]) -> Vec<bool> {
     }
     outside.iter().map(|&o| !o).collect()
 }
+
+/// A sub-box `lo..hi` of a grid.
+#[derive(Debug, Clone, Copy)]
+pub struct SubBox {
+    pub lo: [usize; 3],
+    pub hi: [usize; 3],
+}
+
+impl SubBox {
+    /// Bounding box of `mask`, grown by `pad` voxels per axis (clamped).
+    pub fn around(mask: &[bool], dims: [usize; 3], pad: [usize; 3]) -> SubBox {
+        let mut lo = dims;
+        let mut hi = [0; 3];
+        for (v, _) in mask.iter().enumerate().filter(|(_, m)| **m) {
+            let q = [v % dims[0], (v / dims[0]) % dims[1], v / (dims[0] * dims[1])];
+            for a in 0..3 {
+                lo[a] = lo[a].min(q[a]);
+                hi[a] = hi[a].max(q[a] + 1);
+            }
+        }
+        for a in 0..3 {
+            lo[a] = lo[a].min(hi[a]).saturating_sub(pad[a]);
+            hi[a] = (hi[a] + pad[a]).min(dims[a]).max(lo[a] + 1);
+        }
+        SubBox { lo, hi }
+    }
+
+    pub fn dims(&self) -> [usize; 3] {
+        [0, 1, 2].map(|a| self.hi[a] - self.lo[a])
+    }
+
+    /// Grid index of sub-box index `v`.
+    pub fn to_outer(&self, v: usize, outer: [usize; 3]) -> usize {
+        let d = self.dims();
+        let (i, j, k) = (v % d[0], (v / d[0]) % d[1], v / (d[0] * d[1]));
+        (i + self.lo[0]) + outer[0] * ((j + self.lo[1]) + outer[1] * (k + self.lo[2]))
+    }
+
+    pub fn extract<T: Copy>(&self, data: &[T], outer: [usize; 3]) -> Vec<T> {
+        (0..self.dims().iter().product::<usize>())
+            .map(|v| data[self.to_outer(v, outer)])
+            .collect()
+    }
+}
