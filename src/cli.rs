@@ -277,6 +277,7 @@ fn value_name(kind: ParamKind) -> &'static str {
         ParamKind::Float { .. } => "X",
         ParamKind::Bool => "",
         ParamKind::Choice(_) => "NAME",
+        ParamKind::Path => "PATH",
     }
 }
 

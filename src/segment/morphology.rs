@@ -105,7 +105,11 @@ impl SubBox {
         let mut lo = dims;
         let mut hi = [0; 3];
         for (v, _) in mask.iter().enumerate().filter(|(_, m)| **m) {
-            let q = [v % dims[0], (v / dims[0]) % dims[1], v / (dims[0] * dims[1])];
+            let q = [
+                v % dims[0],
+                (v / dims[0]) % dims[1],
+                v / (dims[0] * dims[1]),
+            ];
             for a in 0..3 {
                 lo[a] = lo[a].min(q[a]);
                 hi[a] = hi[a].max(q[a] + 1);

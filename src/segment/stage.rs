@@ -5,7 +5,7 @@ use serde_json::{Value as Json, json};
 use super::{SegmentParams, segment};
 use crate::Result;
 use crate::io::{Transaction, markups, nifti};
-use crate::pipeline::{ArtifactKind, Params, Port, Progress, StageIo, StageSpec};
+use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
 
 pub static SPEC: StageSpec = StageSpec {
     name: "segment",
@@ -47,12 +47,17 @@ pub static SPEC: StageSpec = StageSpec {
         },
     ],
     out_dir: None,
-    params: &[],
+    params: &[Param {
+        name: "debug_dir",
+        kind: ParamKind::Path,
+        default: None,
+        help: "write PNG slices with the mask contour and the top slice's circleness map here",
+    }],
     check: |_| Ok(()),
     run,
 };
 
-fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
+fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let t0 = std::time::Instant::now();
     let ct = nifti::read_i16(io.input("ct").expect("required input"))?;
     let lm = match io.input("landmarks") {
@@ -73,6 +78,12 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
     tx.write(io.output("mask"), |w| nifti::encode(w, &seg.mask, true))?;
     tx.write_bytes(io.output("segment_report"), text.as_bytes())?;
     tx.commit()?;
+    // Debug images are not artifacts of the chain: written after the
+    // outputs, outside the transaction.
+    let debug = match params.path("debug_dir") {
+        Some(d) => super::debug_png::write_all(std::path::Path::new(d), &ct, &seg)?,
+        None => Vec::new(),
+    };
     progress.set(1.0);
     let r = &seg.report;
     Ok(json!({
@@ -83,5 +94,6 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         "mask_ml": r.volumes_ml.final_mask,
         "threshold_hu": r.threshold_hu,
         "blood_hu": r.blood_hu,
+        "debug_images": debug,
     }))
 }

@@ -49,8 +49,11 @@ fn sample_is_segmented_with_and_without_landmarks() {
             threads,
             "--quiet",
         ];
+        let dbg = d.join("debug");
         if with_lm {
             args.extend(["--landmarks", lm.to_str().unwrap()]);
+        } else {
+            args.extend(["--debug-dir", dbg.to_str().unwrap()]);
         }
         let o = coapt(&args);
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -61,6 +64,11 @@ fn sample_is_segmented_with_and_without_landmarks() {
         let report: serde_json::Value =
             serde_json::from_slice(&std::fs::read(d.join("segment.json")).unwrap()).unwrap();
         assert!(report["blood_hu"].as_f64().unwrap() > 250.0);
+        if !with_lm {
+            let png = std::fs::read(dbg.join("circleness_top.png")).unwrap();
+            assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+            assert!(entries(&dbg).len() >= 8, "{:?}", entries(&dbg));
+        }
         masks.push(std::fs::read(&out).unwrap());
     }
     assert_eq!(masks[0], masks[1], "mask differs between 1 and 2 threads");
