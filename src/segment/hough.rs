@@ -45,7 +45,18 @@ pub struct CircleMap {
     pub nj: usize,
     pub c: Vec<f32>,
     pub r_mm: Vec<f32>,
+    /// The slice lightly smoothed (σ = EDGE_SIGMA_MM), for edge radii.
+    edge_img: Vec<f32>,
+    sx: f64,
+    sy: f64,
 }
+
+/// Smoothing for the radial edge search: light, so the wall's outer edge
+/// (wall → fat, ~1.8 mm out) does not pull the lumen edge outward, as the
+/// Hough σ does by about half a millimetre.
+const EDGE_SIGMA_MM: f64 = 0.6;
+/// Rays of the radial edge search.
+const EDGE_RAYS: usize = 72;
 
 /// A detected circle, in pixel coordinates of the slice.
 #[derive(Debug, Clone, Copy)]
@@ -198,7 +209,23 @@ pub fn circleness(
         r_mm[v] = rb as f32;
         c[v] = c[v].min(1.0);
     }
-    CircleMap { ni, nj, c, r_mm }
+    let mut edge_img = img.to_vec();
+    smooth2(
+        &mut edge_img,
+        ni,
+        nj,
+        &kernel(EDGE_SIGMA_MM / sx),
+        &kernel(EDGE_SIGMA_MM / sy),
+    );
+    CircleMap {
+        ni,
+        nj,
+        c,
+        r_mm,
+        edge_img,
+        sx,
+        sy,
+    }
 }
 
 impl CircleMap {
@@ -253,8 +280,48 @@ impl CircleMap {
         Circle {
             i: ci,
             j: cj,
-            r_mm: r,
+            r_mm: self.edge_radius(ci, cj, r).unwrap_or(r),
             c: self.c[i + j * self.ni] as f64,
         }
+    }
+
+    /// Radius of the lumen edge around (ci, cj): along each ray, the steepest
+    /// bright-to-dark fall within ±30 % of `r0` (parabolic sub-step), median
+    /// over the rays. The votes fix the centre; this fixes the radius.
+    pub fn edge_radius(&self, ci: f64, cj: f64, r0: f64) -> Option<f64> {
+        let h = 0.25 * self.sx.min(self.sy);
+        let (a, b) = (0.7 * r0, 1.3 * r0);
+        let n = ((b - a) / h) as usize;
+        let mut radii = Vec::with_capacity(EDGE_RAYS);
+        let mut prof = vec![0.0; n + 1];
+        for t in 0..EDGE_RAYS {
+            let th = t as f64 * 2.0 * std::f64::consts::PI / EDGE_RAYS as f64;
+            let (ux, uy) = (th.cos() / self.sx, th.sin() / self.sy);
+            for (s, v) in prof.iter_mut().enumerate() {
+                let d = a + s as f64 * h;
+                *v = bilinear(&self.edge_img, self.ni, self.nj, ci + ux * d, cj + uy * d);
+            }
+            // Derivative along the ray; the edge is its most negative value.
+            let g: Vec<f64> = (1..n).map(|s| prof[s + 1] - prof[s - 1]).collect();
+            let Some((m, _)) = g.iter().enumerate().min_by(|x, y| x.1.total_cmp(y.1)) else {
+                continue;
+            };
+            if m == 0 || m + 1 >= g.len() {
+                continue;
+            }
+            let (l, c, r) = (g[m - 1], g[m], g[m + 1]);
+            let den = l - 2.0 * c + r;
+            let off = if den > 0.0 {
+                (0.5 * (l - r) / den).clamp(-0.5, 0.5)
+            } else {
+                0.0
+            };
+            radii.push(a + (m as f64 + 1.0 + off) * h);
+        }
+        if radii.len() < EDGE_RAYS / 2 {
+            return None;
+        }
+        radii.sort_unstable_by(f64::total_cmp);
+        Some(radii[radii.len() / 2])
     }
 }

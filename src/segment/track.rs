@@ -263,7 +263,7 @@ fn track_step(
         k,
         i: circ.i + i0 as f64,
         j: circ.j + j0 as f64,
-        r_mm: rr,
+        r_mm: circ.r_mm,
         c: c as f64,
     })
 }
