@@ -398,8 +398,9 @@ fn run_baseline(
     let o = std::process::Command::new(cmd)
         .arg(&ct)
         .arg(&out)
-        .args(["--seed-mm", &format!("{},{},{}", s[0], s[1], s[2])])
-        .args(["--threshold", &format!("{}", seg.report.threshold_hu)])
+        // "=" form: the coordinates may start with a minus sign.
+        .arg(format!("--seed-mm={},{},{}", s[0], s[1], s[2]))
+        .arg(format!("--threshold={}", seg.report.threshold_hu))
         .output()
         .map_err(|e| Error::read(cmd, e))?;
     if !o.status.success() {
@@ -415,7 +416,7 @@ fn run_baseline(
         .and_then(|v| v.trim().parse().ok())
         .unwrap_or(f64::NAN);
     let bm = crate::io::nifti::read_u8(&out)?;
-    let st_dummy_dice = {
+    let b_dice = {
         let o = offset(&bm, &ph.truth_mask);
         let [ni, nj, nk] = bm.dims();
         let (mut inter, mut m_n) = (0usize, 0usize);
@@ -434,7 +435,7 @@ fn run_baseline(
     };
     let _ = std::fs::remove_dir_all(&dir);
     Ok(format!(
-        "SimpleITK baseline Dice {st_dummy_dice:.4} in {b_secs:.2} s; coapt {secs:.2} s (baseline/coapt time ratio {:.2})",
+        "SimpleITK baseline Dice {b_dice:.4} in {b_secs:.2} s; coapt {secs:.2} s (baseline/coapt time ratio {:.2})",
         b_secs / secs
     ))
 }
