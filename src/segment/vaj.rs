@@ -125,9 +125,6 @@ const END_MARGIN_MM: usize = 6;
 /// Slab half-thickness and lateral reach of a cross-section (mm).
 const SLAB_MM: f64 = 0.5;
 const REACH_MM: f64 = 30.0;
-/// The VAJ: first station past the sinus peak within this fraction of the
-/// way from the narrowest section below to the peak.
-const VAJ_LEVEL: f64 = 0.03;
 
 /// VAJ from the area profile along a centreline made of the centroids of
 /// geodesic shells (1 mm); `world(v)` maps a grid index to LPS mm.
@@ -204,8 +201,6 @@ pub fn measure(
     }
     // The annulus is the first local minimum of the (3-station smoothed)
     // area past the sinus peak, once the section has narrowed by 10 %;
-    // if the section keeps narrowing to the end, the first station within
-    // 3 % of the way from the narrowest section to the peak.
     let sm: Vec<f64> = (0..m)
         .map(|x| {
             area[x.saturating_sub(1)..=(x + 1).min(m - 1)]
@@ -219,12 +214,14 @@ pub fn measure(
     let x = match local_min {
         Some(x) => x,
         None => {
-            let floor = sm[sinus + 1..]
-                .iter()
-                .cloned()
-                .fold(f64::INFINITY, f64::min);
-            let level = floor + VAJ_LEVEL * (sm[sinus] - floor);
-            (sinus + 1..m).find(|&x| sm[x] <= level)?
+            // The section keeps narrowing to the end (the sweep's far end is
+            // not a plane): take the first station past the steepest fall
+            // where the fall has slowed to half its steepest rate, i.e. where
+            // the sinus has ended and the LVOT begins.
+            let fall: Vec<f64> = (sinus..m - 1).map(|x| sm[x] - sm[x + 1]).collect();
+            let (steep, &max_fall) = fall.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+            let after = (steep + 1..fall.len()).find(|&f| fall[f] < 0.5 * max_fall)?;
+            sinus + after
         }
     };
     let b = first + x;
