@@ -167,10 +167,11 @@ impl RiseLimits {
 
 /// The volume-constrained steepest-rise rule: smooth cut(k) by a sliding
 /// minimum then maximum (an opening over 1 ml, which removes the spikes of
-/// side branches entering the sweep), take its alternating extrema, and
-/// return the start i of the extremum pair (i < j) of steepest rise
-/// (cut_j − cut_i)/(j − i) under the volume limits. The region stops there,
-/// just before the cut starts growing fast (a leak into a larger chamber).
+/// side branches entering the sweep), take its alternating extrema, find
+/// the extremum pair (i < j) of steepest rise (cut_j − cut_i)/(j − i) under
+/// the volume limits, and return the prefix size where that rise has
+/// climbed a quarter of its height past its lowest point: the region stops
+/// as the cut starts growing fast (a leak into a larger chamber).
 pub fn steepest_rise(cut: &[u32], lim: &RiseLimits) -> Option<usize> {
     let n = cut.len();
     if n < 3 {
