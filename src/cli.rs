@@ -171,6 +171,23 @@ fn command() -> Command {
                             .default_value("5")
                             .value_parser(clap::value_parser!(u32).range(1..=50)),
                     ),
+            )
+            .subcommand(
+                Command::new("segment")
+                    .about("Segmentation accuracy against the phantom truth and seconds per step")
+                    .arg(
+                        Arg::new("cases")
+                            .long("cases")
+                            .value_name("SET")
+                            .default_value("quick")
+                            .help("quick: sample variations; grid: plus spacings and the full preset"),
+                    )
+                    .arg(
+                        Arg::new("baseline")
+                            .long("baseline")
+                            .value_name("CMD")
+                            .help("run this SimpleITK baseline (tools/segment_baseline.py) on each case"),
+                    ),
             ),
     )
 }
@@ -273,6 +290,7 @@ fn value_name(kind: ParamKind) -> &'static str {
         ParamKind::Float { .. } => "X",
         ParamKind::Bool => "",
         ParamKind::Choice(_) => "NAME",
+        ParamKind::Path => "PATH",
     }
 }
 
@@ -362,8 +380,14 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 println!("{}", bench::surface::run(mask, iso, repeat, threads)?);
                 Ok(())
             }
+            Some(("segment", b)) => {
+                let set = b.get_one::<String>("cases").expect("has default");
+                let baseline = b.get_one::<String>("baseline").map(String::as_str);
+                println!("{}", bench::segment::run(set, baseline)?);
+                Ok(())
+            }
             _ => Err(Error::usage(
-                "coapt bench: name a benchmark (phantom, surface)",
+                "coapt bench: name a benchmark (phantom, segment, surface)",
             )),
         },
         stage => {

@@ -16,6 +16,7 @@ pub mod io;
 pub mod phantom;
 pub mod pipeline;
 pub mod rng;
+pub mod segment;
 pub mod surface;
 pub mod units;
 

@@ -3,6 +3,7 @@
 //! file per benchmark.
 
 pub mod phantom;
+pub mod segment;
 pub mod surface;
 
 use std::path::Path;

@@ -65,6 +65,7 @@ mod render;
 mod scene;
 mod shapes;
 pub mod stage;
+pub mod structures;
 mod truth;
 
 use std::fmt;

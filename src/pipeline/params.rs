@@ -16,6 +16,7 @@ pub enum Value {
     Float(f64),
     Bool(bool),
     Choice(String),
+    Path(String),
     /// An optional parameter that was not given.
     Unset,
 }
@@ -29,7 +30,7 @@ impl Value {
             Value::Int(i) => i.to_string(),
             Value::Float(f) => f.to_string(),
             Value::Bool(b) => b.to_string(),
-            Value::Choice(s) => s.clone(),
+            Value::Choice(s) | Value::Path(s) => s.clone(),
             Value::Unset => "unset".to_string(),
         }
     }
@@ -74,6 +75,8 @@ pub fn parse_text(p: &Param, text: &str) -> Result<Value> {
                 )));
             }
         }
+        ParamKind::Path if t.is_empty() => return Err(Error::value("an empty path")),
+        ParamKind::Path => Value::Path(t.to_string()),
     };
     Ok(v)
 }
@@ -148,6 +151,7 @@ pub fn describe_kind(k: ParamKind) -> String {
         ParamKind::Float { min, max } => format!("a number in [{min}, {max}]"),
         ParamKind::Bool => "true or false".into(),
         ParamKind::Choice(o) => format!("one of {}", o.join(", ")),
+        ParamKind::Path => "a path".into(),
     }
 }
 
@@ -231,6 +235,15 @@ impl Params {
         match self.get(name) {
             Value::Choice(s) => s,
             other => panic!("parameter '{name}' is {other:?}, not a choice"),
+        }
+    }
+
+    /// An optional path parameter: `None` when unset.
+    pub fn path(&self, name: &str) -> Option<&str> {
+        match self.get(name) {
+            Value::Path(s) => Some(s),
+            Value::Unset => None,
+            other => panic!("parameter '{name}' is {other:?}, not a path"),
         }
     }
 

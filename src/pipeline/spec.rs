@@ -75,6 +75,8 @@ pub enum ParamKind {
     },
     Bool,
     Choice(&'static [&'static str]),
+    /// A file or directory path, taken as written (e.g. a debug directory).
+    Path,
 }
 
 /// A stage parameter.

@@ -5,4 +5,5 @@ mod common;
 mod phantom;
 mod runner;
 mod sample_data;
+mod segment;
 mod surface;

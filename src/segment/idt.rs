@@ -1,0 +1,269 @@
+//! Isoperimetric distance trees (Grady 2006; ALGORITHMS.md §2.2).
+//!
+//! On the 6-connected lattice of the threshold region: a maximum spanning
+//! tree weighted by the distance transform (it follows medial paths, so a
+//! thin neck becomes a single tree edge), the isoperimetric system solved in
+//! closed form on that tree with the seed as ground, the voxels ordered by
+//! the solution, and a sweep that keeps the lattice cut of every prefix.
+
+use super::morphology::neighbours6;
+
+/// A spanning tree of the region: nodes in insertion order (parents first).
+pub struct Tree {
+    /// Grid index of each node, in insertion order; `order[0]` is the ground.
+    pub order: Vec<u32>,
+    /// Parent position in `order` (the ground points to itself).
+    pub parent: Vec<u32>,
+    /// Weight of the edge to the parent (mm; DT_v + DT_parent).
+    pub weight: Vec<f64>,
+}
+
+/// Distances are bucketed at this resolution for the bucket-queue Prim;
+/// the quantisation only decides ties between nearly equal edges.
+const BUCKET_MM: f64 = 0.05;
+
+/// Maximum spanning tree of the voxels reachable from `ground` inside
+/// `region`, edge weight DT_i + DT_j. Prim with a bucket queue (O(E));
+/// within a bucket, last in first out: deterministic.
+pub fn max_spanning_tree(region: &[bool], dt: &[f32], dims: [usize; 3], ground: usize) -> Tree {
+    let q = |v: usize| (dt[v] as f64 / BUCKET_MM).round().min(1e6) as usize;
+    let max_b = region
+        .iter()
+        .zip(dt)
+        .filter(|(r, _)| **r)
+        .map(|(_, &d)| (d as f64 / BUCKET_MM).round().min(1e6) as usize)
+        .max()
+        .unwrap_or(0);
+    let mut buckets: Vec<Vec<(u32, u32)>> = vec![Vec::new(); 2 * max_b + 2];
+    let mut pos = vec![u32::MAX; region.len()];
+    let mut tree = Tree {
+        order: Vec::new(),
+        parent: Vec::new(),
+        weight: Vec::new(),
+    };
+    pos[ground] = 0;
+    tree.order.push(ground as u32);
+    tree.parent.push(0);
+    tree.weight.push(0.0);
+    let mut top = 0usize;
+    let push = |v: usize, buckets: &mut Vec<Vec<(u32, u32)>>, top: &mut usize, pos: &Vec<u32>| {
+        neighbours6(v, dims, |u| {
+            if region[u] && pos[u] == u32::MAX {
+                let b = q(u) + q(v);
+                buckets[b].push((u as u32, v as u32));
+                *top = (*top).max(b);
+            }
+        });
+    };
+    push(ground, &mut buckets, &mut top, &pos);
+    loop {
+        while top > 0 && buckets[top].is_empty() {
+            top -= 1;
+        }
+        let Some((u, p)) = buckets[top].pop() else {
+            break;
+        };
+        let (u, p) = (u as usize, p as usize);
+        if pos[u] != u32::MAX {
+            continue;
+        }
+        pos[u] = tree.order.len() as u32;
+        tree.order.push(u as u32);
+        tree.parent.push(pos[p]);
+        tree.weight.push(dt[u] as f64 + dt[p] as f64);
+        push(u, &mut buckets, &mut top, &pos);
+    }
+    tree
+}
+
+/// Closed-form solve of L₀ x₀ = d₀ on a tree (ground x = 0, unit node
+/// volumes): S_v = size of v's subtree, x_v = x_parent + S_v / w_v.
+/// Exact Gaussian elimination from the leaves to the root, O(N).
+pub fn solve_on_tree(parent: &[u32], weight: &[f64]) -> Vec<f64> {
+    let n = parent.len();
+    let mut s = vec![1.0f64; n];
+    for v in (1..n).rev() {
+        let p = parent[v] as usize;
+        s[p] += s[v];
+    }
+    let mut x = vec![0.0f64; n];
+    for v in 1..n {
+        x[v] = x[parent[v] as usize] + s[v] / weight[v];
+    }
+    x
+}
+
+/// Node positions (in tree order) sorted by `x`, ties by position: a total
+/// order, so the result does not depend on the sort's threading.
+pub fn order_by_potential(x: &[f64]) -> Vec<u32> {
+    let mut idx: Vec<u32> = (0..x.len() as u32).collect();
+    idx.sort_unstable_by(|&a, &b| x[a as usize].total_cmp(&x[b as usize]).then(a.cmp(&b)));
+    idx
+}
+
+/// Lattice cut (unit-weight faces between S_k and the rest of the region)
+/// after adding each voxel of `sweep` (grid indices) in turn.
+pub fn sweep_cut(region: &[bool], dims: [usize; 3], sweep: &[u32]) -> Vec<u32> {
+    let mut in_s = vec![false; region.len()];
+    let mut cut: i64 = 0;
+    let mut out = Vec::with_capacity(sweep.len());
+    for &v in sweep {
+        let v = v as usize;
+        let (mut deg, mut ins) = (0i64, 0i64);
+        neighbours6(v, dims, |u| {
+            if region[u] {
+                deg += 1;
+                if in_s[u] {
+                    ins += 1;
+                }
+            }
+        });
+        in_s[v] = true;
+        cut += deg - 2 * ins;
+        out.push(cut as u32);
+    }
+    out
+}
+
+/// Classic IDT: the prefix size k ≤ N/2 of least isoperimetric ratio cut/k.
+pub fn isoperimetric_min(cut: &[u32], k_min: usize) -> Option<usize> {
+    let n = cut.len();
+    (k_min.max(1)..=n / 2).min_by(|&a, &b| {
+        let ha = cut[a - 1] as f64 / a as f64;
+        let hb = cut[b - 1] as f64 / b as f64;
+        ha.total_cmp(&hb).then(a.cmp(&b))
+    })
+}
+
+/// Volume limits of the steepest-rise rule, in voxels.
+#[derive(Debug, Clone, Copy)]
+pub struct RiseLimits {
+    /// Smoothing window (1 ml).
+    pub window: usize,
+    /// The cut goes no earlier than this (the root and AA hold ≥ 10 ml).
+    pub i_min: usize,
+    /// … and no later than this (AA + LV ≤ 500 ml).
+    pub i_max: usize,
+    /// The rise ends at least this far on (20 ml) …
+    pub j_min: usize,
+    pub span_min: usize,
+    /// … and grows the volume by at least this factor.
+    pub ratio_min: f64,
+}
+
+impl RiseLimits {
+    pub fn from_ml(voxel_mm3: f64) -> Self {
+        let ml = |v: f64| (v * 1000.0 / voxel_mm3).round() as usize;
+        RiseLimits {
+            window: ml(1.0).max(1),
+            i_min: ml(10.0),
+            i_max: ml(500.0),
+            j_min: ml(20.0),
+            span_min: ml(20.0),
+            ratio_min: 1.2,
+        }
+    }
+}
+
+/// The volume-constrained steepest-rise rule: smooth cut(k) by a sliding
+/// minimum then maximum (an opening over 1 ml, which removes the spikes of
+/// side branches entering the sweep), take its alternating extrema, find
+/// the extremum pair (i < j) of steepest rise (cut_j − cut_i)/(j − i) under
+/// the volume limits, and return the prefix size where that rise has
+/// climbed a quarter of its height past its lowest point: the region stops
+/// as the cut starts growing fast (a leak into a larger chamber).
+pub fn steepest_rise(cut: &[u32], lim: &RiseLimits) -> Option<usize> {
+    let n = cut.len();
+    if n < 3 {
+        return None;
+    }
+    let f: Vec<f64> = cut.iter().map(|&c| c as f64).collect();
+    let smooth = sliding(&sliding(&f, lim.window, false), lim.window, true);
+    // Subsample at a quarter window: the extrema are then few.
+    let step = (lim.window / 4).max(1);
+    let pts: Vec<usize> = (0..n).step_by(step).chain(std::iter::once(n - 1)).collect();
+    let mut ext: Vec<usize> = vec![pts[0]];
+    for w in pts.windows(3) {
+        let (a, b, c) = (smooth[w[0]], smooth[w[1]], smooth[w[2]]);
+        if (b < a && b <= c) || (b > a && b >= c) {
+            ext.push(w[1]);
+        }
+    }
+    ext.push(n - 1);
+    let mut best: Option<(f64, usize, usize)> = None;
+    for (x, &i) in ext.iter().enumerate() {
+        let k_i = i + 1;
+        if k_i < lim.i_min || k_i > lim.i_max {
+            continue;
+        }
+        for &j in &ext[x + 1..] {
+            let k_j = j + 1;
+            if k_j < lim.j_min
+                || k_j - k_i < lim.span_min
+                || (k_j as f64) < lim.ratio_min * k_i as f64
+            {
+                continue;
+            }
+            let slope = (smooth[j] - smooth[i]) / (k_j - k_i) as f64;
+            if best.is_none_or(|(s, _, _)| slope > s) {
+                best = Some((slope, i, j));
+            }
+        }
+    }
+    // The pair locates the rise; the stop is where the rise really starts:
+    // the first point past the lowest section between the pair (the LVOT)
+    // where the smoothed cut has climbed a quarter of the way to the top of
+    // the rise. Stopping at the lowest section itself would be too early:
+    // the sinus pockets hang off the tree's trunk and are swept after parts
+    // of the LVOT (measured on the sample phantoms); what the sweep adds past
+    // the annulus is removed by the VAJ cut.
+    let (slope, i, j) = best?;
+    if slope <= 0.0 {
+        return None;
+    }
+    let low = (i..=j).min_by(|&a, &b| smooth[a].total_cmp(&smooth[b]).then(b.cmp(&a)))?;
+    let top = smooth[low..=j]
+        .iter()
+        .cloned()
+        .fold(f64::NEG_INFINITY, f64::max);
+    let level = smooth[low] + RISE_FRACTION * (top - smooth[low]);
+    let stop = (low..=j).find(|&x| smooth[x] > level).unwrap_or(j);
+    Some(stop.max(1))
+}
+
+/// Fraction of the rise after which the sweep is stopped.
+const RISE_FRACTION: f64 = 0.25;
+
+/// Sliding minimum (`max == false`) or maximum over a centred window.
+fn sliding(f: &[f64], window: usize, max: bool) -> Vec<f64> {
+    let n = f.len();
+    let h = window / 2;
+    let better = |a: f64, b: f64| if max { a >= b } else { a <= b };
+    let mut out = vec![0.0; n];
+    let mut dq: std::collections::VecDeque<usize> = std::collections::VecDeque::new();
+    let mut next = 0usize;
+    for (x, o) in out.iter_mut().enumerate() {
+        let hi = (x + h).min(n - 1);
+        while next <= hi {
+            while let Some(&b) = dq.back() {
+                if better(f[next], f[b]) {
+                    dq.pop_back();
+                } else {
+                    break;
+                }
+            }
+            dq.push_back(next);
+            next += 1;
+        }
+        let lo = x.saturating_sub(h);
+        while let Some(&a) = dq.front() {
+            if a < lo {
+                dq.pop_front();
+            } else {
+                break;
+            }
+        }
+        *o = f[*dq.front().expect("window not empty")];
+    }
+    out
+}

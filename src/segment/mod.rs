@@ -1,0 +1,433 @@
+//! Segmentation of the aortic root and ascending aorta from a ceCTA.
+//!
+//! Steps (each timed in the report):
+//! 1. [`track`]: Hough circleness ([`hough`]) finds the ascending aorta on
+//!    the top slice and follows it toward the root; the blood-pool HU and the
+//!    threshold come from the found lumen.
+//! 2. [`roi`]: crop to a box around the tracked aorta (and the landmarks),
+//!    affine kept exact; everything heavy runs on the crop.
+//! 3. Smooth, threshold, flood fill from the seed; [`edt`] distances; the
+//!    isoperimetric distance tree ([`idt`]) orders the voxels and the
+//!    steepest-rise rule stops the region before it leaks into the LV.
+//! 4. [`morphology`]: opening with a ball, seed component, holes filled;
+//!    [`vaj`]: the LV separated at the ventriculo-aortic junction.
+
+pub mod debug_png;
+pub mod edt;
+pub mod filter;
+pub mod hough;
+pub mod idt;
+pub mod morphology;
+pub mod roi;
+pub mod stage;
+pub mod track;
+pub mod vaj;
+
+#[cfg(test)]
+mod tests;
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::geom::{Landmarks, Point3, Volume};
+use crate::{Error, Result};
+use hough::HoughParams;
+use track::{TrackPoint, annulus_values, median, slice_f32};
+
+/// Tunables (defaults justified in the README paragraph and the report).
+#[derive(Debug, Clone, Copy)]
+pub struct SegmentParams {
+    pub hough: HoughParams,
+    /// Gaussian smoothing before the threshold (noise), mm.
+    pub smooth_mm: f64,
+    /// Opening ball radius, mm (coronaries have r ≈ 1.5–2 mm).
+    pub open_mm: f64,
+    /// Least blood-pool HU of a contrast CT.
+    pub contrast_min_hu: f64,
+    /// IDT stop rule.
+    pub rule: StopRule,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopRule {
+    SteepestRise,
+    IsoperimetricMin,
+}
+
+impl Default for SegmentParams {
+    fn default() -> Self {
+        SegmentParams {
+            hough: HoughParams::default(),
+            smooth_mm: 0.5,
+            open_mm: 2.5,
+            contrast_min_hu: 150.0,
+            rule: StopRule::SteepestRise,
+        }
+    }
+}
+
+/// What happened, for `segment.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub seed_mm: [f64; 3],
+    pub seed_radius_mm: f64,
+    pub seed_circleness: f64,
+    pub candidates: Vec<track::Candidate>,
+    pub tracked_slices: usize,
+    pub tracked_length_mm: f64,
+    pub track: Vec<TrackPoint>,
+    pub blood_hu: f64,
+    pub noise_hu: f64,
+    pub wall_hu: f64,
+    pub threshold_hu: f64,
+    pub roi: roi::RoiReport,
+    pub idt: IdtReport,
+    pub vaj: VajReport,
+    pub volumes_ml: Volumes,
+    pub landmarks_check: Option<String>,
+    pub timings_s: Vec<(String, f64)>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct IdtReport {
+    pub region_voxels: usize,
+    pub rule: StopRule,
+    pub k_steepest_rise: Option<usize>,
+    pub k_isoperimetric_min: Option<usize>,
+    pub k_chosen: usize,
+    pub why: String,
+    /// The sweep's lattice cut (faces) against the volume swept (ml),
+    /// sampled every 0.5 ml: the curve the stop rule reads.
+    pub cut_curve: Vec<(f64, u32)>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct VajReport {
+    pub method: String,
+    pub plane: Option<vaj::Plane>,
+    pub profile: Option<vaj::Profile>,
+    pub removed_ml: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Volumes {
+    pub threshold_region: f64,
+    pub idt_region: f64,
+    pub opened: f64,
+    pub final_mask: f64,
+}
+
+pub struct Segmentation {
+    /// uint8 0/1 on the cropped grid (its own exact affine).
+    pub mask: Volume<u8>,
+    pub report: Report,
+    /// Circleness of the top slice (for debug images).
+    pub top_circleness: hough::CircleMap,
+    pub top_k: usize,
+}
+
+struct Clock(Instant, Vec<(String, f64)>);
+impl Clock {
+    fn lap(&mut self, name: &str) {
+        let t = Instant::now();
+        self.1.push((name.into(), (t - self.0).as_secs_f64()));
+        self.0 = t;
+    }
+}
+
+/// Segment the aortic root and ascending aorta of `ct`.
+pub fn segment(
+    ct: &Volume<i16>,
+    landmarks: Option<&Landmarks>,
+    p: &SegmentParams,
+) -> Result<Segmentation> {
+    let mut clock = Clock(Instant::now(), Vec::new());
+    let found = track::find_aorta(ct, &p.hough)?;
+    clock.lap("hough_track");
+    let sp = ct.spacing();
+    let [ni, nj, _] = ct.dims();
+
+    // --- Blood pool, noise and wall from the tracked lumen -------------------
+    let mut inside = Vec::new();
+    let mut wall = Vec::new();
+    let stride = (found.track.len() / 40).max(1);
+    for t in found.track.iter().step_by(stride) {
+        let img = slice_f32(ct, t.k);
+        inside.extend(annulus_values(
+            &img,
+            ni,
+            nj,
+            [sp[0], sp[1]],
+            (t.i, t.j),
+            0.0,
+            0.6 * t.r_mm,
+        ));
+        wall.extend(annulus_values(
+            &img,
+            ni,
+            nj,
+            [sp[0], sp[1]],
+            (t.i, t.j),
+            t.r_mm + 0.5,
+            t.r_mm + 1.5,
+        ));
+    }
+    let blood = median(&mut inside);
+    let mut dev: Vec<f64> = inside.iter().map(|v| (v - blood).abs()).collect();
+    let noise = 1.4826 * median(&mut dev);
+    let wall_hu = median(&mut wall).min(blood - 100.0);
+    if !(blood >= p.contrast_min_hu) {
+        return Err(Error::failed(
+            "segment",
+            format!(
+                "looked for contrast-filled blood (≥ {:.0} HU) in the ascending aorta found on the top slice and measured {blood:.0} HU: this CT has no contrast",
+                p.contrast_min_hu
+            ),
+        ));
+    }
+    let threshold = 0.5 * (blood + wall_hu);
+    let seed = found.track[0];
+    let seed_w = track::world(ct, &seed);
+    let last = found.track.last().expect("seeded");
+    let tracked_length = (track::world(ct, last) - seed_w).norm();
+
+    // --- Region of interest ---------------------------------------------------
+    let lm_points: Vec<Point3> = landmarks
+        .map(|l| l.points.iter().map(|(_, q)| *q).collect())
+        .unwrap_or_default();
+    let box_ = roi::roi_box(ct, &found.track, found.dk, &lm_points);
+    let roi_vol = ct.crop(box_.lo, box_.hi)?;
+    let dims = roi_vol.dims();
+    let rsp = roi_vol.spacing();
+    let n = roi_vol.len();
+    let mut img: Vec<f32> = roi_vol.as_slice().iter().map(|&v| v as f32).collect();
+    clock.lap("roi_crop");
+    filter::smooth3(&mut img, dims, rsp, p.smooth_mm);
+    clock.lap("smooth");
+
+    // --- Threshold region from the seed --------------------------------------
+    let above: Vec<bool> = img.iter().map(|&v| v as f64 >= threshold).collect();
+    let to_roi = |t: &TrackPoint| -> Option<usize> {
+        let (i, j, k) = (
+            t.i.round() as i64 - box_.lo[0] as i64,
+            t.j.round() as i64 - box_.lo[1] as i64,
+            t.k as i64 - box_.lo[2] as i64,
+        );
+        (i >= 0
+            && j >= 0
+            && k >= 0
+            && (i as usize) < dims[0]
+            && (j as usize) < dims[1]
+            && (k as usize) < dims[2])
+            .then(|| i as usize + dims[0] * (j as usize + dims[1] * k as usize))
+    };
+    let ground = found
+        .track
+        .iter()
+        .filter_map(to_roi)
+        .find(|&v| above[v])
+        .ok_or_else(|| Error::failed("segment", format!("the tracked aortic centre is below the threshold {threshold:.0} HU on every slice: no seed voxel")))?;
+    let region = morphology::flood_fill(&above, dims, ground);
+    drop(above);
+    let vox_ml = roi_vol.voxel_volume() / 1000.0;
+    let region_n = region.iter().filter(|&&r| r).count();
+    clock.lap("threshold_fill");
+    let dt = edt::inside_distance(&region, dims, rsp);
+    clock.lap("edt");
+
+    // --- IDT -------------------------------------------------------------------
+    let tree = idt::max_spanning_tree(&region, &dt, dims, ground);
+    drop(dt);
+    clock.lap("spanning_tree");
+    let x = idt::solve_on_tree(&tree.parent, &tree.weight);
+    let order = idt::order_by_potential(&x);
+    let sweep: Vec<u32> = order.iter().map(|&o| tree.order[o as usize]).collect();
+    drop(x);
+    clock.lap("tree_solve_order");
+    let cut = idt::sweep_cut(&region, dims, &sweep);
+    let lim = idt::RiseLimits::from_ml(roi_vol.voxel_volume());
+    let k_rise = idt::steepest_rise(&cut, &lim);
+    let k_min = idt::isoperimetric_min(&cut, lim.i_min);
+    let (k, why) = match (p.rule, k_rise, k_min) {
+        (StopRule::SteepestRise, Some(k), _) => (
+            k,
+            format!(
+                "steepest rise of the cut after {:.1} ml: the sweep is about to enter a larger chamber",
+                k as f64 * vox_ml
+            ),
+        ),
+        (StopRule::IsoperimetricMin, _, Some(k)) => (
+            k,
+            "least isoperimetric ratio cut/k over k ≤ N/2".to_string(),
+        ),
+        _ => (
+            sweep.len(),
+            "no leak detected: the whole threshold region is kept".to_string(),
+        ),
+    };
+    let every = ((0.5 / vox_ml).round() as usize).max(1);
+    let cut_curve: Vec<(f64, u32)> = (every..=cut.len())
+        .step_by(every)
+        .map(|k| (k as f64 * vox_ml, cut[k - 1]))
+        .collect();
+    let mut idt_region = vec![false; n];
+    for &v in &sweep[..k] {
+        idt_region[v as usize] = true;
+    }
+    drop(cut);
+    drop(sweep);
+    clock.lap("sweep_stop");
+
+    // --- Morphology --------------------------------------------------------------
+    // On the region's bounding box only (plus the ball): the IDT region is a
+    // small part of the ROI, which still holds the LV.
+    let pad = [0, 1, 2].map(|a| (p.open_mm / rsp[a]).ceil() as usize + 2);
+    let sub = morphology::SubBox::around(&idt_region, dims, pad);
+    let sd = sub.dims();
+    let local = morphology::open_ball(&sub.extract(&idt_region, dims), sd, rsp, p.open_mm);
+    let mut opened = vec![false; n];
+    for (v, &m) in local.iter().enumerate() {
+        opened[sub.to_outer(v, dims)] = m;
+    }
+    drop(local);
+    let opened = morphology::flood_fill(&opened, dims, ground);
+    let opened = morphology::fill_holes(&opened, dims);
+    let opened_n = opened.iter().filter(|&&v| v).count();
+    clock.lap("opening");
+
+    // --- VAJ -------------------------------------------------------------------
+    let world = |v: usize| {
+        roi_vol.index_to_world([
+            (v % dims[0]) as f64,
+            ((v / dims[0]) % dims[1]) as f64,
+            (v / (dims[0] * dims[1])) as f64,
+        ])
+    };
+    let nadirs = landmarks.and_then(|l| l.require(&["N1", "N2", "N3"]).ok());
+    let commissures = landmarks
+        .and_then(|l| l.require(&["C1", "C2", "C3"]).ok())
+        .unwrap_or_default();
+    let mut vaj_report = VajReport {
+        method: "none".into(),
+        plane: None,
+        profile: None,
+        removed_ml: 0.0,
+    };
+    let mut keep = opened.clone();
+    let plane = if let Some(nd) = nadirs
+        .as_ref()
+        .and_then(|v| <[Point3; 3]>::try_from(v.clone()).ok())
+    {
+        vaj_report.method = "plane through the nadir landmarks N1–N3".into();
+        vaj::plane_from_landmarks(&nd, &commissures)
+    } else {
+        let top_k_roi = found.top_k - box_.lo[2];
+        let sources: Vec<usize> = (0..dims[0] * dims[1])
+            .map(|v| v + top_k_roi * dims[0] * dims[1])
+            .filter(|&v| opened[v])
+            .collect();
+        let dist = vaj::geodesic(&opened, dims, rsp, &sources);
+        let m = vaj::measure(&dist, &opened, roi_vol.voxel_volume(), world);
+        vaj_report.method = "narrowest section below the sinuses (geodesic area profile)".into();
+        m.map(|(pl, prof)| {
+            vaj_report.profile = Some(prof);
+            pl
+        })
+    };
+    if let Some(pl) = plane {
+        // Only the part near the plane is judged: far away the curved aorta
+        // may pass "below" the annulus plane.
+        let c = Point3::from(pl.point_mm);
+        for (v, kv) in keep.iter_mut().enumerate() {
+            if *kv {
+                let q = world(v);
+                if pl.height(&q) < 0.0 && (q - c).norm() < 45.0 {
+                    *kv = false;
+                }
+            }
+        }
+        keep = morphology::flood_fill(&keep, dims, ground);
+        vaj_report.plane = Some(pl);
+    }
+    let final_n = keep.iter().filter(|&&v| v).count();
+    vaj_report.removed_ml = (opened_n - final_n) as f64 * vox_ml;
+    clock.lap("vaj");
+
+    let landmarks_check = landmarks.map(|_| {
+        if commissures.is_empty() {
+            "no commissures".to_string()
+        } else {
+            let cc = Point3::from(
+                commissures
+                    .iter()
+                    .fold(crate::geom::Vector3::zeros(), |a, p| a + p.coords)
+                    / 3.0,
+            );
+            let idx = roi_vol.world_to_index(&cc);
+            let ii = idx.map(|x| x.round() as i64);
+            let inside = (0..3).all(|a| ii[a] >= 0 && (ii[a] as usize) < dims[a])
+                && keep[ii[0] as usize + dims[0] * (ii[1] as usize + dims[1] * ii[2] as usize)];
+            if inside {
+                "commissure centroid inside the mask: seed confirmed".into()
+            } else {
+                "WARNING: commissure centroid outside the mask".into()
+            }
+        }
+    });
+    if landmarks_check
+        .as_deref()
+        .is_some_and(|s| s.starts_with("WARNING"))
+    {
+        return Err(Error::failed(
+            "segment",
+            "the segmented lumen does not contain the centroid of the commissure landmarks C1–C3: the seed found on the top slice is not the aorta that holds the valve",
+        ));
+    }
+
+    let mask = Volume::from_fortran_vec(
+        dims,
+        *roi_vol.affine(),
+        keep.iter().map(|&v| v as u8).collect(),
+    )?;
+    clock.lap("output");
+    let report = Report {
+        seed_mm: [seed_w.x, seed_w.y, seed_w.z],
+        seed_radius_mm: seed.r_mm,
+        seed_circleness: seed.c,
+        candidates: found.candidates.clone(),
+        tracked_slices: found.track.len(),
+        tracked_length_mm: tracked_length,
+        track: found.track.clone(),
+        blood_hu: blood,
+        noise_hu: noise,
+        wall_hu,
+        threshold_hu: threshold,
+        roi: box_.report(ct),
+        idt: IdtReport {
+            region_voxels: region_n,
+            rule: p.rule,
+            k_steepest_rise: k_rise,
+            k_isoperimetric_min: k_min,
+            k_chosen: k,
+            why,
+            cut_curve,
+        },
+        vaj: vaj_report,
+        volumes_ml: Volumes {
+            threshold_region: region_n as f64 * vox_ml,
+            idt_region: k as f64 * vox_ml,
+            opened: opened_n as f64 * vox_ml,
+            final_mask: final_n as f64 * vox_ml,
+        },
+        landmarks_check,
+        timings_s: clock.1,
+    };
+    Ok(Segmentation {
+        mask,
+        report,
+        top_circleness: found.top_map,
+        top_k: found.top_k,
+    })
+}

@@ -1,0 +1,99 @@
+//! The `segment` stage: declaration and file output.
+
+use serde_json::{Value as Json, json};
+
+use super::{SegmentParams, segment};
+use crate::Result;
+use crate::io::{Transaction, markups, nifti};
+use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
+
+pub static SPEC: StageSpec = StageSpec {
+    name: "segment",
+    about: "Segment the aortic root and ascending aorta (Hough seed, isoperimetric distance tree, opening, VAJ cut)",
+    inputs: &[
+        Port {
+            name: "ct",
+            flag: "ct",
+            file: "ct.nii.gz",
+            kind: ArtifactKind::Volume,
+            required: true,
+            help: "contrast CT angiogram (HU)",
+        },
+        Port {
+            name: "landmarks",
+            flag: "landmarks",
+            file: "landmarks.mrk.json",
+            kind: ArtifactKind::Landmarks,
+            required: false,
+            help: "optional: commissures confirm the seed, nadirs N1–N3 give the VAJ plane",
+        },
+    ],
+    outputs: &[
+        Port {
+            name: "mask",
+            flag: "out",
+            file: "mask.nii.gz",
+            kind: ArtifactKind::Mask,
+            required: true,
+            help: "aortic lumen from the VAJ up, uint8 0/1 on a cropped grid with its own exact affine",
+        },
+        Port {
+            name: "segment_report",
+            flag: "report",
+            file: "segment.json",
+            kind: ArtifactKind::Json,
+            required: true,
+            help: "seed, radius, blood HU, threshold, chosen cut and why, volumes, timings",
+        },
+    ],
+    out_dir: None,
+    params: &[Param {
+        name: "debug_dir",
+        kind: ParamKind::Path,
+        default: None,
+        help: "write PNG slices with the mask contour and the top slice's circleness map here",
+    }],
+    check: |_| Ok(()),
+    run,
+};
+
+fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
+    let t0 = std::time::Instant::now();
+    let ct = nifti::read_i16(io.input("ct").expect("required input"))?;
+    let lm = match io.input("landmarks") {
+        Some(p) => Some(markups::read(p)?),
+        None => None,
+    };
+    let read_s = t0.elapsed().as_secs_f64();
+    progress.set(0.1);
+    let seg = segment(&ct, lm.as_ref(), &SegmentParams::default())?;
+    progress.set(0.9);
+    let t1 = std::time::Instant::now();
+    let mut report = serde_json::to_value(&seg.report).expect("report serialises");
+    if let Json::Object(m) = &mut report {
+        m.insert("frame".into(), json!("LPS"));
+    }
+    let text = serde_json::to_string_pretty(&report).expect("report serialises") + "\n";
+    let mut tx = Transaction::new();
+    tx.write(io.output("mask"), |w| nifti::encode(w, &seg.mask, true))?;
+    tx.write_bytes(io.output("segment_report"), text.as_bytes())?;
+    tx.commit()?;
+    // Debug images are not artifacts of the chain: written after the
+    // outputs, outside the transaction.
+    let debug = match params.path("debug_dir") {
+        Some(d) => super::debug_png::write_all(std::path::Path::new(d), &ct, &seg)?,
+        None => Vec::new(),
+    };
+    progress.set(1.0);
+    let r = &seg.report;
+    Ok(json!({
+        "read_s": read_s,
+        "segment_s": r.timings_s.iter().map(|t| t.1).sum::<f64>(),
+        "write_s": t1.elapsed().as_secs_f64(),
+        "timings_s": r.timings_s,
+        "mask_ml": r.volumes_ml.final_mask,
+        "threshold_hu": r.threshold_hu,
+        "blood_hu": r.blood_hu,
+        "debug_images": debug,
+    }))
+}

@@ -1,0 +1,256 @@
+//! Geometry and maths of the segmentation pieces.
+
+use super::hough::{HoughParams, circleness};
+use super::idt;
+use super::morphology;
+use crate::rng::hash_normal;
+
+/// A slice of `n`×`n` pixels of size `s` mm: fat background, a bright shape.
+fn slice(n: usize, s: f64, inside: impl Fn(f64, f64) -> bool, noise: f64) -> Vec<f32> {
+    (0..n * n)
+        .map(|v| {
+            let (x, y) = ((v % n) as f64 * s, (v / n) as f64 * s);
+            let base = if inside(x, y) { 350.0 } else { -100.0 };
+            (base + noise * hash_normal(42, v as u64)) as f32
+        })
+        .collect()
+}
+
+fn best(map: &super::hough::CircleMap) -> (usize, f32, f32) {
+    let (v, c) = map
+        .c
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .unwrap();
+    (v, *c, map.r_mm[v])
+}
+
+#[test]
+fn disks_give_centre_radius_and_full_circleness() {
+    for (r, noise) in [(12.0, 0.0), (15.0, 0.0), (12.0, 25.0), (15.0, 40.0)] {
+        let (n, s) = (96, 0.6);
+        let (cx, cy) = (29.1, 27.4);
+        let img = slice(n, s, |x, y| (x - cx).hypot(y - cy) <= r, noise);
+        let map = circleness(&img, n, n, s, s, &HoughParams::default());
+        let (v, c, rr) = best(&map);
+        let (i, j) = ((v % n) as f64, (v / n) as f64);
+        assert!(
+            ((i * s - cx).hypot(j * s - cy)) < s,
+            "centre off by more than a pixel (r {r}, noise {noise})"
+        );
+        assert!(
+            (rr as f64 - r).abs() < s,
+            "radius {rr} for {r} (noise {noise})"
+        );
+        assert!(
+            c > 0.8,
+            "circleness {c} at the centre of a disk (r {r}, noise {noise})"
+        );
+    }
+}
+
+#[test]
+fn anisotropic_pixels_are_handled_in_mm() {
+    let (n, sx, sy) = (110, 0.5, 0.8);
+    let (cx, cy, r) = (27.0, 41.0, 13.0);
+    let img: Vec<f32> = (0..n * n)
+        .map(|v| {
+            let (x, y) = ((v % n) as f64 * sx, (v / n) as f64 * sy);
+            if (x - cx).hypot(y - cy) <= r {
+                350.0
+            } else {
+                -100.0
+            }
+        })
+        .collect();
+    let map = circleness(&img, n, n, sx, sy, &HoughParams::default());
+    let (v, c, rr) = best(&map);
+    let (x, y) = ((v % n) as f64 * sx, (v / n) as f64 * sy);
+    assert!(
+        (x - cx).abs() < sx && (y - cy).abs() < sy,
+        "centre ({x}, {y})"
+    );
+    assert!((rr as f64 - r).abs() < sx, "radius {rr}");
+    assert!(c > 0.8, "circleness {c}");
+}
+
+#[test]
+fn a_square_of_equal_area_is_not_a_circle() {
+    let (n, s, r) = (96, 0.6, 12.0);
+    let half = 0.5 * r * std::f64::consts::PI.sqrt();
+    let img = slice(
+        n,
+        s,
+        |x, y| (x - 28.0).abs() <= half && (y - 28.0).abs() <= half,
+        0.0,
+    );
+    let map = circleness(&img, n, n, s, s, &HoughParams::default());
+    let (_, c, _) = best(&map);
+    assert!(c < 0.3, "square circleness {c}");
+}
+
+#[test]
+fn a_dark_disk_gets_no_votes() {
+    // Votes go toward the bright side: a dark hole in a bright field is not a lumen.
+    let (n, s) = (96, 0.6);
+    let img: Vec<f32> = slice(n, s, |x, y| (x - 28.0).hypot(y - 28.0) <= 12.0, 0.0)
+        .into_iter()
+        .map(|v| 250.0 - v)
+        .collect();
+    let map = circleness(&img, n, n, s, s, &HoughParams::default());
+    assert!(best(&map).1 < 0.3);
+}
+
+/// Dense Gaussian elimination of L₀ x₀ = 1 for a weighted tree.
+fn dense_solve(parent: &[u32], w: &[f64]) -> Vec<f64> {
+    let n = parent.len();
+    let m = n - 1;
+    let mut a = vec![vec![0.0; m + 1]; m];
+    for v in 1..n {
+        let p = parent[v] as usize;
+        a[v - 1][v - 1] += w[v];
+        if p != 0 {
+            a[p - 1][p - 1] += w[v];
+            a[v - 1][p - 1] -= w[v];
+            a[p - 1][v - 1] -= w[v];
+        }
+    }
+    for row in a.iter_mut() {
+        row[m] = 1.0;
+    }
+    for c in 0..m {
+        let piv = (c..m)
+            .max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))
+            .unwrap();
+        a.swap(c, piv);
+        for r in 0..m {
+            if r != c {
+                let f = a[r][c] / a[c][c];
+                for k in c..=m {
+                    a[r][k] -= f * a[c][k];
+                }
+            }
+        }
+    }
+    let mut x = vec![0.0; n];
+    for v in 1..n {
+        x[v] = a[v - 1][m] / a[v - 1][v - 1];
+    }
+    x
+}
+
+#[test]
+fn tree_solve_equals_dense_solve_on_random_trees() {
+    for seed in 0..20u64 {
+        let n = 2 + (seed as usize * 7) % 40;
+        let mut parent = vec![0u32];
+        let mut w = vec![0.0];
+        for v in 1..n {
+            let u = (hash_normal(seed, v as u64).abs() * 1e6) as usize;
+            parent.push((u % v) as u32);
+            w.push(0.1 + (hash_normal(seed + 99, v as u64)).abs() * 3.0);
+        }
+        let a = idt::solve_on_tree(&parent, &w);
+        let b = dense_solve(&parent, &w);
+        for v in 0..n {
+            assert!(
+                (a[v] - b[v]).abs() <= 1e-9 * b[v].abs().max(1.0),
+                "node {v}: {} vs {}",
+                a[v],
+                b[v]
+            );
+        }
+    }
+}
+
+#[test]
+fn two_balls_joined_by_a_thin_tube_are_cut_at_the_neck() {
+    // Ball A (r 20) at x = 25, ball B (r 30) at x = 100, tube of 3×3 voxels.
+    let dims = [135, 64, 64];
+    let (ca, cb) = ([25.0, 32.0, 32.0], [100.0, 32.0, 32.0]);
+    let mut region = vec![false; dims.iter().product()];
+    let idx = |i: usize, j: usize, k: usize| i + dims[0] * (j + dims[1] * k);
+    let mut in_a = 0;
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let p = [i as f64, j as f64, k as f64];
+                let d = |c: [f64; 3]| {
+                    ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt()
+                };
+                let tube =
+                    (j as i64 - 32).abs() <= 1 && (k as i64 - 32).abs() <= 1 && i >= 25 && i <= 100;
+                if d(ca) <= 20.0 {
+                    in_a += 1;
+                }
+                region[idx(i, j, k)] = d(ca) <= 20.0 || d(cb) <= 30.0 || tube;
+            }
+        }
+    }
+    let dt = super::edt::inside_distance(&region, dims, [1.0; 3]);
+    let ground = idx(25, 32, 32);
+    let tree = idt::max_spanning_tree(&region, &dt, dims, ground);
+    let x = idt::solve_on_tree(&tree.parent, &tree.weight);
+    let sweep: Vec<u32> = idt::order_by_potential(&x)
+        .iter()
+        .map(|&o| tree.order[o as usize])
+        .collect();
+    let cut = idt::sweep_cut(&region, dims, &sweep);
+    let k = idt::isoperimetric_min(&cut, 100).unwrap();
+    // Ball A plus at most the tube (a stub of ≤ 60 voxels of 3×3 section).
+    assert!(k >= in_a && k <= in_a + 9 * 60, "k {k}, ball A {in_a}");
+    for &v in &sweep[..k] {
+        let i = v as usize % dims[0];
+        assert!(i <= 71, "voxel of ball B in the cut side");
+    }
+    assert_eq!(cut[k - 1], 9, "the cut is the tube's cross-section");
+}
+
+#[test]
+fn edt_is_exact_on_anisotropic_grids() {
+    let dims = [20, 15, 10];
+    let sp = [0.5, 0.8, 1.3];
+    let mut f = vec![false; 3000];
+    let pts = [(3usize, 4usize, 2usize), (15, 10, 8)];
+    for &(i, j, k) in &pts {
+        f[i + 20 * (j + 15 * k)] = true;
+    }
+    let d = super::edt::distance_sq_to(&f, dims, sp);
+    for k in 0..10 {
+        for j in 0..15 {
+            for i in 0..20 {
+                let brute = pts
+                    .iter()
+                    .map(|&(a, b, c)| {
+                        ((i as f64 - a as f64) * sp[0]).powi(2)
+                            + ((j as f64 - b as f64) * sp[1]).powi(2)
+                            + ((k as f64 - c as f64) * sp[2]).powi(2)
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                assert!((d[i + 20 * (j + 15 * k)] as f64 - brute).abs() < 1e-3);
+            }
+        }
+    }
+}
+
+#[test]
+fn opening_removes_a_thin_branch_and_keeps_the_trunk() {
+    let dims = [60, 60, 40];
+    let mut m = vec![false; 60 * 60 * 40];
+    for k in 0..40 {
+        for j in 0..60 {
+            for i in 0..60 {
+                let trunk = (i as f64 - 30.0).hypot(j as f64 - 30.0) <= 12.0;
+                let branch = (j as i64 - 30).abs() <= 1 && (k as i64 - 20).abs() <= 1 && i > 30;
+                m[i + 60 * (j + 60 * k)] = trunk || branch;
+            }
+        }
+    }
+    let o = morphology::open_ball(&m, dims, [1.0; 3], 2.5);
+    assert!(!o[55 + 60 * (30 + 60 * 20)], "branch survived");
+    assert!(
+        o[30 + 60 * (30 + 60 * 20)] && o[40 + 60 * (30 + 60 * 0)],
+        "trunk lost (top face included)"
+    );
+}

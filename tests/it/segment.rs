@@ -1,0 +1,136 @@
+//! `coapt segment` on the committed sample phantom: accuracy against the
+//! truth mask, determinism across thread counts, refusals.
+
+use coapt::geom::Volume;
+use coapt::io::nifti;
+
+use crate::common::*;
+
+/// Dice of a mask on a cropped grid against the truth on the CT grid.
+fn dice(mask: &Volume<u8>, truth: &Volume<u8>) -> f64 {
+    let o = truth
+        .world_to_index(&mask.index_to_world([0.0; 3]))
+        .map(|x| x.round() as usize);
+    let [mi, mj, mk] = mask.dims();
+    let (mut inter, mut m_n) = (0usize, 0usize);
+    for k in 0..mk {
+        for j in 0..mj {
+            for i in 0..mi {
+                if mask.as_slice()[mask.linear_index(i, j, k)] != 0 {
+                    m_n += 1;
+                    if truth.as_slice()[truth.linear_index(i + o[0], j + o[1], k + o[2])] != 0 {
+                        inter += 1;
+                    }
+                }
+            }
+        }
+    }
+    let t_n = truth.as_slice().iter().filter(|&&v| v != 0).count();
+    2.0 * inter as f64 / (m_n + t_n) as f64
+}
+
+#[test]
+fn sample_is_segmented_with_and_without_landmarks() {
+    let d = tmpdir("segment");
+    let s = repo().join("sample_data");
+    let truth = nifti::read_u8(&s.join("truth_mask.nii.gz")).unwrap();
+    let ct = s.join("ct.nii.gz");
+    let lm = s.join("landmarks.mrk.json");
+    let mut masks = Vec::new();
+    for (tag, threads, with_lm) in [("a", "1", true), ("b", "2", true), ("c", "2", false)] {
+        let out = d.join(format!("{tag}.nii.gz"));
+        let mut args = vec![
+            "segment",
+            "--ct",
+            ct.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--threads",
+            threads,
+            "--quiet",
+        ];
+        let dbg = d.join("debug");
+        if with_lm {
+            args.extend(["--landmarks", lm.to_str().unwrap()]);
+        } else {
+            args.extend(["--debug-dir", dbg.to_str().unwrap()]);
+        }
+        let o = coapt(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let mask = nifti::read_u8(&out).unwrap();
+        let dc = dice(&mask, &truth);
+        let min = if with_lm { 0.97 } else { 0.95 };
+        assert!(dc >= min, "Dice {dc:.4} (landmarks: {with_lm})");
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("segment.json")).unwrap()).unwrap();
+        assert!(report["blood_hu"].as_f64().unwrap() > 250.0);
+        if !with_lm {
+            let png = std::fs::read(dbg.join("circleness_top.png")).unwrap();
+            assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+            assert!(entries(&dbg).len() >= 8, "{:?}", entries(&dbg));
+        }
+        masks.push(std::fs::read(&out).unwrap());
+    }
+    assert_eq!(masks[0], masks[1], "mask differs between 1 and 2 threads");
+}
+
+#[test]
+fn a_ct_without_contrast_is_refused_and_no_mask_written() {
+    let d = tmpdir("segment-nc");
+    let o = coapt(&[
+        "phantom",
+        "--preset",
+        "sample",
+        "--no-contrast",
+        "--out",
+        d.join("p").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = d.join("mask.nii.gz");
+    let o = coapt(&[
+        "segment",
+        "--ct",
+        d.join("p/ct.nii.gz").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("contrast") && e.contains("found"), "{e}");
+    assert!(!out.exists() && !d.join("segment.json").exists());
+}
+
+#[test]
+fn a_volume_without_a_bright_circle_is_refused() {
+    let d = tmpdir("segment-flat");
+    let aff = nifti::read_u8(&repo().join("sample_data/truth_mask.nii.gz"))
+        .unwrap()
+        .affine()
+        .to_owned();
+    let v = Volume::from_fortran_vec(
+        [64, 64, 40],
+        aff,
+        (0..64 * 64 * 40).map(|x| (x % 97) as i16 - 50).collect(),
+    )
+    .unwrap();
+    let ct = d.join("flat.nii.gz");
+    nifti::write(&ct, &v).unwrap();
+    let out = d.join("mask.nii.gz");
+    let o = coapt(&[
+        "segment",
+        "--ct",
+        ct.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("looked for the ascending aorta"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+}
