@@ -13,6 +13,7 @@ pub mod error;
 pub mod geom;
 pub mod inspect;
 pub mod io;
+pub mod leaflet;
 pub mod phantom;
 pub mod pipeline;
 pub mod rng;
