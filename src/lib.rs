@@ -18,5 +18,6 @@ pub mod phantom;
 pub mod pipeline;
 pub mod rng;
 pub mod units;
+pub mod valve;
 
 pub use error::{Error, Result};

@@ -347,6 +347,12 @@ struct TemplateFile {
     leaflet3: Option<TemplateSpec>,
 }
 
+/// Read, parse and validate a template file (bad input names the file).
+pub fn read_templates(path: &std::path::Path) -> crate::Result<[Template; 3]> {
+    let text = std::fs::read_to_string(path).map_err(|e| crate::Error::read(path, e))?;
+    parse_templates(&text).map_err(|e| crate::Error::bad_input(path, e))
+}
+
 /// Parse and validate a template file's text: one template per leaflet.
 pub fn parse_templates(text: &str) -> Result<[Template; 3], String> {
     let f: TemplateFile = toml::from_str(text).map_err(|e| e.to_string())?;
