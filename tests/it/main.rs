@@ -5,3 +5,4 @@ mod common;
 mod phantom;
 mod runner;
 mod sample_data;
+mod valve;
