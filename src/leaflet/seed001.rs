@@ -23,6 +23,8 @@ pub struct Seed001 {
     pub omega: f64,
     /// Table t_i (uniform), σ(t_i), for inverting σ.
     sigma: Vec<f64>,
+    /// Attachment length ∫|r_c'| at the same t_i.
+    alen: Vec<f64>,
 }
 
 /// Table samples per unit of t.
@@ -58,6 +60,7 @@ impl Seed001 {
             hb,
             omega,
             sigma: Vec::new(),
+            alen: Vec::new(),
         };
         // σ(t) by Gauss–Legendre (5 points) per table interval: the
         // integrand is smooth within each piece and the pieces meet at
@@ -72,6 +75,13 @@ impl Seed001 {
             sig.push(sig[i] + acc);
         }
         s.sigma = sig;
+        let mut al = Vec::with_capacity(n + 1);
+        al.push(0.0);
+        for i in 0..n {
+            let t0 = i as f64 * dt;
+            al.push(al[i] + gauss5(|t| s.speed(t), t0, t0 + dt));
+        }
+        s.alen = al;
         Ok(s)
     }
 
@@ -208,23 +218,23 @@ impl Seed001 {
             .sum()
     }
 
+    /// Attachment length from t = 0 to t (table plus one Gauss panel).
+    pub fn attachment_length_to(&self, t: f64) -> f64 {
+        let t = t.clamp(0.0, 4.0);
+        let i = ((t * PER_T as f64).floor() as usize).min(4 * PER_T - 1);
+        let t0 = i as f64 / PER_T as f64;
+        self.alen[i] + gauss5(|u| self.speed(u), t0, t)
+    }
+
+    fn speed(&self, t: f64) -> f64 {
+        let d = self.rc_rate(t);
+        dot3(d, d).sqrt()
+    }
+
     /// Length of the attachment line, ∫|r_c'| dt (equal to the length of
     /// the planar eq. 1 curve: the cylinder map is an isometry).
     pub fn attachment_length(&self) -> f64 {
-        let n = 4 * PER_T;
-        (0..n)
-            .map(|i| {
-                let t0 = i as f64 / PER_T as f64;
-                gauss5(
-                    |t| {
-                        let d = self.rc_rate(t);
-                        dot3(d, d).sqrt()
-                    },
-                    t0,
-                    t0 + 1.0 / PER_T as f64,
-                )
-            })
-            .sum()
+        self.alen[4 * PER_T]
     }
 
     /// Flat outline: attachment A→B, B→D, D→E (sutured), free edge E→A.
