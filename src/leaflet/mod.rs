@@ -5,6 +5,7 @@ pub mod aft;
 pub mod outline;
 pub mod place;
 pub mod seed001;
+pub mod stage;
 pub mod template;
 
 #[cfg(test)]

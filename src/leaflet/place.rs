@@ -217,16 +217,63 @@ fn boundary_w(s: &Seed001, t: f64, that: f64, boundary: u8) -> f64 {
     }
 }
 
-/// Extrusion direction for a leaflet whose attachment spans `path`.
-pub fn lean(axis: &Vector3, centre: &Point3, path: &Path3, omega: f64) -> Vector3 {
-    let mid = path.at(0.5) - centre;
-    let er = (mid - axis * mid.dot(axis)).normalize();
-    er * omega.sin() + axis * omega.cos()
-}
-
-/// 3-D node positions.
-pub fn place(s: &[f64], w: &[f64], path: &Path3, v: &Vector3) -> Vec<Point3> {
-    s.iter().zip(w).map(|(&s, &w)| path.at(s) + v * w).collect()
+/// Patient placement: node = P(s) + w·(sin ω·e_r(s) + cos ω·axis), with
+/// e_r(s) the outward radial unit at the attachment point. Radial (rather
+/// than seed 001's single v per leaflet) keeps every node at the angle of
+/// its attachment point, so each leaflet stays in the wedge between its two
+/// commissures and leaflets cannot cross. |ω| is reduced, if needed, so no
+/// node comes closer than `min_r` to the axis; the ω used is returned.
+pub fn place_radial(
+    s: &[f64],
+    w: &[f64],
+    path: &Path3,
+    axis: &Vector3,
+    centre: &Point3,
+    omega: f64,
+    min_r: f64,
+) -> (Vec<Point3>, f64) {
+    let radial = |p: &Point3| {
+        let d = p - centre;
+        let r = d - axis * d.dot(axis);
+        (r.norm(), r.normalize())
+    };
+    let mut om = omega;
+    if omega < 0.0 {
+        for (&si, &wi) in s.iter().zip(w) {
+            if wi > 0.0 {
+                let (r, _) = radial(&path.at(si));
+                let lim = ((r - min_r).max(0.0) / wi).min(1.0).asin();
+                om = om.max(-lim);
+            }
+        }
+    }
+    // Two leaflets share the commissure posts (the straight parts of
+    // their attachment lines lie at the commissure angle). Off the
+    // attachment edge each node is turned about the axis towards the
+    // leaflet's mid angle, by a tenth of its angular offset at most, so
+    // only sutured nodes ever reach the wedge's bounding planes.
+    let (_, ea) = radial(&path.at(0.0));
+    let (_, eb) = radial(&path.at(1.0));
+    let emid = (ea + eb).normalize();
+    let x = s
+        .iter()
+        .zip(w)
+        .map(|(&si, &wi)| {
+            let p = path.at(si);
+            let (_, er) = radial(&p);
+            let q = p + (er * om.sin() + axis * om.cos()) * wi;
+            if wi <= 0.0 {
+                return q;
+            }
+            let off = emid.cross(&er).dot(axis).atan2(emid.dot(&er));
+            let turn = -off * 0.1 * wi / (wi + 1.0);
+            let d = q - centre;
+            let (sn, cs) = turn.sin_cos();
+            // Rodrigues rotation about the axis through the centre.
+            centre + d * cs + axis.cross(&d) * sn + axis * axis.dot(&d) * (1.0 - cs)
+        })
+        .collect();
+    (x, om)
 }
 
 /// Fibre directions per triangle: M = cos θ e_x ± sin θ e_y on the flat

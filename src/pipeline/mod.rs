@@ -24,6 +24,10 @@ pub use spec::{ArtifactKind, Param, ParamKind, Port, StageIo, StageSpec};
 /// The stages of this build of coapt, in chain order. Only stages that
 /// really exist are registered.
 pub fn registry() -> &'static [&'static StageSpec] {
-    static STAGES: &[&StageSpec] = &[&crate::phantom::stage::SPEC, &crate::valve::stage::SPEC];
+    static STAGES: &[&StageSpec] = &[
+        &crate::phantom::stage::SPEC,
+        &crate::valve::stage::SPEC,
+        &crate::leaflet::stage::SPEC,
+    ];
     STAGES
 }

@@ -2,6 +2,7 @@
 
 mod bad_input;
 mod common;
+mod leaflets;
 mod phantom;
 mod runner;
 mod sample_data;
