@@ -12,11 +12,39 @@
 //! quality follows. Boundary nodes never move: the outline is kept exactly.
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::BinaryHeap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use robust::{Coord, orient2d};
 
 use super::outline::{Edge, Outline, P2, dist};
+
+/// Multiplicative hash for small integer keys (node-id pairs): the
+/// default SipHash dominated the mesher's profile. Deterministic.
+#[derive(Default)]
+struct IdHasher(u64);
+
+impl Hasher for IdHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
+        }
+    }
+    fn write_u32(&mut self, v: u32) {
+        self.write_u64(v as u64);
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_usize(&mut self, v: usize) {
+        self.write_u64(v as u64);
+    }
+}
+
+type HashMap<K, V> = std::collections::HashMap<K, V, BuildHasherDefault<IdHasher>>;
 
 /// A flat triangulation. Boundary nodes come first, in outline order.
 #[derive(Debug, Clone, PartialEq)]
@@ -332,7 +360,7 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
         deg: Vec::new(),
         edges: Vec::new(),
         alive: Vec::new(),
-        map: HashMap::new(),
+        map: HashMap::default(),
         edge_grid: Grid::new(lo, hi, h),
         heap: BinaryHeap::new(),
         tris: Vec::new(),
@@ -348,7 +376,7 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
     // A valid outline encloses at most area/(0.2 h²) triangles' worth of
     // nodes; more means the front escaped a self-intersecting outline.
     let cap = (outline.area().abs() / (0.2 * h * h)) as usize + 4 * bpts.len() + 16;
-    let mut tries: HashMap<u32, u32> = HashMap::new();
+    let mut tries: HashMap<u32, u32> = HashMap::default();
     let mut cand: Vec<(f64, u32)> = Vec::new();
     let mut near: Vec<u32> = Vec::new();
     while let Some(Reverse((_, e))) = f.heap.pop() {
@@ -459,7 +487,7 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
 /// One sweep of quality-improving Lawson flips (deterministic order).
 /// Returns the number of flips.
 fn flip_pass(m: &mut FlatMesh) -> usize {
-    let mut edge_tris: HashMap<[u32; 2], Vec<u32>> = HashMap::new();
+    let mut edge_tris: HashMap<[u32; 2], Vec<u32>> = HashMap::default();
     for (t, tri) in m.tris.iter().enumerate() {
         for k in 0..3 {
             let (p, q) = (tri[k], tri[(k + 1) % 3]);
@@ -595,7 +623,7 @@ impl FlatMesh {
         let mut sum_q = 0.0;
         let mut min_q = f64::INFINITY;
         let mut area = 0.0;
-        let mut edges: HashMap<[u32; 2], f64> = HashMap::new();
+        let mut edges: HashMap<[u32; 2], f64> = HashMap::default();
         for t in &self.tris {
             let p = [
                 self.nodes[t[0] as usize],
