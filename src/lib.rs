@@ -13,11 +13,13 @@ pub mod error;
 pub mod geom;
 pub mod inspect;
 pub mod io;
+pub mod leaflet;
 pub mod phantom;
 pub mod pipeline;
 pub mod rng;
 pub mod segment;
 pub mod surface;
 pub mod units;
+pub mod valve;
 
 pub use error::{Error, Result};

@@ -28,6 +28,8 @@ pub fn registry() -> &'static [&'static StageSpec] {
         &crate::phantom::stage::SPEC,
         &crate::segment::stage::SPEC,
         &crate::surface::stage::SPEC,
+        &crate::valve::stage::SPEC,
+        &crate::leaflet::stage::SPEC,
     ];
     STAGES
 }

@@ -25,6 +25,8 @@ pub enum ArtifactKind {
     Polylines,
     /// A JSON document.
     Json,
+    /// A leaflet template file (TOML with explicit units).
+    Template,
     /// A directory of files.
     Dir,
 }
@@ -38,6 +40,7 @@ impl ArtifactKind {
             ArtifactKind::Mesh => "triangle mesh (.vtp)",
             ArtifactKind::Polylines => "polylines (.vtp)",
             ArtifactKind::Json => "JSON",
+            ArtifactKind::Template => "leaflet template (.toml)",
             ArtifactKind::Dir => "directory",
         }
     }

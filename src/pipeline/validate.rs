@@ -34,6 +34,9 @@ pub fn input(kind: ArtifactKind, path: &Path) -> Result<()> {
             serde_json::from_slice::<serde_json::Value>(&bytes)
                 .map_err(|e| Error::bad_input(path, format!("not valid JSON: {e}")))?;
         }
+        ArtifactKind::Template => {
+            crate::leaflet::template::read_templates(path)?;
+        }
         ArtifactKind::Dir => {
             if !path.is_dir() {
                 return Err(Error::bad_input(path, "expected a directory"));

@@ -2,8 +2,10 @@
 
 mod bad_input;
 mod common;
+mod leaflets;
 mod phantom;
 mod runner;
 mod sample_data;
 mod segment;
 mod surface;
+mod valve;

@@ -1,0 +1,687 @@
+//! Advancing-front triangulation of a planar outline (ALGORITHMS.md §4).
+//!
+//! The boundary is split by arc length (corners kept); the front starts as
+//! the boundary, domain on the left. The shortest front edge AB is taken
+//! first (Löhner); its ideal apex P* sits at distance ≈ h. Every valid
+//! candidate — existing front nodes near P*, and P* itself — is scored by
+//! triangle shape, existing nodes favoured so that the front closes rather
+//! than spawning slivers. Orientation tests use Shewchuk's adaptive
+//! predicates (`robust`). A post-pass of Lawson flips (kept only when the
+//! worse of the two triangles improves) and Laplacian smoothing that
+//! rejects any move that inverts a triangle or worsens the local minimum
+//! quality follows. Boundary nodes never move: the outline is kept exactly.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+use robust::{Coord, orient2d};
+
+use super::outline::{Edge, Outline, P2, dist};
+
+/// Multiplicative hash for small integer keys (node-id pairs): the
+/// default SipHash dominated the mesher's profile. Deterministic.
+#[derive(Default)]
+struct IdHasher(u64);
+
+impl Hasher for IdHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
+        }
+    }
+    fn write_u32(&mut self, v: u32) {
+        self.write_u64(v as u64);
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_usize(&mut self, v: usize) {
+        self.write_u64(v as u64);
+    }
+}
+
+type HashMap<K, V> = std::collections::HashMap<K, V, BuildHasherDefault<IdHasher>>;
+
+/// A flat triangulation. Boundary nodes come first, in outline order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlatMesh {
+    pub nodes: Vec<P2>,
+    pub tris: Vec<[u32; 3]>,
+    /// 0 interior, 1 sutured (attachment edge), 2 free edge.
+    pub boundary: Vec<u8>,
+    pub n_boundary: usize,
+}
+
+/// Quality summary (ALGORITHMS.md §4.2).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct MeshStats {
+    pub nodes: usize,
+    pub triangles: usize,
+    pub min_angle_deg: f64,
+    pub mean_shape: f64,
+    pub min_shape: f64,
+    /// Fraction of edges with length in [0.7 h, 1.4 h].
+    pub edges_in_range: f64,
+    pub area_mm2: f64,
+}
+
+pub fn orient(a: P2, b: P2, c: P2) -> f64 {
+    orient2d(
+        Coord { x: a[0], y: a[1] },
+        Coord { x: b[0], y: b[1] },
+        Coord { x: c[0], y: c[1] },
+    )
+}
+
+/// Shape quality 4√3·A / Σ l², 1 for the equilateral triangle.
+pub fn shape(a: P2, b: P2, c: P2) -> f64 {
+    let ar = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]));
+    let s = d2(a, b) + d2(b, c) + d2(c, a);
+    4.0 * 3f64.sqrt() * ar / s
+}
+
+fn d2(a: P2, b: P2) -> f64 {
+    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
+}
+
+/// Uniform bucket grid over the domain (cell ≈ h).
+struct Grid {
+    x0: f64,
+    y0: f64,
+    cell: f64,
+    nx: usize,
+    ny: usize,
+    buckets: Vec<Vec<u32>>,
+}
+
+impl Grid {
+    fn new(lo: P2, hi: P2, cell: f64) -> Grid {
+        let nx = (((hi[0] - lo[0]) / cell).ceil() as usize).max(1) + 2;
+        let ny = (((hi[1] - lo[1]) / cell).ceil() as usize).max(1) + 2;
+        Grid {
+            x0: lo[0] - cell,
+            y0: lo[1] - cell,
+            cell,
+            nx,
+            ny,
+            buckets: vec![Vec::new(); nx * ny],
+        }
+    }
+
+    fn range(&self, lo: P2, hi: P2) -> (usize, usize, usize, usize) {
+        let f =
+            |v: f64, o: f64, n: usize| (((v - o) / self.cell).floor().max(0.0) as usize).min(n - 1);
+        (
+            f(lo[0], self.x0, self.nx),
+            f(hi[0], self.x0, self.nx),
+            f(lo[1], self.y0, self.ny),
+            f(hi[1], self.y0, self.ny),
+        )
+    }
+
+    fn insert(&mut self, id: u32, lo: P2, hi: P2) {
+        let (i0, i1, j0, j1) = self.range(lo, hi);
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                self.buckets[j * self.nx + i].push(id);
+            }
+        }
+    }
+
+    /// Ids in the cells meeting the box, sorted and unique (deterministic).
+    fn query(&self, lo: P2, hi: P2, out: &mut Vec<u32>) {
+        out.clear();
+        let (i0, i1, j0, j1) = self.range(lo, hi);
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                out.extend_from_slice(&self.buckets[j * self.nx + i]);
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+}
+
+struct Front {
+    nodes: Vec<P2>,
+    node_grid: Grid,
+    deg: Vec<u32>,
+    edges: Vec<[u32; 2]>,
+    alive: Vec<bool>,
+    map: HashMap<[u32; 2], u32>,
+    edge_grid: Grid,
+    heap: BinaryHeap<Reverse<(u64, u32)>>,
+    tris: Vec<[u32; 3]>,
+    scratch: Vec<u32>,
+}
+
+impl Front {
+    fn add_node(&mut self, p: P2) -> u32 {
+        let id = self.nodes.len() as u32;
+        self.nodes.push(p);
+        self.deg.push(0);
+        self.node_grid.insert(id, p, p);
+        id
+    }
+
+    fn add_edge(&mut self, a: u32, b: u32, penalty: f64) {
+        let id = self.edges.len() as u32;
+        let (pa, pb) = (self.nodes[a as usize], self.nodes[b as usize]);
+        self.edges.push([a, b]);
+        self.alive.push(true);
+        self.map.insert([a, b], id);
+        self.deg[a as usize] += 1;
+        self.deg[b as usize] += 1;
+        let lo = [pa[0].min(pb[0]), pa[1].min(pb[1])];
+        let hi = [pa[0].max(pb[0]), pa[1].max(pb[1])];
+        self.edge_grid.insert(id, lo, hi);
+        let key = (dist(pa, pb) * penalty).to_bits();
+        self.heap.push(Reverse((key, id)));
+    }
+
+    fn kill_edge(&mut self, id: u32) {
+        let [a, b] = self.edges[id as usize];
+        self.alive[id as usize] = false;
+        self.map.remove(&[a, b]);
+        self.deg[a as usize] -= 1;
+        self.deg[b as usize] -= 1;
+    }
+
+    /// Can triangle (a, b, c) be cut off the front at edge `ab`?
+    fn valid(&mut self, ab: u32, c: P2, c_id: Option<u32>, delta: f64, qmin: f64) -> bool {
+        let [a, b] = self.edges[ab as usize];
+        let (pa, pb) = (self.nodes[a as usize], self.nodes[b as usize]);
+        if orient(pa, pb, c) <= 0.0 || shape(pa, pb, c) < qmin {
+            return false;
+        }
+        if let Some(ci) = c_id {
+            if ci == a
+                || ci == b
+                || self.map.contains_key(&[a, ci])
+                || self.map.contains_key(&[ci, b])
+            {
+                return false;
+            }
+        }
+        let pad = if c_id.is_none() { 0.6 * delta } else { 0.0 };
+        let lo = [
+            pa[0].min(pb[0]).min(c[0]) - pad,
+            pa[1].min(pb[1]).min(c[1]) - pad,
+        ];
+        let hi = [
+            pa[0].max(pb[0]).max(c[0]) + pad,
+            pa[1].max(pb[1]).max(c[1]) + pad,
+        ];
+        let mut ids = std::mem::take(&mut self.scratch);
+        let mut ok = true;
+        self.edge_grid.query(lo, hi, &mut ids);
+        for &e in &ids {
+            if !self.alive[e as usize] || e == ab {
+                continue;
+            }
+            let [p, q] = self.edges[e as usize];
+            let (pp, pq) = (self.nodes[p as usize], self.nodes[q as usize]);
+            let cn = c_id.unwrap_or(u32::MAX);
+            if crosses(a, cn, pa, c, p, q, pp, pq) || crosses(cn, b, c, pb, p, q, pp, pq) {
+                ok = false;
+                break;
+            }
+            if c_id.is_none() && seg_dist(c, pp, pq) < 0.45 * delta {
+                ok = false;
+                break;
+            }
+        }
+        if ok {
+            self.node_grid.query(lo, hi, &mut ids);
+            for &k in &ids {
+                if self.deg[k as usize] == 0 || k == a || k == b || Some(k) == c_id {
+                    continue;
+                }
+                let pk = self.nodes[k as usize];
+                if orient(pa, pb, pk) >= 0.0 && orient(pb, c, pk) >= 0.0 && orient(c, pa, pk) >= 0.0
+                {
+                    ok = false;
+                    break;
+                }
+                if c_id.is_none() && dist(c, pk) < 0.6 * delta {
+                    ok = false;
+                    break;
+                }
+            }
+        }
+        self.scratch = ids;
+        ok
+    }
+
+    fn cut(&mut self, ab: u32, c: u32) {
+        let [a, b] = self.edges[ab as usize];
+        self.kill_edge(ab);
+        self.tris.push([a, b, c]);
+        for (p, q) in [(a, c), (c, b)] {
+            if let Some(&rev) = self.map.get(&[q, p]) {
+                self.kill_edge(rev);
+            } else {
+                self.add_edge(p, q, 1.0);
+            }
+        }
+    }
+}
+
+/// Do segments (p1, p2) and (q1, q2) cross or touch anywhere but at a
+/// shared endpoint? Ids identify shared endpoints exactly.
+#[allow(clippy::too_many_arguments)]
+fn crosses(i1: u32, i2: u32, p1: P2, p2: P2, j1: u32, j2: u32, q1: P2, q2: P2) -> bool {
+    if (i1 == j1 && i2 == j2) || (i1 == j2 && i2 == j1) {
+        return false; // the same segment (a front edge being closed)
+    }
+    let shared = i1 == j1 || i1 == j2 || i2 == j1 || i2 == j2;
+    let o1 = orient(p1, p2, q1);
+    let o2 = orient(p1, p2, q2);
+    let o3 = orient(q1, q2, p1);
+    let o4 = orient(q1, q2, p2);
+    if shared {
+        // Sharing an endpoint, they overlap only when collinear and pointing
+        // the same way.
+        if o1 == 0.0 && o2 == 0.0 {
+            let (s, t1, t2) = if i1 == j1 || i1 == j2 {
+                (p1, p2, if i1 == j1 { q2 } else { q1 })
+            } else {
+                (p2, p1, if i2 == j1 { q2 } else { q1 })
+            };
+            return (t1[0] - s[0]) * (t2[0] - s[0]) + (t1[1] - s[1]) * (t2[1] - s[1]) > 0.0;
+        }
+        return false;
+    }
+    if o1 * o2 > 0.0 || o3 * o4 > 0.0 {
+        return false;
+    }
+    if o1 == 0.0 && o2 == 0.0 {
+        // Collinear: overlap of projections.
+        let ax = if (p2[0] - p1[0]).abs() > (p2[1] - p1[1]).abs() {
+            0
+        } else {
+            1
+        };
+        let (a0, a1) = (p1[ax].min(p2[ax]), p1[ax].max(p2[ax]));
+        let (b0, b1) = (q1[ax].min(q2[ax]), q1[ax].max(q2[ax]));
+        return a0 <= b1 && b0 <= a1;
+    }
+    true
+}
+
+fn seg_dist(p: P2, a: P2, b: P2) -> f64 {
+    let ab = [b[0] - a[0], b[1] - a[1]];
+    let l2 = ab[0] * ab[0] + ab[1] * ab[1];
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    dist(p, [a[0] + t * ab[0], a[1] + t * ab[1]])
+}
+
+/// Mesh `outline` with uniform size `h` (mm).
+pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
+    if !(h > 0.0 && h.is_finite()) {
+        return Err(format!("mesh size h = {h} mm must be positive"));
+    }
+    // A uniform front cannot grade from a tiny piece to size h.
+    for (i, p) in outline.pieces.iter().enumerate() {
+        if p.shape.length() < 0.25 * h {
+            return Err(format!(
+                "outline piece {i} is {:.4} mm long, under h/4 = {:.4} mm: use a smaller h",
+                p.shape.length(),
+                0.25 * h
+            ));
+        }
+    }
+    let (bpts, tags) = outline.discretise(h);
+    if bpts.len() < 3 {
+        return Err(format!("mesh size h = {h} mm is too large for the outline"));
+    }
+    if bpts.len() > 2_000_000 {
+        return Err(format!("mesh size h = {h} mm is too small for the outline"));
+    }
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for p in &bpts {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let mut f = Front {
+        nodes: Vec::new(),
+        node_grid: Grid::new(lo, hi, h),
+        deg: Vec::new(),
+        edges: Vec::new(),
+        alive: Vec::new(),
+        map: HashMap::default(),
+        edge_grid: Grid::new(lo, hi, h),
+        heap: BinaryHeap::new(),
+        tris: Vec::new(),
+        scratch: Vec::new(),
+    };
+    for &p in &bpts {
+        f.add_node(p);
+    }
+    let nb = bpts.len() as u32;
+    for i in 0..nb {
+        f.add_edge(i, (i + 1) % nb, 1.0);
+    }
+    // A valid outline encloses at most area/(0.2 h²) triangles' worth of
+    // nodes; more means the front escaped a self-intersecting outline.
+    let cap = (outline.area().abs() / (0.2 * h * h)) as usize + 4 * bpts.len() + 16;
+    let mut tries: HashMap<u32, u32> = HashMap::default();
+    let mut cand: Vec<(f64, u32)> = Vec::new();
+    let mut near: Vec<u32> = Vec::new();
+    while let Some(Reverse((_, e))) = f.heap.pop() {
+        if !f.alive[e as usize] {
+            continue;
+        }
+        let [a, b] = f.edges[e as usize];
+        let (pa, pb) = (f.nodes[a as usize], f.nodes[b as usize]);
+        let l = dist(pa, pb);
+        let nrm = [-(pb[1] - pa[1]) / l, (pb[0] - pa[0]) / l];
+        let mid = [(pa[0] + pb[0]) / 2.0, (pa[1] + pb[1]) / 2.0];
+        let delta = h.clamp(0.55 * l, 2.0 * l);
+        let ht = (delta * delta - l * l / 4.0).max(0.25 * l * l).sqrt();
+        let pstar = [mid[0] + nrm[0] * ht, mid[1] + nrm[1] * ht];
+        let attempt = *tries.get(&e).unwrap_or(&0);
+        // Existing front nodes around P*, wider on later attempts.
+        let rs = delta * [1.1, 2.0, 3.5, 6.0][attempt.min(3) as usize];
+        f.node_grid.query(
+            [pstar[0] - rs, pstar[1] - rs],
+            [pstar[0] + rs, pstar[1] + rs],
+            &mut near,
+        );
+        cand.clear();
+        for &k in &near {
+            if f.deg[k as usize] == 0 || k == a || k == b {
+                continue;
+            }
+            let pk = f.nodes[k as usize];
+            let dk = dist(pk, pstar);
+            if dk < rs && orient(pa, pb, pk) > 0.0 {
+                cand.push((dk, k));
+            }
+        }
+        cand.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        let qmin = [0.5, 0.3, 0.15, 0.02][attempt.min(3) as usize];
+        let mut best: Option<(f64, Option<u32>, P2)> = None;
+        for &(_, k) in cand.iter().take(12) {
+            let pk = f.nodes[k as usize];
+            if f.valid(e, pk, Some(k), delta, qmin) {
+                // Existing nodes close the front: favour them.
+                let score = shape(pa, pb, pk) * 1.3;
+                if best.as_ref().is_none_or(|b| score > b.0) {
+                    best = Some((score, Some(k), pk));
+                }
+            }
+        }
+        if best.as_ref().is_none_or(|b| b.0 < 1.3 * 0.75) {
+            for s in [1.0, 0.8, 0.6, 0.4] {
+                let p = [mid[0] + nrm[0] * ht * s, mid[1] + nrm[1] * ht * s];
+                let d = if s == 1.0 { delta } else { delta * s.max(0.5) };
+                if f.valid(e, p, None, d, qmin) {
+                    let score = shape(pa, pb, p) * s;
+                    if best.as_ref().is_none_or(|b| score > b.0) {
+                        best = Some((score, None, p));
+                    }
+                    break;
+                }
+            }
+        }
+        match best {
+            Some((_, Some(k), _)) => f.cut(e, k),
+            Some((_, None, p)) => {
+                let inside = p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1];
+                if !inside || f.nodes.len() > cap {
+                    return Err(
+                        "the outline is not a simple closed curve: the front escaped it".into(),
+                    );
+                }
+                let k = f.add_node(p);
+                f.cut(e, k);
+            }
+            None => {
+                if attempt >= 8 {
+                    let left = f.alive.iter().filter(|&&x| x).count();
+                    return Err(format!(
+                        "advancing front stalled at ({:.3}, {:.3}) with {left} front edges left",
+                        mid[0], mid[1]
+                    ));
+                }
+                tries.insert(e, attempt + 1);
+                // Postpone: later edges may open the way.
+                let key = (l * (2.0 + attempt as f64)).to_bits();
+                f.heap.push(Reverse((key, e)));
+            }
+        }
+    }
+    let mut boundary = vec![0u8; f.nodes.len()];
+    for (i, t) in tags.iter().enumerate() {
+        boundary[i] = match t {
+            Edge::Sutured => 1,
+            Edge::Free => 2,
+        };
+    }
+    let mut m = FlatMesh {
+        nodes: f.nodes,
+        tris: f.tris,
+        boundary,
+        n_boundary: nb as usize,
+    };
+    for _ in 0..3 {
+        flip_pass(&mut m);
+        smooth_pass(&mut m, 4);
+    }
+    flip_pass(&mut m);
+    Ok(m)
+}
+
+/// One sweep of quality-improving Lawson flips (deterministic order).
+/// Returns the number of flips.
+fn flip_pass(m: &mut FlatMesh) -> usize {
+    let mut edge_tris: HashMap<[u32; 2], Vec<u32>> = HashMap::default();
+    for (t, tri) in m.tris.iter().enumerate() {
+        for k in 0..3 {
+            let (p, q) = (tri[k], tri[(k + 1) % 3]);
+            edge_tris
+                .entry([p.min(q), p.max(q)])
+                .or_default()
+                .push(t as u32);
+        }
+    }
+    let mut keys: Vec<[u32; 2]> = edge_tris
+        .iter()
+        .filter(|(_, v)| v.len() == 2)
+        .map(|(k, _)| *k)
+        .collect();
+    keys.sort_unstable();
+    let mut touched = vec![false; m.tris.len()];
+    let mut flips = 0;
+    for key in keys {
+        let ts = &edge_tris[&key];
+        let (t1, t2) = (ts[0] as usize, ts[1] as usize);
+        if touched[t1] || touched[t2] {
+            continue;
+        }
+        let (p, q) = (key[0], key[1]);
+        let opp = |t: usize| *m.tris[t].iter().find(|&&v| v != p && v != q).unwrap();
+        let (r, s) = (opp(t1), opp(t2));
+        let n = &m.nodes;
+        let [pp, pq, pr, ps] = [n[p as usize], n[q as usize], n[r as usize], n[s as usize]];
+        let old = shape_abs(&m.tris[t1], n).min(shape_abs(&m.tris[t2], n));
+        // New triangles r-s-? oriented counter-clockwise.
+        let (x1, x2) = if orient(pr, ps, pp) > 0.0 {
+            ([r, s, p], [s, r, q])
+        } else {
+            ([s, r, p], [r, s, q])
+        };
+        let ok = |t: &[u32; 3]| orient(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize]) > 0.0;
+        if !(ok(&x1) && ok(&x2)) {
+            continue;
+        }
+        let _ = (pq, pp);
+        let new = shape_abs(&x1, n).min(shape_abs(&x2, n));
+        if new > old + 1e-9 {
+            m.tris[t1] = x1;
+            m.tris[t2] = x2;
+            touched[t1] = true;
+            touched[t2] = true;
+            flips += 1;
+        }
+    }
+    flips
+}
+
+fn shape_abs(t: &[u32; 3], n: &[P2]) -> f64 {
+    shape(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize])
+}
+
+/// Laplacian smoothing of interior nodes; a move is kept only if no
+/// incident triangle inverts and the worst incident quality does not drop.
+fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
+    let nn = m.nodes.len();
+    let mut inc: Vec<Vec<u32>> = vec![Vec::new(); nn];
+    for (t, tri) in m.tris.iter().enumerate() {
+        for &v in tri {
+            inc[v as usize].push(t as u32);
+        }
+    }
+    let mut nbr: Vec<Vec<u32>> = vec![Vec::new(); nn];
+    for tri in &m.tris {
+        for k in 0..3 {
+            let (p, q) = (tri[k] as usize, tri[(k + 1) % 3]);
+            nbr[p].push(q);
+            nbr[q as usize].push(tri[k]);
+        }
+    }
+    for v in nbr.iter_mut() {
+        v.sort_unstable();
+        v.dedup();
+    }
+    for _ in 0..sweeps {
+        for i in m.n_boundary..nn {
+            if nbr[i].is_empty() {
+                continue;
+            }
+            let mut c = [0.0, 0.0];
+            for &j in &nbr[i] {
+                c[0] += m.nodes[j as usize][0];
+                c[1] += m.nodes[j as usize][1];
+            }
+            let k = nbr[i].len() as f64;
+            let target = [c[0] / k, c[1] / k];
+            let old_p = m.nodes[i];
+            let worst = |m: &FlatMesh| {
+                inc[i]
+                    .iter()
+                    .map(|&t| {
+                        let tri = &m.tris[t as usize];
+                        let (a, b, c) = (
+                            m.nodes[tri[0] as usize],
+                            m.nodes[tri[1] as usize],
+                            m.nodes[tri[2] as usize],
+                        );
+                        if orient(a, b, c) > 0.0 {
+                            shape(a, b, c)
+                        } else {
+                            -1.0
+                        }
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let before = worst(m);
+            let mut accepted = false;
+            for w in [1.0, 0.5, 0.25] {
+                m.nodes[i] = [
+                    old_p[0] + w * (target[0] - old_p[0]),
+                    old_p[1] + w * (target[1] - old_p[1]),
+                ];
+                let after = worst(m);
+                if after > 0.0 && after >= before.min(0.8) - 1e-12 && after >= before - 0.05 {
+                    accepted = true;
+                    break;
+                }
+            }
+            if !accepted {
+                m.nodes[i] = old_p;
+            }
+        }
+    }
+}
+
+impl FlatMesh {
+    pub fn stats(&self, h: f64) -> MeshStats {
+        let mut min_angle = f64::INFINITY;
+        let mut sum_q = 0.0;
+        let mut min_q = f64::INFINITY;
+        let mut area = 0.0;
+        let mut edges: HashMap<[u32; 2], f64> = HashMap::default();
+        for t in &self.tris {
+            let p = [
+                self.nodes[t[0] as usize],
+                self.nodes[t[1] as usize],
+                self.nodes[t[2] as usize],
+            ];
+            let q = shape(p[0], p[1], p[2]);
+            sum_q += q;
+            min_q = min_q.min(q);
+            area += 0.5
+                * ((p[1][0] - p[0][0]) * (p[2][1] - p[0][1])
+                    - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]));
+            for k in 0..3 {
+                let (a, b, c) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
+                let u = [b[0] - a[0], b[1] - a[1]];
+                let v = [c[0] - a[0], c[1] - a[1]];
+                let ang = (u[0] * v[1] - u[1] * v[0])
+                    .abs()
+                    .atan2(u[0] * v[0] + u[1] * v[1]);
+                min_angle = min_angle.min(ang.to_degrees());
+                let (i, j) = (t[k], t[(k + 1) % 3]);
+                edges.insert([i.min(j), i.max(j)], dist(a, b));
+            }
+        }
+        let inr = edges
+            .values()
+            .filter(|&&l| l >= 0.7 * h && l <= 1.4 * h)
+            .count();
+        MeshStats {
+            nodes: self.nodes.len(),
+            triangles: self.tris.len(),
+            min_angle_deg: min_angle,
+            mean_shape: sum_q / self.tris.len().max(1) as f64,
+            min_shape: min_q,
+            edges_in_range: inr as f64 / edges.len().max(1) as f64,
+            area_mm2: area,
+        }
+    }
+
+    /// Every triangle counter-clockwise with positive area (robust test).
+    pub fn all_positive(&self) -> bool {
+        self.tris.iter().all(|t| {
+            orient(
+                self.nodes[t[0] as usize],
+                self.nodes[t[1] as usize],
+                self.nodes[t[2] as usize],
+            ) > 0.0
+        })
+    }
+
+    /// Area of the polygon through the boundary nodes.
+    pub fn boundary_polygon_area(&self) -> f64 {
+        let n = self.n_boundary;
+        (0..n)
+            .map(|i| {
+                let (a, b) = (self.nodes[i], self.nodes[(i + 1) % n]);
+                0.5 * (a[0] * b[1] - a[1] * b[0])
+            })
+            .sum()
+    }
+}

@@ -1,0 +1,12 @@
+//! The `leaflets` stage: flat templates, their advancing-front meshes and
+//! their placement in the patient's root.
+
+pub mod aft;
+pub mod outline;
+pub mod place;
+pub mod seed001;
+pub mod stage;
+pub mod template;
+
+#[cfg(test)]
+mod tests;

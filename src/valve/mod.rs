@@ -1,0 +1,10 @@
+//! The `valve` stage: valve frame, radii and suture paths on the wall.
+
+pub mod cylinder;
+pub mod frame;
+pub mod stage;
+pub mod suture;
+pub mod wall;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,289 @@
+//! The `valve` stage: landmarks snapped to the wall, the valve frame and
+//! radii, and the three suture paths.
+
+use serde_json::{Value as Json, json};
+
+use super::frame::{self, CommissureCylinder};
+use super::suture::{self, LengthMatch, PathSpec};
+use super::wall::Wall;
+use crate::geom::{DataArray, DataValues, Frame, Point3, PolyData};
+use crate::io::{Transaction, markups, vtp};
+use crate::leaflet::outline::Edge;
+use crate::leaflet::template::{Template, read_templates};
+use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
+use crate::units::Kind;
+use crate::{Error, Result};
+
+pub static SPEC: StageSpec = StageSpec {
+    name: "valve",
+    about: "Valve frame, radii and suture paths from the wall surface and the commissures",
+    inputs: &[
+        Port {
+            name: "surface",
+            flag: "surface",
+            file: "aorta.vtp",
+            kind: ArtifactKind::Mesh,
+            required: true,
+            help: "lumen wall (closed; `region` 0 marks the wall when present)",
+        },
+        Port {
+            name: "landmarks",
+            flag: "landmarks",
+            file: "landmarks.mrk.json",
+            kind: ArtifactKind::Landmarks,
+            required: true,
+            help: "commissures C1–C3 (required), nadirs N1–N3 (optional)",
+        },
+        Port {
+            name: "template",
+            flag: "template",
+            file: "template.toml",
+            kind: ArtifactKind::Template,
+            required: false,
+            help: "leaflet templates: the paths are length-matched to their attachment edges",
+        },
+    ],
+    outputs: &[
+        Port {
+            name: "valve",
+            flag: "out",
+            file: "valve.json",
+            kind: ArtifactKind::Json,
+            required: true,
+            help: "valve frame, snapped landmarks, radii, path lengths",
+        },
+        Port {
+            name: "paths",
+            flag: "paths",
+            file: "paths.vtp",
+            kind: ArtifactKind::Polylines,
+            required: true,
+            help: "three suture paths (cell data `leaflet` 1–3), C_k → C_k+1",
+        },
+    ],
+    out_dir: None,
+    params: &[
+        Param {
+            name: "hc",
+            kind: ParamKind::Quantity(Kind::Length),
+            default: Some("1.5 mm"),
+            help: "straight part below each commissure (seed 001 H_c); a five-parameter template's own H_c wins",
+        },
+        Param {
+            name: "spacing",
+            kind: ParamKind::Quantity(Kind::Length),
+            default: Some("0.2 mm"),
+            help: "largest point spacing along the paths",
+        },
+    ],
+    check: |p| {
+        if !(p.quantity("hc") >= 0.0) || !(p.quantity("spacing") > 0.0) {
+            return Err(Error::value("hc must be ≥ 0 and spacing > 0"));
+        }
+        Ok(())
+    },
+    run,
+};
+
+const MAX_SNAP_MM: f64 = 2.0;
+
+/// Everything the stage computes, for the CLI and for tests.
+pub struct ValveResult {
+    pub json: Json,
+    pub paths: Vec<Vec<Point3>>,
+}
+
+fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
+    let surf_path = io.input("surface").expect("required");
+    let lm_path = io.input("landmarks").expect("required");
+    let mesh = vtp::read_mesh(surf_path)?;
+    let lm = markups::read(lm_path)?;
+    let templates = match io.input("template") {
+        Some(p) => Some(read_templates(p)?),
+        None => None,
+    };
+    let wall = Wall::new(&mesh).map_err(|e| Error::bad_input(surf_path, e))?;
+    let snap = |label: &str, p: Point3| -> Result<(Point3, f64)> {
+        let (q, _) = wall.closest(&p);
+        let d = (q - p).norm();
+        if d > MAX_SNAP_MM {
+            return Err(Error::bad_input(
+                lm_path,
+                format!("{label} is {d:.2} mm from the wall (more than {MAX_SNAP_MM} mm)"),
+            ));
+        }
+        Ok((q, d))
+    };
+    let cs = lm
+        .require(&["C1", "C2", "C3"])
+        .map_err(|e| e.in_file(lm_path))?;
+    let mut snapped = serde_json::Map::new();
+    let mut c = [Point3::origin(); 3];
+    for k in 0..3 {
+        let (q, d) = snap(&format!("C{}", k + 1), cs[k])?;
+        c[k] = q;
+        snapped.insert(
+            format!("C{}", k + 1),
+            json!({"point_mm": [q.x, q.y, q.z], "moved_mm": d}),
+        );
+    }
+    let have_n: Vec<bool> = (1..=3)
+        .map(|k| lm.get(&format!("N{k}")).is_some())
+        .collect();
+    let nadirs = if have_n.iter().all(|&b| b) {
+        let mut n = [Point3::origin(); 3];
+        for k in 0..3 {
+            let (q, d) = snap(
+                &format!("N{}", k + 1),
+                lm.get(&format!("N{}", k + 1)).unwrap(),
+            )?;
+            n[k] = q;
+            snapped.insert(
+                format!("N{}", k + 1),
+                json!({"point_mm": [q.x, q.y, q.z], "moved_mm": d}),
+            );
+        }
+        Some(n)
+    } else if have_n.iter().any(|&b| b) {
+        return Err(Error::bad_input(
+            lm_path,
+            "give all three nadirs N1–N3 or none",
+        ));
+    } else {
+        None
+    };
+    progress.set(0.2);
+    let r = compute(
+        &mesh,
+        &wall,
+        &c,
+        nadirs.as_ref(),
+        templates.as_ref(),
+        params,
+    )
+    .map_err(|e| Error::failed("valve", e))?;
+    let mut out = r.json;
+    out["landmarks_snapped"] = Json::Object(snapped);
+    let mut pd = PolyData::default();
+    let mut leaflet = Vec::new();
+    for (k, p) in r.paths.iter().enumerate() {
+        let base = pd.points.len() as u32;
+        pd.points.extend_from_slice(p);
+        pd.lines.push((base..base + p.len() as u32).collect());
+        leaflet.push(k as i32 + 1);
+    }
+    pd.cell_data
+        .insert(DataArray::new("leaflet", 1, DataValues::I32(leaflet)));
+    pd.field_data
+        .insert(DataArray::string("frame", Frame::Lps.name()));
+    let mut tx = Transaction::new();
+    let text = serde_json::to_string_pretty(&out).expect("valve json") + "\n";
+    tx.write_bytes(io.output("valve"), text.as_bytes())?;
+    tx.write(io.output("paths"), |w| {
+        vtp::encode(w, &pd, &vtp::WriteOptions::default())
+    })?;
+    tx.commit()?;
+    progress.set(1.0);
+    Ok(json!({
+        "annulus_from": out["annulus_from"],
+        "path_lengths_mm": out["paths"].as_array().map(|a| a.iter().map(|p| p["path_mm"].clone()).collect::<Vec<_>>()),
+    }))
+}
+
+/// Frame, radii and paths from snapped landmarks.
+pub fn compute(
+    mesh: &crate::geom::TriMesh,
+    wall: &Wall,
+    c: &[Point3; 3],
+    nadirs: Option<&[Point3; 3]>,
+    templates: Option<&[Template; 3]>,
+    params: &Params,
+) -> std::result::Result<ValveResult, String> {
+    let cyl = frame::commissure_cylinder(mesh, c).ok_or("the three commissures are collinear")?;
+    let m = frame::measure(mesh, wall, &cyl, c, nadirs)?;
+    let ds = params.quantity("spacing");
+    let mut paths = Vec::new();
+    let mut matches = Vec::new();
+    for k in 0..3 {
+        let (ca, cb) = (c[k], c[(k + 1) % 3]);
+        let tpl = templates.map(|t| &t[k]);
+        let hc = match tpl {
+            Some(Template::Seed001(s)) => s.hc,
+            _ => params.quantity("hc"),
+        };
+        let target = tpl.map(|t| t.outline().length(Edge::Sutured));
+        let (path, depth, adjusted) = match (nadirs, target) {
+            (Some(n), _) => {
+                let mut spec = PathSpec::between(&cyl, &ca, &cb, hc, 0.0);
+                let (hn, an) = cyl.height_angle(&n[k]);
+                let an = spec.angle_a + frame::wrap(an - spec.angle_a);
+                let (lo, hi) = (
+                    spec.angle_a.min(spec.angle_b),
+                    spec.angle_a.max(spec.angle_b),
+                );
+                if !(an > lo && an < hi) {
+                    return Err(format!(
+                        "N{} does not lie between C{} and C{} around the axis",
+                        k + 1,
+                        k + 1,
+                        (k + 1) % 3 + 1
+                    ));
+                }
+                spec.nadir_angle = an;
+                spec.nadir_height = hn;
+                let p = suture::project(wall, &cyl, &spec, (ca, Some(n[k]), cb), ds);
+                let depth = (spec.height_a + spec.height_b) / 2.0 - hc - hn;
+                (p, depth, false)
+            }
+            (None, Some(t)) => {
+                let top = (cyl.height_angle(&ca).0 + cyl.height_angle(&cb).0) / 2.0 - hc;
+                let deepest = top - (m.annulus_height_mm - 3.0).max(wall_bottom(mesh, &cyl) + 0.1);
+                let (p, d) = suture::match_length(wall, &cyl, &ca, &cb, hc, (0.5, deepest), t, ds)
+                    .map_err(|e| format!("leaflet {}: {e}", k + 1))?;
+                (p, d, true)
+            }
+            (None, None) => {
+                let top = (cyl.height_angle(&ca).0 + cyl.height_angle(&cb).0) / 2.0 - hc;
+                let depth = top - m.annulus_height_mm;
+                let spec = PathSpec::between(&cyl, &ca, &cb, hc, depth);
+                (
+                    suture::project(wall, &cyl, &spec, (ca, None, cb), ds),
+                    depth,
+                    false,
+                )
+            }
+        };
+        let len = suture::length(&path);
+        matches.push(LengthMatch {
+            path_mm: len,
+            target_mm: target,
+            relative_mismatch: target.map(|t| (len - t) / t),
+            depth_mm: depth,
+            adjusted,
+        });
+        paths.push(path);
+    }
+    let f = &m.frame;
+    let p3 = |p: &Point3| json!([p.x, p.y, p.z]);
+    let json = json!({
+        "frame": "LPS",
+        "valve_frame": f,
+        "annulus_from": m.annulus_from,
+        "commissure_cylinder": {
+            "centre_mm": p3(&cyl.centre),
+            "radius_mm": cyl.radius,
+        },
+        "radii": m.radii,
+        "commissure_angles_deg": m.commissure_angles_deg,
+        "h_comm_mm": m.h_comm_mm,
+        "paths": matches,
+    });
+    Ok(ValveResult { json, paths })
+}
+
+fn wall_bottom(mesh: &crate::geom::TriMesh, cyl: &CommissureCylinder) -> f64 {
+    mesh.vertices
+        .iter()
+        .map(|v| (v - cyl.centre).dot(&cyl.axis))
+        .fold(f64::INFINITY, f64::min)
+}

@@ -1,0 +1,83 @@
+//! The aortic wall as a ray-castable, point-projectable BVH (parry3d, whose
+//! vectors are glam's; conversion stays in this module).
+
+use parry3d_f64::math::Vector as GVec;
+use parry3d_f64::query::{PointQuery, Ray, RayCast};
+use parry3d_f64::shape::{FeatureId, TriMesh as PTriMesh};
+
+use crate::geom::{Point3, TriMesh, Vector3};
+
+pub struct Wall {
+    bvh: PTriMesh,
+    /// `region` cell data when present (0 wall, 1 VAJ cap, 2 top cap).
+    region: Option<Vec<i64>>,
+}
+
+fn g(p: &Point3) -> GVec {
+    GVec::new(p.x, p.y, p.z)
+}
+
+fn n(v: GVec) -> Point3 {
+    Point3::new(v.x, v.y, v.z)
+}
+
+impl Wall {
+    pub fn new(mesh: &TriMesh) -> Result<Wall, String> {
+        let verts = mesh.vertices.iter().map(g).collect();
+        let bvh = PTriMesh::new(verts, mesh.triangles.clone())
+            .map_err(|e| format!("surface cannot be indexed: {e}"))?;
+        let region = mesh
+            .cell_data
+            .get("region")
+            .and_then(|a| a.values.to_f64())
+            .map(|v| v.into_iter().map(|x| x as i64).collect());
+        Ok(Wall { bvh, region })
+    }
+
+    /// Closest surface point and whether it lies on the wall proper (not a cap).
+    pub fn closest(&self, p: &Point3) -> (Point3, bool) {
+        let (proj, feat) = self.bvh.project_local_point_and_get_feature(g(p));
+        let on_wall = match (&self.region, feat) {
+            (Some(r), FeatureId::Face(f)) => r.get(f as usize % r.len().max(1)).copied() == Some(0),
+            _ => true,
+        };
+        (n(proj.point), on_wall)
+    }
+
+    /// Every crossing of the ray o + t·d (d unit), up to `max_t`, nearest first.
+    pub fn hits(&self, o: &Point3, d: &Vector3, max_t: f64) -> Vec<f64> {
+        let mut out = Vec::new();
+        let mut start = 0.0;
+        let dir = GVec::new(d.x, d.y, d.z);
+        while out.len() < 6 {
+            let ray = Ray::new(g(&(o + d * start)), dir);
+            match self.bvh.cast_local_ray(&ray, max_t - start, false) {
+                Some(t) => {
+                    out.push(start + t);
+                    start += t + 1e-6;
+                }
+                None => break,
+            }
+        }
+        out
+    }
+
+    /// Radial projection: the crossing of the ray nearest to `r_expect`;
+    /// closest-point projection of o + r_expect·d when the ray misses.
+    pub fn radial(&self, o: &Point3, d: &Vector3, r_expect: f64) -> Point3 {
+        let mut hits = self.hits(o, d, 20.0 * r_expect.max(1.0));
+        if hits.is_empty() {
+            // A ray along a mesh edge can slip through: nudge it.
+            let side = d.cross(&Vector3::new(0.3, 0.5, 0.8)).normalize() * 1e-6;
+            hits = self.hits(o, &(d + side).normalize(), 20.0 * r_expect.max(1.0));
+            let _ = &mut hits;
+        }
+        match hits
+            .iter()
+            .min_by(|a, b| (*a - r_expect).abs().total_cmp(&(*b - r_expect).abs()))
+        {
+            Some(t) => o + d * *t,
+            None => self.closest(&(o + d * r_expect)).0,
+        }
+    }
+}

@@ -1,0 +1,125 @@
+//! `coapt valve` then `coapt leaflets` on the committed phantom: three
+//! leaflets with the documented arrays, each inside its own wedge between
+//! its commissures (so no two cross) and inside the wall.
+
+use coapt::geom::{DataValues, Point3, Vector3};
+use coapt::io::vtp;
+use coapt::valve::wall::Wall;
+use serde_json::Value;
+
+use crate::common::{coapt, repo, tmpdir};
+
+fn v3(v: &Value) -> Vector3 {
+    Vector3::new(
+        v[0].as_f64().unwrap(),
+        v[1].as_f64().unwrap(),
+        v[2].as_f64().unwrap(),
+    )
+}
+
+#[test]
+fn phantom_leaflets_stay_in_their_wedges_and_inside_the_wall() {
+    let d = tmpdir("leaflets-phantom");
+    let data = repo().join("sample_data");
+    let surface = data.join("truth_surface.vtp");
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let o = coapt(&[
+        "valve",
+        "--surface",
+        &s(&surface),
+        "--landmarks",
+        &s(&data.join("landmarks.mrk.json")),
+        "--out",
+        &s(&d.join("valve.json")),
+    ]);
+    assert!(o.status.success());
+    let o = coapt(&[
+        "leaflets",
+        "--valve",
+        &s(&d.join("valve.json")),
+        "--paths",
+        &s(&d.join("paths.vtp")),
+        "--surface",
+        &s(&surface),
+        "--template",
+        &s(&repo().join("pipelines/templates/ozaki_sizes.toml")),
+        "--out",
+        &s(&d.join("leaflets.vtp")),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let valve: Value =
+        serde_json::from_slice(&std::fs::read(d.join("valve.json")).unwrap()).unwrap();
+    let summary: Value =
+        serde_json::from_slice(&std::fs::read(d.join("leaflets.json")).unwrap()).unwrap();
+    let m = vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
+    let wall = Wall::new(&vtp::read_mesh(&surface).unwrap()).unwrap();
+    let axis = v3(&valve["valve_frame"]["axis"]);
+    let centre = Point3::from(v3(&valve["commissure_cylinder"]["centre_mm"]));
+    let e1 = v3(&valve["valve_frame"]["e1"]);
+    let e2 = axis.cross(&e1);
+    let angle = |p: &Point3| {
+        let q = p - centre;
+        q.dot(&e2).atan2(q.dot(&e1))
+    };
+    let DataValues::I32(leaf) = &m.cell_data.get("leaflet").unwrap().values else {
+        panic!()
+    };
+    let DataValues::U8(bnd) = &m.point_data.get("boundary").unwrap().values else {
+        panic!()
+    };
+    assert_eq!(m.point_data.get("ref_uv").unwrap().components, 2);
+    for f in ["fiber1", "fiber2"] {
+        assert_eq!(m.cell_data.get(f).unwrap().tuples(), m.triangles.len());
+    }
+    let c: Vec<Point3> = (0..3)
+        .map(|k| Point3::from(v3(&valve["valve_frame"]["commissures_mm"][k])))
+        .collect();
+    for k in 0..3 {
+        let a0 = angle(&c[k]);
+        let span = (angle(&c[(k + 1) % 3]) - a0).rem_euclid(std::f64::consts::TAU);
+        let mut nodes: Vec<u32> = m
+            .triangles
+            .iter()
+            .zip(leaf)
+            .filter(|(_, l)| **l == k as i32 + 1)
+            .flat_map(|(t, _)| *t)
+            .collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        let q = &summary["leaflets"][k]["quality"];
+        assert!(q["min_angle_deg"].as_f64().unwrap() >= 25.0);
+        assert!(q["mean_shape"].as_f64().unwrap() >= 0.9);
+        for &i in &nodes {
+            let p = m.vertices[i as usize];
+            let rel = (angle(&p) - a0).rem_euclid(std::f64::consts::TAU);
+            let at_commissure = c.iter().any(|cc| (cc - p).norm() < 1e-6);
+            // Sutured nodes may lie on the commissure posts (the wedge's
+            // planes); every other node is strictly inside the wedge.
+            let tau = std::f64::consts::TAU;
+            if bnd[i as usize] == 1 || at_commissure {
+                assert!(
+                    rel <= span + 1e-9 || rel >= tau - 1e-9,
+                    "leaflet {} sutured node off its wedge",
+                    k + 1
+                );
+            } else {
+                assert!(
+                    rel > 0.0 && rel < span,
+                    "leaflet {} leaves its wedge: rel {rel} span {span}",
+                    k + 1
+                );
+            }
+            if bnd[i as usize] != 1 {
+                let dp = p - centre;
+                let h = dp.dot(&axis);
+                let r = dp - axis * h;
+                let hits = wall.hits(&(centre + axis * h), &r.normalize(), 1e3);
+                assert!(
+                    hits[0] > r.norm(),
+                    "leaflet {} node outside the wall",
+                    k + 1
+                );
+            }
+        }
+    }
+}
