@@ -84,7 +84,7 @@ pub static SPEC: StageSpec = StageSpec {
             help: "extrusion lean (seed 001 ω = −2π/9; negative leans towards the axis); five-parameter templates use their own",
         },
         Param {
-            name: "fiber-angle",
+            name: "fiber_angle",
             kind: ParamKind::Quantity(Kind::Angle),
             default: Some("0 deg"),
             help: "fibre angle θ on the flat template: M = cos θ e_x ± sin θ e_y",
@@ -130,7 +130,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         Wall::new(&vtp::read_mesh(surf_path)?).map_err(|e| Error::bad_input(surf_path, e))?;
     let templates = read_templates(io.input("template").expect("required"))?;
     let h = params.quantity("h");
-    let theta = params.quantity("fiber-angle");
+    let theta = params.quantity("fiber_angle");
     let mut out = TriMesh::new(Vec::new(), Vec::new());
     let (mut uv, mut bnd, mut lf, mut f1, mut f2) = (vec![], vec![], vec![], vec![], vec![]);
     let mut per = Vec::new();
