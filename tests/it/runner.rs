@@ -64,9 +64,15 @@ fn second_run_skips_and_a_new_seed_reruns() {
 
     // A different seed re-runs the stage and says why.
     let cfg2 = d.join("phantom-seed2.toml");
+    // The copy lives elsewhere: point its relative template path back home.
+    let template = repo().join("pipelines/templates/ozaki_default.toml");
     let text = std::fs::read_to_string(&cfg)
         .unwrap()
-        .replace("seed = 1", "seed = 2");
+        .replace("seed = 1", "seed = 2")
+        .replace(
+            "\"templates/ozaki_default.toml\"",
+            &format!("{:?}", template.to_str().unwrap()),
+        );
     assert!(text.contains("seed = 2"));
     std::fs::write(&cfg2, text).unwrap();
     let third = run(&cfg2, &out, &[]);
