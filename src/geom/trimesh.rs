@@ -443,7 +443,7 @@ impl TriMesh {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// Octahedron with outward counter-clockwise triangles.

@@ -85,30 +85,7 @@ fn encode(w: &mut impl Write, mesh: &TriMesh) -> io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::Point3;
-
-    /// Unit octahedron, outward counter-clockwise triangles.
-    fn octahedron() -> TriMesh {
-        let v = [
-            [1., 0., 0.],
-            [-1., 0., 0.],
-            [0., 1., 0.],
-            [0., -1., 0.],
-            [0., 0., 1.],
-            [0., 0., -1.],
-        ];
-        let t = vec![
-            [0, 2, 4],
-            [2, 1, 4],
-            [1, 3, 4],
-            [3, 0, 4],
-            [2, 0, 5],
-            [1, 2, 5],
-            [3, 1, 5],
-            [0, 3, 5],
-        ];
-        TriMesh::new(v.iter().map(|p| Point3::from(*p)).collect(), t)
-    }
+    use crate::geom::trimesh::tests::octahedron;
 
     fn f32_at(b: &[u8], at: usize) -> f32 {
         f32::from_le_bytes(b[at..at + 4].try_into().unwrap())

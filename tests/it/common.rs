@@ -57,3 +57,27 @@ pub fn entries(dir: &Path) -> Vec<String> {
     v.sort();
     v
 }
+
+/// `coapt phantom --preset sample <extra> --out dir --quiet`, which must succeed.
+pub fn sample_phantom(dir: &Path, extra: &[&str]) {
+    let mut args = vec!["phantom", "--preset", "sample"];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--out", dir.to_str().unwrap(), "--quiet"]);
+    let o = coapt(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// Mean CT value over the truth mask of a phantom directory (the grids must match).
+pub fn mean_hu_in_truth_mask(dir: &Path) -> f64 {
+    let ct = coapt::io::nifti::read_i16(&dir.join("ct.nii.gz")).unwrap();
+    let mask = coapt::io::nifti::read_u8(&dir.join("truth_mask.nii.gz")).unwrap();
+    assert!(ct.same_grid(&mask, 1e-4));
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (c, m) in ct.as_slice().iter().zip(mask.as_slice()) {
+        if *m == 1 {
+            sum += *c as f64;
+            n += 1;
+        }
+    }
+    sum / n as f64
+}

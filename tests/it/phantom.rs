@@ -1,6 +1,6 @@
 //! `coapt phantom`: files, determinism across thread counts, refusals.
 
-use coapt::io::{markups, nifti, vtp};
+use coapt::io::{markups, vtp};
 
 use crate::common::*;
 
@@ -9,19 +9,7 @@ fn bit_identical_with_one_or_two_threads() {
     let d = tmpdir("threads");
     let (a, b) = (d.join("t1"), d.join("t2"));
     for (dir, n) in [(&a, "1"), (&b, "2")] {
-        let o = coapt(&[
-            "phantom",
-            "--preset",
-            "sample",
-            "--seed",
-            "7",
-            "--out",
-            dir.to_str().unwrap(),
-            "--threads",
-            n,
-            "--quiet",
-        ]);
-        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        sample_phantom(dir, &["--seed", "7", "--threads", n]);
     }
     for f in [
         "ct.nii.gz",
@@ -41,30 +29,8 @@ fn bit_identical_with_one_or_two_threads() {
 #[test]
 fn outputs_are_consistent_and_readable() {
     let d = tmpdir("outputs");
-    let o = coapt(&[
-        "phantom",
-        "--preset",
-        "sample",
-        "--seed",
-        "3",
-        "--tilt",
-        "20 deg",
-        "--out",
-        d.to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let ct = nifti::read_i16(&d.join("ct.nii.gz")).unwrap();
-    let mask = nifti::read_u8(&d.join("truth_mask.nii.gz")).unwrap();
-    assert!(ct.same_grid(&mask, 1e-4));
-    let inside: Vec<f64> = ct
-        .as_slice()
-        .iter()
-        .zip(mask.as_slice())
-        .filter(|(_, m)| **m == 1)
-        .map(|(c, _)| *c as f64)
-        .collect();
-    let mean = inside.iter().sum::<f64>() / inside.len() as f64;
+    sample_phantom(&d, &["--seed", "3", "--tilt", "20 deg"]);
+    let mean = mean_hu_in_truth_mask(&d);
     assert!(mean > 250.0, "mean HU inside the lumen {mean}");
 
     let lm = markups::read(&d.join("landmarks.mrk.json")).unwrap();
@@ -97,24 +63,7 @@ fn outputs_are_consistent_and_readable() {
 #[test]
 fn no_contrast_phantom_is_dark() {
     let d = tmpdir("nocontrast");
-    let o = coapt(&[
-        "phantom",
-        "--preset",
-        "sample",
-        "--no-contrast",
-        "--out",
-        d.to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let ct = nifti::read_i16(&d.join("ct.nii.gz")).unwrap();
-    let mask = nifti::read_u8(&d.join("truth_mask.nii.gz")).unwrap();
-    let (mut s, mut n) = (0.0, 0.0);
-    for (c, m) in ct.as_slice().iter().zip(mask.as_slice()) {
-        if *m == 1 {
-            s += *c as f64;
-            n += 1.0;
-        }
-    }
-    assert!(s / n < 100.0, "non-contrast blood at {} HU", s / n);
+    sample_phantom(&d, &["--no-contrast"]);
+    let mean = mean_hu_in_truth_mask(&d);
+    assert!(mean < 100.0, "non-contrast blood at {mean} HU");
 }

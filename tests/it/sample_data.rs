@@ -5,17 +5,7 @@ use crate::common::*;
 #[test]
 fn sample_data_regenerates_bit_identically() {
     let d = tmpdir("sample");
-    let o = coapt(&[
-        "phantom",
-        "--preset",
-        "sample",
-        "--seed",
-        "1",
-        "--out",
-        d.to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    sample_phantom(&d, &["--seed", "1"]);
     let committed = repo().join("sample_data");
     for f in [
         "ct.nii.gz",

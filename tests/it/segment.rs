@@ -77,16 +77,7 @@ fn sample_is_segmented_with_and_without_landmarks() {
 #[test]
 fn a_ct_without_contrast_is_refused_and_no_mask_written() {
     let d = tmpdir("segment-nc");
-    let o = coapt(&[
-        "phantom",
-        "--preset",
-        "sample",
-        "--no-contrast",
-        "--out",
-        d.join("p").to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    sample_phantom(&d.join("p"), &["--no-contrast"]);
     let out = d.join("mask.nii.gz");
     let o = coapt(&[
         "segment",
