@@ -14,6 +14,7 @@ pub mod geom;
 pub mod inspect;
 pub mod io;
 pub mod leaflet;
+pub mod mech;
 pub mod phantom;
 pub mod pipeline;
 pub mod rng;
