@@ -8,3 +8,7 @@
 //! the force-based relaxation path.
 
 pub mod element;
+pub mod pressure;
+pub mod solve;
+pub mod sparse;
+pub mod system;

@@ -1,0 +1,57 @@
+//! Seed 001 Algorithm 2: rounds of relaxation followed by Newton until the
+//! residual is below the tolerance or the rounds run out.
+
+use std::time::Instant;
+
+use super::{NewtonOptions, Outcome, RelaxOptions, newton, relax};
+use crate::mech::element::V3;
+use crate::mech::system::System;
+
+pub fn combined(
+    sys: &mut System,
+    x: &mut Vec<V3>,
+    relax_opt: &RelaxOptions,
+    newton_opt: &NewtonOptions,
+    rounds: usize,
+) -> Outcome {
+    let t0 = Instant::now();
+    let mut all = Outcome {
+        converged: false,
+        reason: String::new(),
+        iterations: 0,
+        residual_n: f64::NAN,
+        initial_residual_n: f64::NAN,
+        seconds: 0.0,
+        history: Vec::new(),
+    };
+    for round in 0..rounds.max(1) {
+        let r = relax(sys, x, relax_opt);
+        if round == 0 {
+            all.initial_residual_n = r.initial_residual_n;
+        }
+        all.iterations += r.iterations;
+        all.history.extend(r.history);
+        all.residual_n = r.residual_n;
+        if r.converged {
+            all.converged = true;
+            all.reason = format!("relaxation round {}: {}", round + 1, r.reason);
+            break;
+        }
+        // Newton is judged against the initial residual of the whole solve.
+        let mut nopt = newton_opt.clone();
+        if all.initial_residual_n.is_finite() && r.residual_n > 0.0 {
+            nopt.stop.rel = newton_opt.stop.rel * all.initial_residual_n / r.residual_n;
+        }
+        let n = newton(sys, x, &nopt);
+        all.iterations += n.iterations;
+        all.history.extend(n.history);
+        all.residual_n = n.residual_n;
+        all.reason = format!("round {}: Newton: {}", round + 1, n.reason);
+        if n.converged {
+            all.converged = true;
+            break;
+        }
+    }
+    all.seconds = t0.elapsed().as_secs_f64();
+    all
+}

@@ -1,0 +1,78 @@
+//! Solvers for R(x) = 0 (R the nodal force): Newton on the total potential
+//! (or on the residual when a load has no potential), the seeds' relaxation
+//! (seed 001 Algorithm 3) and their combination (Algorithm 2).
+
+mod combined;
+mod newton;
+mod relax;
+
+pub use combined::combined;
+pub use newton::{NewtonOptions, newton};
+pub use relax::{RelaxOptions, relax};
+
+use serde::Serialize;
+
+/// When to stop.
+#[derive(Debug, Clone, Serialize)]
+pub struct Stop {
+    /// Absolute tolerance on the Euclidean norm of the residual (N).
+    pub abs_n: f64,
+    /// Relative reduction of the residual norm.
+    pub rel: f64,
+    pub max_iterations: usize,
+    pub max_seconds: f64,
+}
+
+impl Default for Stop {
+    fn default() -> Self {
+        // The seeds' KINSOL setting: 1e-4 mN, or a 1e7 reduction.
+        Stop {
+            abs_n: 1e-7,
+            rel: 1e-7,
+            max_iterations: 200,
+            max_seconds: 600.0,
+        }
+    }
+}
+
+/// One iteration of the history written to `closure.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Record {
+    pub phase: &'static str,
+    pub iteration: usize,
+    /// ‖R‖₂ (N) before the step.
+    pub residual_n: f64,
+    /// Largest nodal force (N) before the step.
+    pub max_force_n: f64,
+    /// Newton: line-search factor α; relaxation: λ (mm/N).
+    pub step: f64,
+    /// Levenberg shift relative to the mean diagonal (Newton).
+    pub shift: f64,
+    pub contact_pairs: usize,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Outcome {
+    pub converged: bool,
+    /// Why it stopped, in words.
+    pub reason: String,
+    pub iterations: usize,
+    pub residual_n: f64,
+    pub initial_residual_n: f64,
+    pub seconds: f64,
+    pub history: Vec<Record>,
+}
+
+impl Outcome {
+    pub(crate) fn done(&self, r: f64, stop: &Stop) -> bool {
+        r <= stop.abs_n || r <= stop.rel * self.initial_residual_n
+    }
+}
+
+pub(crate) fn contact_pairs(sys: &super::system::System) -> usize {
+    sys.terms
+        .iter()
+        .filter_map(|t| t.stats())
+        .map(|s| s.1)
+        .sum()
+}

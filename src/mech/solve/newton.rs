@@ -1,0 +1,219 @@
+//! Newton with a Levenberg shift, a step cap and a backtracking line search:
+//! on the energy when every load has a potential (Cholesky of the projected
+//! tangent), on ½‖R‖² otherwise (LU of the exact, non-symmetric tangent).
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::{Outcome, Record, Stop, contact_pairs};
+use crate::mech::element::V3;
+use crate::mech::sparse::Pattern;
+use crate::mech::system::{System, max_norm, norm};
+
+#[derive(Debug, Clone, Serialize)]
+pub struct NewtonOptions {
+    pub stop: Stop,
+    /// Largest nodal displacement of one step (mm).
+    pub max_step_mm: f64,
+    /// Give up after this many consecutive rejected steps.
+    pub max_rejections: usize,
+}
+
+impl Default for NewtonOptions {
+    fn default() -> Self {
+        NewtonOptions {
+            stop: Stop::default(),
+            max_step_mm: 1.0,
+            max_rejections: 12,
+        }
+    }
+}
+
+pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome {
+    let t0 = Instant::now();
+    let mut out = Outcome {
+        converged: false,
+        reason: String::new(),
+        iterations: 0,
+        residual_n: f64::NAN,
+        initial_residual_n: f64::NAN,
+        seconds: 0.0,
+        history: Vec::new(),
+    };
+    let mut pattern: Option<Pattern> = None;
+    let mut shift = 0.0f64;
+    let mut rejections = 0usize;
+    loop {
+        for term in sys.terms.iter_mut() {
+            term.update(x);
+        }
+        let r = match sys.residual(x) {
+            Ok(r) => r,
+            Err(e) => {
+                out.reason = format!(
+                    "inadmissible state at the start: triangle {} inverted or collapsed",
+                    e.triangle
+                );
+                break;
+            }
+        };
+        let rn = norm(&r);
+        if out.iterations == 0 {
+            out.initial_residual_n = rn;
+        }
+        out.residual_n = rn;
+        if out.done(rn, &opt.stop) {
+            out.converged = true;
+            out.reason = format!(
+                "residual {:.3e} N ≤ max({:.1e} N, {:.1e} × initial)",
+                rn, opt.stop.abs_n, opt.stop.rel
+            );
+            break;
+        }
+        if out.iterations >= opt.stop.max_iterations {
+            out.reason = format!(
+                "iteration limit {} reached at residual {:.3e} N",
+                opt.stop.max_iterations, rn
+            );
+            break;
+        }
+        if t0.elapsed().as_secs_f64() > opt.stop.max_seconds {
+            out.reason = format!(
+                "time limit {} s reached at residual {:.3e} N",
+                opt.stop.max_seconds, rn
+            );
+            break;
+        }
+        out.iterations += 1;
+        let mut rec = Record {
+            phase: "newton",
+            iteration: out.iterations,
+            residual_n: rn,
+            max_force_n: max_norm(&r),
+            step: 0.0,
+            shift,
+            contact_pairs: contact_pairs(sys),
+        };
+        let pairs = sys.couplings();
+        let rebuild = match &pattern {
+            None => true,
+            Some(p) => {
+                let mut k: Vec<[u32; 2]> = pairs
+                    .iter()
+                    .map(|&[a, b]| if a < b { [a, b] } else { [b, a] })
+                    .collect();
+                k.extend((0..sys.n_nodes() as u32).map(|i| [i, i]));
+                k.sort_unstable();
+                k.dedup();
+                k != p.key
+            }
+        };
+        if rebuild {
+            pattern = Some(Pattern::new(sys.n_nodes(), &sys.dofs, &pairs));
+        }
+        let pat = pattern.as_mut().expect("built");
+        let mut vals = vec![0.0; pat.nnz()];
+        if let Err(e) = sys.tangent(x, pat, &mut vals) {
+            out.reason = format!("inadmissible state: triangle {}", e.triangle);
+            break;
+        }
+        let diag = pat.diagonal(&vals);
+        let mean_diag = diag.iter().map(|d| d.abs()).sum::<f64>() / diag.len().max(1) as f64;
+        let rhs = sys.pack(&r);
+        let symmetric = sys.symmetric() && sys.terms.iter().all(|t| t.energy(x).is_some());
+        // Factorise, raising the shift until the factorisation succeeds.
+        let mut d = None;
+        for _ in 0..20 {
+            let mut v = vals.clone();
+            if shift > 0.0 {
+                let s: Vec<f64> = diag
+                    .iter()
+                    .map(|&g| shift * g.abs().max(mean_diag * 1e-3))
+                    .collect();
+                pat.add_diagonal(&mut v, &s);
+            }
+            let mut b = rhs.clone();
+            let ok = if symmetric {
+                pat.solve_llt(&v, &mut b)
+            } else {
+                pat.solve_lu(&v, &mut b)
+            };
+            if ok.is_ok() && b.iter().all(|z| z.is_finite()) {
+                d = Some(b);
+                break;
+            }
+            shift = if shift == 0.0 { 1e-6 } else { shift * 10.0 };
+        }
+        let Some(mut d) = d else {
+            out.reason =
+                format!("tangent could not be factorised even with a shift of {shift:.1e}");
+            break;
+        };
+        rec.shift = shift;
+        // Cap the largest nodal move.
+        let dmax = sys
+            .step(&vec![V3::zeros(); x.len()], &d, 1.0)
+            .iter()
+            .map(|v| v.norm())
+            .fold(0.0, f64::max);
+        if dmax > opt.max_step_mm {
+            let s = opt.max_step_mm / dmax;
+            d.iter_mut().for_each(|z| *z *= s);
+        }
+        let slope = -rhs.iter().zip(&d).map(|(a, b)| a * b).sum::<f64>();
+        let e0 = if symmetric {
+            sys.energy(x).ok().flatten()
+        } else {
+            None
+        };
+        let mut alpha = 1.0;
+        let mut accepted = None;
+        while alpha > 1e-4 {
+            let xn = sys.step(x, &d, alpha);
+            if let Some(e0) = e0 {
+                if slope >= 0.0 {
+                    break;
+                }
+                if let Ok(Some(e)) = sys.energy(&xn) {
+                    if e <= e0 + 1e-4 * alpha * slope {
+                        accepted = Some(xn);
+                        break;
+                    }
+                }
+            } else if let Ok(rn1) = sys.residual(&xn) {
+                let m = norm(&rn1);
+                if m.is_finite() && m * m <= rn * rn * (1.0 - 1e-4 * alpha) {
+                    accepted = Some(xn);
+                    break;
+                }
+            }
+            alpha *= 0.5;
+        }
+        match accepted {
+            Some(xn) => {
+                *x = xn;
+                rec.step = alpha;
+                rejections = 0;
+                if alpha == 1.0 {
+                    shift = if shift < 1e-6 { 0.0 } else { shift * 0.1 };
+                }
+            }
+            None => {
+                rejections += 1;
+                shift = if shift == 0.0 { 1e-4 } else { shift * 10.0 };
+                if rejections > opt.max_rejections {
+                    out.history.push(rec);
+                    out.reason = format!(
+                        "line search failed {} times in a row at residual {:.3e} N (shift {:.1e})",
+                        rejections, rn, shift
+                    );
+                    break;
+                }
+            }
+        }
+        out.history.push(rec);
+    }
+    out.seconds = t0.elapsed().as_secs_f64();
+    out
+}
