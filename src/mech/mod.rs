@@ -8,3 +8,4 @@
 //! the force-based relaxation path.
 
 pub mod element;
+pub mod material;
