@@ -5,11 +5,15 @@
 //! Units: mm, N, MPa (1 kPa = 1e-3 MPa); energies in N·mm.
 //!
 //! * [`NeoHookean`] — incompressible neo-Hookean, HNF (§5.2).
+//! * [`StVenantKirchhoff`] — St Venant–Kirchhoff via Delingette's
+//!   biquadratic springs ("TBS", §5.4).
 
 pub mod invariants;
 pub mod neo_hookean;
+pub mod svk;
 
 pub use neo_hookean::NeoHookean;
+pub use svk::StVenantKirchhoff;
 
 #[cfg(test)]
 mod tests;

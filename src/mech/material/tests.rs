@@ -421,3 +421,87 @@ fn neo_hookean_equibiaxial_and_uniaxial() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------
+// St Venant–Kirchhoff (Delingette springs)
+
+#[test]
+fn svk_fd() {
+    for (nu, seed) in [(0.0, 200), (0.45, 201)] {
+        let m = StVenantKirchhoff {
+            young: 1.0,
+            poisson: nu,
+        };
+        run_material(
+            &format!("svk ν={nu}"),
+            &m,
+            m.young,
+            None,
+            0.8,
+            1.4,
+            0.05,
+            25,
+            seed,
+        );
+    }
+}
+
+/// W_T = A₀ H (λ/2 (tr E)² + μ tr E²) with the plane-stress λ, μ, with E
+/// computed from F independently of the springs.
+#[test]
+fn svk_equals_green_lagrange_energy() {
+    let mut rng = SplitMix64::new(210);
+    let mut worst: f64 = 0.0;
+    for nu in [0.0, 0.3, 0.45] {
+        let young = 2.0;
+        let m = StVenantKirchhoff { young, poisson: nu };
+        let lam = young * nu / (1.0 - nu * nu);
+        let mu = young / (2.0 * (1.0 + nu));
+        for _ in 0..20 {
+            let (p, _) = rand_tri(&mut rng);
+            let r = RefTri::new(p, H, None).unwrap();
+            let q = rand_state(&r, &p, 0.8, 1.4, 0.1, &mut rng);
+            let k = Kin::new(&r, &q).unwrap();
+            let c = k.f.transpose() * k.f;
+            let e = (c - (Matrix3::identity() - r.normal * r.normal.transpose())) * 0.5;
+            let w = r.area * H * (0.5 * lam * e.trace().powi(2) + mu * (e * e).trace());
+            let u = m.eval(&r, &q, false).unwrap().energy;
+            worst = worst.max((u - w).abs() / w.abs());
+        }
+    }
+    eprintln!("svk vs Green–Lagrange energy: max rel err {worst:.2e}");
+    assert!(worst < 1e-12, "{worst}");
+}
+
+/// Uniaxial stress: with the lateral stretch from E₂₂ = −ν E₁₁ the lateral
+/// force vanishes and the axial one is V E E₁₁ λ₁ (S₁₁ = E E₁₁); the
+/// energy equals the plane-stress closed form for any (λ₁, λ₂).
+#[test]
+fn svk_uniaxial_and_biaxial_closed_form() {
+    let side = 1.5;
+    let vol = side * side * H;
+    let patch = Patch::new(side, None);
+    for nu in [0.0, 0.45] {
+        let young = 1.0;
+        let m = StVenantKirchhoff { young, poisson: nu };
+        let lam = young * nu / (1.0 - nu * nu);
+        let mu = young / (2.0 * (1.0 + nu));
+        for &l1 in &[0.9, 1.05, 1.2, 1.4] {
+            let e11 = 0.5 * (l1 * l1 - 1.0);
+            let e22 = -nu * e11;
+            let l2 = (1.0 + 2.0 * e22).sqrt();
+            let (u, d1, d2) = patch.eval(&m, l1, l2);
+            let w = vol * (0.5 * lam * (e11 + e22).powi(2) + mu * (e11 * e11 + e22 * e22));
+            assert!((u - w).abs() < 1e-12 * w, "ν={nu} λ={l1}: {u} vs {w}");
+            assert!(
+                d2.abs() < 1e-12 * d1.abs().max(1e-3),
+                "ν={nu} λ={l1}: lateral {d2}"
+            );
+            let t = vol * young * e11 * l1;
+            assert!(
+                (d1 - t).abs() < 1e-10 * t.abs(),
+                "ν={nu} λ={l1}: {d1} vs {t}"
+            );
+        }
+    }
+}
