@@ -8,6 +8,7 @@
 //! the force-based relaxation path.
 
 pub mod element;
+pub mod material;
 pub mod pressure;
 pub mod solve;
 pub mod sparse;

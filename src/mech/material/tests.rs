@@ -1,0 +1,507 @@
+//! Finite-difference, invariance and analytic patch tests for every
+//! membrane material. Run with `--nocapture` to see the measured errors.
+
+use super::invariants::Kin;
+use super::*;
+use crate::mech::element::{Eval, Grad9, Hess9, Membrane, RefTri, V3};
+use crate::rng::SplitMix64;
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+
+const H: f64 = 0.4;
+
+fn rand_unit(rng: &mut SplitMix64) -> V3 {
+    loop {
+        let v = V3::new(rng.normal(), rng.normal(), rng.normal());
+        let n = v.norm();
+        if n > 1e-3 {
+            return v / n;
+        }
+    }
+}
+
+fn rand_rotation(rng: &mut SplitMix64) -> Matrix3<f64> {
+    let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+        rng.normal(),
+        rng.normal(),
+        rng.normal(),
+        rng.normal(),
+    ));
+    *q.to_rotation_matrix().matrix()
+}
+
+/// A random, reasonably shaped 3-D reference triangle (all angles ≥ 20°).
+fn rand_tri(rng: &mut SplitMix64) -> ([V3; 3], f64) {
+    loop {
+        let scale = rng.range(0.5, 3.0);
+        let c = V3::new(
+            rng.range(-10.0, 10.0),
+            rng.range(-10.0, 10.0),
+            rng.range(-10.0, 10.0),
+        );
+        let p = [0, 1, 2].map(|_| c + V3::new(rng.normal(), rng.normal(), rng.normal()) * scale);
+        let ok = (0..3).all(|k| {
+            let a = p[(k + 1) % 3] - p[k];
+            let b = p[(k + 2) % 3] - p[k];
+            a.angle(&b) > 20f64.to_radians()
+        });
+        if ok {
+            return (p, scale);
+        }
+    }
+}
+
+/// Fibres at ±θ from a random in-plane direction e_x (unit, tangent).
+fn fibres(p: &[V3; 3], theta: f64, rng: &mut SplitMix64) -> [V3; 2] {
+    let n = (p[1] - p[0]).cross(&(p[2] - p[0])).normalize();
+    let ex = n.cross(&rand_unit(rng)).normalize();
+    let ey = n.cross(&ex);
+    [
+        ex * theta.cos() + ey * theta.sin(),
+        ex * theta.cos() - ey * theta.sin(),
+    ]
+}
+
+/// Current positions: in-plane principal stretches in [lo, hi] along a
+/// random in-plane frame, a random rotation and translation, plus a small
+/// per-node perturbation (so the map is a general one, out of plane too).
+fn rand_state(
+    r: &RefTri,
+    p: &[V3; 3],
+    lo: f64,
+    hi: f64,
+    noise: f64,
+    rng: &mut SplitMix64,
+) -> [V3; 3] {
+    let n = r.normal;
+    let a = n.cross(&rand_unit(rng)).normalize();
+    let b = n.cross(&a);
+    let (l1, l2) = (rng.range(lo, hi), rng.range(lo, hi));
+    let u = a * a.transpose() * l1 + b * b.transpose() * l2 + n * n.transpose();
+    let rot = rand_rotation(rng);
+    let t = V3::new(rng.normal(), rng.normal(), rng.normal()) * 5.0;
+    let c = (p[0] + p[1] + p[2]) / 3.0;
+    let scale = (r.area).sqrt();
+    p.map(|x| {
+        rot * u * (x - c)
+            + c
+            + t
+            + V3::new(rng.normal(), rng.normal(), rng.normal()) * (noise * scale)
+    })
+}
+
+fn perturb(q: &[V3; 3], c: usize, h: f64) -> [V3; 3] {
+    let mut out = *q;
+    out[c / 3][c % 3] += h;
+    out
+}
+
+#[derive(Debug, Default, Clone, Copy)]
+struct Errs {
+    grad: f64,
+    hess: f64,
+    sum: f64,
+    torque: f64,
+    sym: f64,
+    n: usize,
+}
+
+impl Errs {
+    fn max(&mut self, o: Errs) {
+        self.grad = self.grad.max(o.grad);
+        self.hess = self.hess.max(o.hess);
+        self.sum = self.sum.max(o.sum);
+        self.torque = self.torque.max(o.torque);
+        self.sym = self.sym.max(o.sym);
+        self.n += o.n;
+    }
+}
+
+/// Central-difference check of one state: relative errors measured against
+/// the max-norm of the analytic gradient / Hessian.
+fn fd_check(m: &dyn Membrane, r: &RefTri, q: &[V3; 3], scale: f64) -> Option<Errs> {
+    let e = m.eval(r, q, true)?;
+    let hmat = e.hess.unwrap();
+    let h = 1e-6 * scale;
+    let mut g_fd = Grad9::zeros();
+    let mut h_fd = Hess9::zeros();
+    for c in 0..9 {
+        let ep = m.eval(r, &perturb(q, c, h), true)?;
+        let em = m.eval(r, &perturb(q, c, -h), true)?;
+        g_fd[c] = (ep.energy - em.energy) / (2.0 * h);
+        let col = (ep.grad - em.grad) / (2.0 * h);
+        h_fd.set_column(c, &col);
+    }
+    let gn = e.grad.amax().max(1e-300);
+    let hn = hmat.amax().max(1e-300);
+    let fsum = V3::new(
+        e.grad[0] + e.grad[3] + e.grad[6],
+        e.grad[1] + e.grad[4] + e.grad[7],
+        e.grad[2] + e.grad[5] + e.grad[8],
+    );
+    let mut torque = V3::zeros();
+    for i in 0..3 {
+        torque += q[i].cross(&V3::new(
+            e.grad[3 * i],
+            e.grad[3 * i + 1],
+            e.grad[3 * i + 2],
+        ));
+    }
+    let qn = q.iter().map(|x| x.norm()).fold(0.0, f64::max);
+    Some(Errs {
+        grad: (e.grad - g_fd).amax() / gn,
+        hess: (hmat - h_fd).amax() / hn,
+        sum: fsum.amax() / gn,
+        torque: torque.amax() / (gn * qn),
+        sym: (hmat - hmat.transpose()).amax() / hn,
+        n: 1,
+    })
+}
+
+/// Rigid motions of the reference: zero energy and gradient.
+fn rigid_check(m: &dyn Membrane, r: &RefTri, p: &[V3; 3], energy_scale: f64, rng: &mut SplitMix64) {
+    let rot = rand_rotation(rng);
+    let t = V3::new(rng.normal(), rng.normal(), rng.normal()) * 10.0;
+    let q = p.map(|x| rot * x + t);
+    let e = m.eval(r, &q, true).expect("rigid state admissible");
+    let gscale = energy_scale / r.area.sqrt();
+    assert!(
+        e.energy.abs() <= 1e-10 * energy_scale,
+        "{}: rigid energy {}",
+        m.name(),
+        e.energy
+    );
+    assert!(
+        e.grad.amax() <= 1e-10 * gscale,
+        "{}: rigid grad {}",
+        m.name(),
+        e.grad.amax()
+    );
+}
+
+/// The common harness: `n` random states with stretches in [lo, hi].
+#[allow(clippy::too_many_arguments)]
+fn run_material(
+    label: &str,
+    m: &dyn Membrane,
+    modulus: f64,
+    theta: Option<f64>,
+    lo: f64,
+    hi: f64,
+    noise: f64,
+    n: usize,
+    seed: u64,
+) -> Errs {
+    let mut rng = SplitMix64::new(seed);
+    let mut worst = Errs::default();
+    let mut tries = 0;
+    while worst.n < n {
+        tries += 1;
+        assert!(tries < 20 * n, "{label}: too many inadmissible states");
+        let (p, scale) = rand_tri(&mut rng);
+        let fib = theta.map(|t| fibres(&p, t, &mut rng));
+        let r = RefTri::new(p, H, fib).unwrap();
+        rigid_check(m, &r, &p, modulus * r.area * H, &mut rng);
+        let q = rand_state(&r, &p, lo, hi, noise, &mut rng);
+        if let Some(e) = fd_check(m, &r, &q, scale) {
+            worst.max(e);
+        }
+    }
+    eprintln!(
+        "{label}: {} states; max rel err grad {:.2e} hess {:.2e}; Σf {:.2e} torque {:.2e} asym {:.2e}",
+        worst.n, worst.grad, worst.hess, worst.sum, worst.torque, worst.sym
+    );
+    assert!(
+        worst.grad <= 1e-6,
+        "{label}: gradient FD error {}",
+        worst.grad
+    );
+    assert!(
+        worst.hess <= 1e-6,
+        "{label}: Hessian FD error {}",
+        worst.hess
+    );
+    assert!(
+        worst.sum <= 1e-10,
+        "{label}: forces do not sum to zero {}",
+        worst.sum
+    );
+    assert!(worst.torque <= 1e-9, "{label}: net torque {}", worst.torque);
+    assert!(
+        worst.sym <= 1e-12,
+        "{label}: Hessian not symmetric {}",
+        worst.sym
+    );
+    worst
+}
+
+// ---------------------------------------------------------------------------
+// Invariants
+
+#[test]
+fn invariants_match_direct_formulas() {
+    let mut rng = SplitMix64::new(11);
+    for _ in 0..20 {
+        let (p, _) = rand_tri(&mut rng);
+        let r = RefTri::new(p, H, None).unwrap();
+        let q = rand_state(&r, &p, 0.8, 1.4, 0.1, &mut rng);
+        let k = Kin::new(&r, &q).unwrap();
+        // I₁ = Σ_k ℓ_k² cot α_k / (2 A_P); J = A_Q / A_P.
+        let i1: f64 = (0..3)
+            .map(|e| k.edge[e].norm_squared() * r.cot[e])
+            .sum::<f64>()
+            / (2.0 * r.area);
+        assert!((k.i1 - i1).abs() < 1e-10 * i1);
+        let aq = 0.5 * (q[1] - q[0]).cross(&(q[2] - q[0])).norm();
+        assert!((k.j - aq / r.area).abs() < 1e-12);
+        // F maps reference edges to current edges and kills the normal.
+        assert!((k.f * (p[1] - p[0]) - (q[1] - q[0])).norm() < 1e-10);
+        assert!((k.f * r.normal).norm() < 1e-12);
+    }
+}
+
+#[test]
+fn rigid_motion_is_unstrained() {
+    let mut rng = SplitMix64::new(12);
+    for _ in 0..20 {
+        let (p, _) = rand_tri(&mut rng);
+        let r = RefTri::new(p, H, None).unwrap();
+        let rot = rand_rotation(&mut rng);
+        let q = p.map(|x| rot * x + V3::new(1.0, -2.0, 3.0));
+        let k = Kin::new(&r, &q).unwrap();
+        let (s, _, _) = k.s(&r, false);
+        assert!((k.i1 - 2.0).abs() < 1e-12 && (k.j - 1.0).abs() < 1e-12 && s.abs() < 1e-12);
+    }
+}
+
+#[test]
+fn collapsed_triangle_is_rejected() {
+    let p = [
+        V3::new(0.0, 0.0, 0.0),
+        V3::new(1.0, 0.0, 0.0),
+        V3::new(0.0, 1.0, 0.0),
+    ];
+    let r = RefTri::new(p, H, None).unwrap();
+    let q = [
+        V3::new(0.0, 0.0, 0.0),
+        V3::new(1.0, 0.0, 0.0),
+        V3::new(2.0, 0.0, 0.0),
+    ];
+    assert!(NeoHookean { mu: 1.0 }.eval(&r, &q, true).is_none());
+    let q = [
+        V3::new(0.0, 0.0, 0.0),
+        V3::new(1.0, 0.0, 0.0),
+        V3::new(f64::NAN, 1.0, 0.0),
+    ];
+    assert!(NeoHookean { mu: 1.0 }.eval(&r, &q, true).is_none());
+}
+
+// ---------------------------------------------------------------------------
+// Finite differences
+
+#[test]
+fn neo_hookean_fd() {
+    let m = NeoHookean { mu: 1.0 / 3.0 };
+    run_material("neo-hookean", &m, m.mu, None, 0.8, 1.4, 0.05, 25, 100);
+}
+
+#[test]
+fn hessian_only_when_asked() {
+    let p = [
+        V3::new(0.0, 0.0, 0.0),
+        V3::new(1.0, 0.0, 0.0),
+        V3::new(0.0, 1.0, 0.0),
+    ];
+    let r = RefTri::new(p, H, None).unwrap();
+    let q = p.map(|x| x * 1.1);
+    let m = NeoHookean { mu: 1.0 };
+    assert!(m.eval(&r, &q, false).unwrap().hess.is_none());
+    assert!(m.eval(&r, &q, true).unwrap().hess.is_some());
+}
+
+// ---------------------------------------------------------------------------
+// Analytic patch tests
+
+/// A unit square in a tilted plane, split into two triangles, and its
+/// image under the in-plane stretch diag(λ₁, λ₂) (then rotated and moved).
+struct Patch {
+    refs: [RefTri; 2],
+    tris: [[usize; 3]; 2],
+    p: [V3; 4],
+    ex: V3,
+    ey: V3,
+    rot: Matrix3<f64>,
+}
+
+impl Patch {
+    fn new(side: f64, fibres: Option<[V3; 2]>) -> Patch {
+        let rot0 = *Rotation3::from_axis_angle(
+            &nalgebra::Unit::new_normalize(Vector3::new(1.0, 2.0, 0.5)),
+            0.7,
+        )
+        .matrix();
+        let ex = rot0 * V3::x();
+        let ey = rot0 * V3::y();
+        let o = V3::new(1.0, -3.0, 2.0);
+        let p = [o, o + ex * side, o + (ex + ey) * side, o + ey * side];
+        let tris = [[0, 1, 2], [0, 2, 3]];
+        // Fibres are given in the (ex, ey) frame.
+        let fib = fibres.map(|f| f.map(|v| ex * v.x + ey * v.y));
+        let refs = tris.map(|t| RefTri::new([p[t[0]], p[t[1]], p[t[2]]], H, fib).unwrap());
+        let rot = *Rotation3::from_axis_angle(
+            &nalgebra::Unit::new_normalize(Vector3::new(-0.3, 0.2, 1.0)),
+            1.1,
+        )
+        .matrix();
+        Patch {
+            refs,
+            tris,
+            p,
+            ex,
+            ey,
+            rot,
+        }
+    }
+
+    fn current(&self, l1: f64, l2: f64) -> [V3; 4] {
+        self.p.map(|x| {
+            let d = x - self.p[0];
+            self.rot * (self.ex * (l1 * d.dot(&self.ex)) + self.ey * (l2 * d.dot(&self.ey)))
+                + V3::new(0.3, 0.1, -0.2)
+        })
+    }
+
+    /// Total energy and the generalised forces dU/dλ₁, dU/dλ₂ (from the
+    /// nodal gradients, chain rule through x(λ)).
+    fn eval(&self, m: &dyn Membrane, l1: f64, l2: f64) -> (f64, f64, f64) {
+        let x = self.current(l1, l2);
+        let (mut u, mut d1, mut d2) = (0.0, 0.0, 0.0);
+        for (r, t) in self.refs.iter().zip(self.tris.iter()) {
+            let e: Eval = m.eval(r, &[x[t[0]], x[t[1]], x[t[2]]], false).unwrap();
+            u += e.energy;
+            for (a, &v) in t.iter().enumerate() {
+                let g = V3::new(e.grad[3 * a], e.grad[3 * a + 1], e.grad[3 * a + 2]);
+                let d = self.p[v] - self.p[0];
+                d1 += g.dot(&(self.rot * self.ex * d.dot(&self.ex)));
+                d2 += g.dot(&(self.rot * self.ey * d.dot(&self.ey)));
+            }
+        }
+        (u, d1, d2)
+    }
+}
+
+#[test]
+fn neo_hookean_equibiaxial_and_uniaxial() {
+    let mu = 0.3;
+    let m = NeoHookean { mu };
+    let side = 2.0;
+    let patch = Patch::new(side, None);
+    let vol = side * side * H;
+    for &l in &[0.85, 1.0, 1.1, 1.3, 1.6] {
+        // Equibiaxial: W = μ/2 (2λ² + λ⁻⁴ − 3), dU/dλ₁ = V μ (λ − λ⁻⁵).
+        let (u, d1, d2) = patch.eval(&m, l, l);
+        let w = 0.5 * mu * (2.0 * l * l + l.powi(-4) - 3.0);
+        assert!(
+            (u - vol * w).abs() < 1e-12 * (1.0 + u.abs()),
+            "λ={l}: {u} vs {}",
+            vol * w
+        );
+        let t = vol * mu * (l - l.powi(-5));
+        assert!(
+            (d1 - t).abs() < 1e-10 * (1.0 + t.abs()) && (d2 - t).abs() < 1e-10 * (1.0 + t.abs())
+        );
+        // Uniaxial, free lateral edge: λ₂ = λ^(−1/2) makes dU/dλ₂ vanish, and
+        // the axial force is V μ (λ − λ⁻²).
+        let l2 = l.powf(-0.5);
+        let (_, d1, d2) = patch.eval(&m, l, l2);
+        assert!(d2.abs() < 1e-10, "λ={l}: lateral force {d2}");
+        let t = vol * mu * (l - l.powi(-2));
+        assert!(
+            (d1 - t).abs() < 1e-10 * (1.0 + t.abs()),
+            "λ={l}: {d1} vs {t}"
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------
+// St Venant–Kirchhoff (Delingette springs)
+
+#[test]
+fn svk_fd() {
+    for (nu, seed) in [(0.0, 200), (0.45, 201)] {
+        let m = StVenantKirchhoff {
+            young: 1.0,
+            poisson: nu,
+        };
+        run_material(
+            &format!("svk ν={nu}"),
+            &m,
+            m.young,
+            None,
+            0.8,
+            1.4,
+            0.05,
+            25,
+            seed,
+        );
+    }
+}
+
+/// W_T = A₀ H (λ/2 (tr E)² + μ tr E²) with the plane-stress λ, μ, with E
+/// computed from F independently of the springs.
+#[test]
+fn svk_equals_green_lagrange_energy() {
+    let mut rng = SplitMix64::new(210);
+    let mut worst: f64 = 0.0;
+    for nu in [0.0, 0.3, 0.45] {
+        let young = 2.0;
+        let m = StVenantKirchhoff { young, poisson: nu };
+        let lam = young * nu / (1.0 - nu * nu);
+        let mu = young / (2.0 * (1.0 + nu));
+        for _ in 0..20 {
+            let (p, _) = rand_tri(&mut rng);
+            let r = RefTri::new(p, H, None).unwrap();
+            let q = rand_state(&r, &p, 0.8, 1.4, 0.1, &mut rng);
+            let k = Kin::new(&r, &q).unwrap();
+            let c = k.f.transpose() * k.f;
+            let e = (c - (Matrix3::identity() - r.normal * r.normal.transpose())) * 0.5;
+            let w = r.area * H * (0.5 * lam * e.trace().powi(2) + mu * (e * e).trace());
+            let u = m.eval(&r, &q, false).unwrap().energy;
+            worst = worst.max((u - w).abs() / w.abs());
+        }
+    }
+    eprintln!("svk vs Green–Lagrange energy: max rel err {worst:.2e}");
+    assert!(worst < 1e-12, "{worst}");
+}
+
+/// Uniaxial stress: with the lateral stretch from E₂₂ = −ν E₁₁ the lateral
+/// force vanishes and the axial one is V E E₁₁ λ₁ (S₁₁ = E E₁₁); the
+/// energy equals the plane-stress closed form for any (λ₁, λ₂).
+#[test]
+fn svk_uniaxial_and_biaxial_closed_form() {
+    let side = 1.5;
+    let vol = side * side * H;
+    let patch = Patch::new(side, None);
+    for nu in [0.0, 0.45] {
+        let young = 1.0;
+        let m = StVenantKirchhoff { young, poisson: nu };
+        let lam = young * nu / (1.0 - nu * nu);
+        let mu = young / (2.0 * (1.0 + nu));
+        for &l1 in &[0.9, 1.05, 1.2, 1.4] {
+            let e11 = 0.5 * (l1 * l1 - 1.0);
+            let e22 = -nu * e11;
+            let l2 = (1.0 + 2.0 * e22).sqrt();
+            let (u, d1, d2) = patch.eval(&m, l1, l2);
+            let w = vol * (0.5 * lam * (e11 + e22).powi(2) + mu * (e11 * e11 + e22 * e22));
+            assert!((u - w).abs() < 1e-12 * w, "ν={nu} λ={l1}: {u} vs {w}");
+            assert!(
+                d2.abs() < 1e-12 * d1.abs().max(1e-3),
+                "ν={nu} λ={l1}: lateral {d2}"
+            );
+            let t = vol * young * e11 * l1;
+            assert!(
+                (d1 - t).abs() < 1e-10 * t.abs(),
+                "ν={nu} λ={l1}: {d1} vs {t}"
+            );
+        }
+    }
+}
