@@ -13,3 +13,8 @@ pub mod pressure;
 pub mod solve;
 pub mod sparse;
 pub mod system;
+pub mod shapes;
+pub mod verify;
+
+#[cfg(test)]
+mod tests;

@@ -181,6 +181,16 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
                         break;
                     }
                 }
+                // Near the solution the energy change drowns in round-off:
+                // then a full step that lowers the residual is taken.
+                if alpha == 1.0 && (e0.abs() * 1e-12 > -slope) {
+                    if let Ok(r1) = sys.residual(&xn) {
+                        if norm(&r1) < rn {
+                            accepted = Some(xn);
+                            break;
+                        }
+                    }
+                }
             } else if let Ok(rn1) = sys.residual(&xn) {
                 let m = norm(&rn1);
                 if m.is_finite() && m * m <= rn * rn * (1.0 - 1e-4 * alpha) {
