@@ -7,11 +7,18 @@
 //! * [`NeoHookean`] — incompressible neo-Hookean, HNF (§5.2).
 //! * [`StVenantKirchhoff`] — St Venant–Kirchhoff via Delingette's
 //!   biquadratic springs ("TBS", §5.4).
+//! * [`Gent`] — incompressible Gent with lock-up J_m (§5.2).
+//! * [`Goh`] — incompressible Gasser–Ogden–Holzapfel with two fibre families
+//!   from `RefTri::fiber` and dispersion κ (seed 001 eq. 17–19).
 
+pub mod gent;
+pub mod goh;
 pub mod invariants;
 pub mod neo_hookean;
 pub mod svk;
 
+pub use gent::Gent;
+pub use goh::{GOH_EXP_MAX, Goh};
 pub use neo_hookean::NeoHookean;
 pub use svk::StVenantKirchhoff;
 

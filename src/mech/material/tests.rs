@@ -505,3 +505,247 @@ fn svk_uniaxial_and_biaxial_closed_form() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------
+// Gent
+
+#[test]
+fn gent_fd() {
+    let m = Gent {
+        mu: 1.0 / 3.0,
+        jm: 2.3,
+    };
+    run_material("gent Jm=2.3", &m, m.mu, None, 0.8, 1.4, 0.05, 25, 300);
+    // Close to lock-up (equibiaxial λ ≈ 1.55–1.6 gives s ≈ 1.9–2.27).
+    run_material("gent near lock-up", &m, m.mu, None, 1.55, 1.6, 0.0, 20, 301);
+}
+
+#[test]
+fn gent_closed_form_and_lock_up() {
+    let (mu, jm) = (0.3, 2.3);
+    let m = Gent { mu, jm };
+    let side = 2.0;
+    let vol = side * side * H;
+    let patch = Patch::new(side, None);
+    for &l in &[0.85f64, 1.0, 1.2, 1.5, 1.6] {
+        let s: f64 = 2.0 * l * l + l.powi(-4) - 3.0;
+        let (u, d1, _) = patch.eval(&m, l, l);
+        let w = -0.5 * mu * jm * (1.0 - s / jm).ln();
+        assert!((u - vol * w).abs() < 1e-12 * (1.0 + u.abs()), "λ={l}");
+        // dU/dλ = V W_s ds/dλ / 2 per direction: ds/dλ₁ = 2λ − 2λ⁻⁵.
+        let t = vol * 0.5 * mu / (1.0 - s / jm) * (2.0 * l - 2.0 * l.powi(-5));
+        assert!(
+            (d1 - t).abs() < 1e-10 * (1.0 + t.abs()),
+            "λ={l}: {d1} vs {t}"
+        );
+    }
+    // Beyond lock-up (λ = 1.7: s ≈ 2.9 > J_m): inadmissible, not NaN.
+    let x = patch.current(1.7, 1.7);
+    let t = patch.tris[0];
+    assert!(
+        m.eval(&patch.refs[0], &[x[t[0]], x[t[1]], x[t[2]]], true)
+            .is_none()
+    );
+    // Large J_m: Gent → neo-Hookean.
+    let g = Gent { mu, jm: 1e9 };
+    let nh = NeoHookean { mu };
+    let (ug, _, _) = patch.eval(&g, 1.3, 0.9);
+    let (un, _, _) = patch.eval(&nh, 1.3, 0.9);
+    assert!((ug - un).abs() < 1e-8 * un);
+}
+
+// ---------------------------------------------------------------------------
+// GOH
+
+#[test]
+fn goh_fd() {
+    let theta = std::f64::consts::FRAC_PI_4;
+    for (kappa, ks) in [(0.2, "0.2"), (1.0 / 3.0, "1/3")] {
+        // Seed stiffness at moderate strain (most states have I* > 1).
+        let m = Goh {
+            mu: 0.9,
+            k1: 1.1,
+            k2: 1000.0,
+            kappa,
+        };
+        run_material(
+            &format!("goh κ={ks} k2=1000"),
+            &m,
+            m.mu,
+            Some(theta),
+            0.97,
+            1.08,
+            0.01,
+            25,
+            400,
+        );
+        // Small k₂, large strain.
+        let m = Goh {
+            mu: 0.9,
+            k1: 1.1,
+            k2: 2.0,
+            kappa,
+        };
+        run_material(
+            &format!("goh κ={ks} k2=2"),
+            &m,
+            m.mu,
+            Some(theta),
+            0.8,
+            1.4,
+            0.05,
+            25,
+            401,
+        );
+        // k₂ = 1000 well inside the guarded (Taylor-continued) region.
+        let m = Goh {
+            mu: 0.9,
+            k1: 1.1,
+            k2: 1000.0,
+            kappa,
+        };
+        run_material(
+            &format!("goh κ={ks} k2=1000 guarded"),
+            &m,
+            m.mu,
+            Some(theta),
+            1.3,
+            1.6,
+            0.02,
+            20,
+            402,
+        );
+    }
+    // One fibre family only (the other zero): still consistent.
+    let mut rng = SplitMix64::new(403);
+    let m = Goh {
+        mu: 0.9,
+        k1: 1.1,
+        k2: 5.0,
+        kappa: 0.1,
+    };
+    let mut worst = Errs::default();
+    while worst.n < 20 {
+        let (p, scale) = rand_tri(&mut rng);
+        let f = fibres(&p, 0.3, &mut rng);
+        let r = RefTri::new(p, H, Some([f[0], V3::zeros()])).unwrap();
+        assert!(r.fiber[1].norm() == 0.0);
+        let q = rand_state(&r, &p, 0.8, 1.4, 0.05, &mut rng);
+        worst.max(fd_check(&m, &r, &q, scale).unwrap());
+    }
+    eprintln!(
+        "goh one family: grad {:.2e} hess {:.2e}",
+        worst.grad, worst.hess
+    );
+    assert!(worst.grad <= 1e-6 && worst.hess <= 1e-6);
+}
+
+#[test]
+fn goh_guard_is_finite_and_c2() {
+    let m = Goh {
+        mu: 0.9,
+        k1: 1.1,
+        k2: 1000.0,
+        kappa: 0.2,
+    };
+    let xc = (GOH_EXP_MAX / m.k2).sqrt();
+    let (a, b) = (m.psi(xc * (1.0 - 1e-12)), m.psi(xc * (1.0 + 1e-12)));
+    assert!(
+        (a.0 - b.0).abs() <= 1e-9 * a.0
+            && (a.1 - b.1).abs() <= 1e-9 * a.1
+            && (a.2 - b.2).abs() <= 1e-9 * a.2
+    );
+    // A hugely stretched triangle: finite, no NaN.
+    let p = [
+        V3::new(0.0, 0.0, 0.0),
+        V3::new(1.0, 0.0, 0.0),
+        V3::new(0.0, 1.0, 0.0),
+    ];
+    let r = RefTri::new(
+        p,
+        H,
+        Some([V3::new(1.0, 1.0, 0.0), V3::new(1.0, -1.0, 0.0)]),
+    )
+    .unwrap();
+    let q = p.map(|x| x * 5.0);
+    let e = m.eval(&r, &q, true).unwrap();
+    assert!(e.energy.is_finite() && e.energy > 1e40);
+    // Small k₂ uses exp_m1 (no cancellation) and k₂ = 0 is the quadratic limit.
+    let small = Goh { k2: 1e-9, ..m }.psi(0.1);
+    let zero = Goh { k2: 0.0, ..m }.psi(0.1);
+    assert!((small.0 - zero.0).abs() < 1e-12 && (small.1 - zero.1).abs() < 1e-9);
+}
+
+#[test]
+fn goh_closed_forms() {
+    let side = 2.0;
+    let vol = side * side * H;
+    let (mu, k1, k2) = (0.9, 1.1, 3.0);
+    let psi = |i: f64| {
+        if i > 1.0 {
+            k1 / (2.0 * k2) * ((k2 * (i - 1.0).powi(2)).exp() - 1.0)
+        } else {
+            0.0
+        }
+    };
+    for theta in [0.0, 0.4, std::f64::consts::FRAC_PI_4, 1.2] {
+        let f = [
+            V3::new(theta.cos(), theta.sin(), 0.0),
+            V3::new(theta.cos(), -theta.sin(), 0.0),
+        ];
+        let patch = Patch::new(side, Some(f));
+        for &l in &[0.9f64, 1.0, 1.1, 1.25] {
+            let s: f64 = 2.0 * l * l + l.powi(-4) - 3.0;
+            // κ = 1/3: NH + 2 ψ((s + 3)/3), independent of the fibre angle.
+            let m = Goh {
+                mu,
+                k1,
+                k2,
+                kappa: 1.0 / 3.0,
+            };
+            let (u, _, _) = patch.eval(&m, l, l);
+            let w = 0.5 * mu * s + 2.0 * psi((s + 3.0) / 3.0);
+            assert!(
+                (u - vol * w).abs() < 1e-12 * (1.0 + u.abs()),
+                "θ={theta} λ={l}: {u} vs {}",
+                vol * w
+            );
+            // κ = 0.2: equibiaxial gives I₄ = λ² for any in-plane angle.
+            let kappa = 0.2;
+            let m = Goh { mu, k1, k2, kappa };
+            let (u, _, _) = patch.eval(&m, l, l);
+            let w = 0.5 * mu * s + 2.0 * psi(kappa * (s + 3.0) + (1.0 - 3.0 * kappa) * l * l);
+            assert!(
+                (u - vol * w).abs() < 1e-12 * (1.0 + u.abs()),
+                "θ={theta} λ={l}"
+            );
+        }
+        // Uniaxial along e_x with κ = 0: I₄ = λ² cos²θ + λ₂² sin²θ.
+        let (l1, l2) = (1.2, 0.95);
+        let m = Goh {
+            mu,
+            k1,
+            k2,
+            kappa: 0.0,
+        };
+        let (u, _, _) = patch.eval(&m, l1, l2);
+        let s = l1 * l1 + l2 * l2 + (l1 * l2).powi(-2) - 3.0;
+        let i4 = l1 * l1 * theta.cos().powi(2) + l2 * l2 * theta.sin().powi(2);
+        let w = 0.5 * mu * s + 2.0 * psi(i4);
+        assert!((u - vol * w).abs() < 1e-12 * (1.0 + u.abs()), "θ={theta}");
+    }
+    // No fibres: GOH is neo-Hookean.
+    let patch = Patch::new(side, None);
+    let (ug, _, _) = patch.eval(
+        &Goh {
+            mu,
+            k1,
+            k2,
+            kappa: 0.2,
+        },
+        1.3,
+        0.8,
+    );
+    let (un, _, _) = patch.eval(&NeoHookean { mu }, 1.3, 0.8);
+    assert!((ug - un).abs() < 1e-14 * un);
+}
