@@ -749,3 +749,213 @@ fn goh_closed_forms() {
     let (un, _, _) = patch.eval(&NeoHookean { mu }, 1.3, 0.8);
     assert!((ug - un).abs() < 1e-14 * un);
 }
+
+// ---------------------------------------------------------------------------
+// Mass–spring model
+
+/// Edge strains ε_e = ℓ_e/ℓ₀ − 1 of one triangle.
+fn edge_strains(r: &RefTri, q: &[V3; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|e| (q[(e + 2) % 3] - q[(e + 1) % 3]).norm() / r.rest_len2[e].sqrt() - 1.0)
+}
+
+#[test]
+fn msm_fd() {
+    let theta = 0.6;
+    let cases: [(&str, Law, Option<f64>); 4] = [
+        ("msm linear", Law::Linear { young: 1.0 }, None),
+        ("msm three-step", seed000_isotropic(), None),
+        ("msm anisotropic", seed000_anisotropic(), Some(theta)),
+        ("msm anisotropic, no fibre", seed000_anisotropic(), None),
+    ];
+    for (k, (label, law, th)) in cases.into_iter().enumerate() {
+        let m = MassSpring { law };
+        let w = run_material(label, &m, 1.0, th, 0.8, 1.4, 0.05, 30, 500 + k as u64);
+        assert_eq!(w.n, 30);
+    }
+    // Replays the three-step states (seed 501, same draw sequence): they
+    // straddle both breakpoints and include compression.
+    let mut rng = SplitMix64::new(501);
+    let mut count = [0usize; 4];
+    for _ in 0..30 {
+        let (p, _) = rand_tri(&mut rng);
+        let r = RefTri::new(p, H, None).unwrap();
+        rigid_check(
+            &MassSpring {
+                law: seed000_isotropic(),
+            },
+            &r,
+            &p,
+            1.0 * r.area * H,
+            &mut rng,
+        );
+        let q = rand_state(&r, &p, 0.8, 1.4, 0.05, &mut rng);
+        for e in edge_strains(&r, &q) {
+            count[if e < 0.0 {
+                0
+            } else if e <= 0.175 {
+                1
+            } else if e <= 0.3 {
+                2
+            } else {
+                3
+            }] += 1;
+        }
+    }
+    eprintln!("msm strain regimes (compression, E1, E2, E3): {count:?}");
+    assert!(count.iter().all(|&c| c >= 5), "{count:?}");
+}
+
+#[test]
+fn msm_linear_is_a_hooke_spring() {
+    let mut rng = SplitMix64::new(510);
+    let young = 1.3;
+    let m = MassSpring {
+        law: Law::Linear { young },
+    };
+    for _ in 0..20 {
+        let (p, _) = rand_tri(&mut rng);
+        let r = RefTri::new(p, H, None).unwrap();
+        let q = rand_state(&r, &p, 0.8, 1.4, 0.05, &mut rng);
+        let u = m.eval(&r, &q, false).unwrap().energy;
+        // ½ k (ℓ − ℓ₀)², k = E H A_T / ℓ₀² (Van Gelder ν = 0 / Lloyd).
+        let w: f64 = (0..3)
+            .map(|e| {
+                let l0 = r.rest_len2[e].sqrt();
+                let l = (q[(e + 2) % 3] - q[(e + 1) % 3]).norm();
+                0.5 * young * H * r.area / (l0 * l0) * (l - l0).powi(2)
+            })
+            .sum();
+        assert!((u - w).abs() < 1e-12 * w, "{u} vs {w}");
+    }
+}
+
+/// Anisotropic springs: edge-by-edge effective moduli from the angle between
+/// the rest edge and fiber[0] (computed here from the reference points).
+#[test]
+fn msm_anisotropic_edge_moduli() {
+    let law = seed000_anisotropic();
+    let Law::Anisotropic { fibre, cross, eps } = law else {
+        unreachable!()
+    };
+    let s = law.steps(Some(1.0));
+    assert_eq!(s.e, fibre);
+    let s = law.steps(Some(0.0));
+    assert_eq!(s.e, cross);
+    let mut rng = SplitMix64::new(520);
+    let m = MassSpring { law };
+    for _ in 0..20 {
+        let (p, _) = rand_tri(&mut rng);
+        let th = rng.range(0.0, 3.0);
+        let f = fibres(&p, th, &mut rng);
+        let r = RefTri::new(p, H, Some(f)).unwrap();
+        let q = rand_state(&r, &p, 0.8, 1.4, 0.05, &mut rng);
+        let strains = edge_strains(&r, &q);
+        let mut w = 0.0;
+        for e in 0..3 {
+            let t = (p[(e + 2) % 3] - p[(e + 1) % 3]).normalize();
+            let c2 = t.dot(&f[0]).powi(2);
+            let es =
+                [0, 1, 2].map(|k| (fibre[k].powi(2) * c2 + cross[k].powi(2) * (1.0 - c2)).sqrt());
+            // Φ(ε) by numerical quadrature of the continuous σ(ε).
+            let sigma = |x: f64| {
+                if x <= eps[0] {
+                    es[0] * x
+                } else if x <= eps[1] {
+                    es[0] * eps[0] + es[1] * (x - eps[0])
+                } else {
+                    es[0] * eps[0] + es[1] * (eps[1] - eps[0]) + es[2] * (x - eps[1])
+                }
+            };
+            let n = 20000;
+            let x = strains[e];
+            let phi: f64 = (0..n)
+                .map(|i| sigma((i as f64 + 0.5) / n as f64 * x))
+                .sum::<f64>()
+                * x
+                / n as f64;
+            w += H * r.area * phi;
+        }
+        let u = m.eval(&r, &q, false).unwrap().energy;
+        assert!((u - w).abs() < 1e-6 * w, "{u} vs {w}");
+    }
+}
+
+/// Two equilateral triangles sharing an edge, stretched by λ along that edge:
+/// U = H A [2 Φ(λ − 1) + 4 Φ(ε₆₀)], ε₆₀ = √(λ²/4 + 3/4) − 1. The generalised
+/// force dU/dλ is continuous across ε = 0.175 while the tangent jumps by
+/// 2 H A (E₂ − E₁).
+#[test]
+fn msm_rhombus_breakpoint_continuity() {
+    let law = seed000_isotropic();
+    let Law::ThreeStep { e, eps } = law else {
+        unreachable!()
+    };
+    let m = MassSpring { law };
+    let a = 2.0;
+    let rot = *Rotation3::from_axis_angle(
+        &nalgebra::Unit::new_normalize(Vector3::new(0.2, -1.0, 0.4)),
+        0.9,
+    )
+    .matrix();
+    let s3 = 3f64.sqrt() / 2.0;
+    let p = [
+        V3::new(0.0, 0.0, 0.0),
+        V3::new(a, 0.0, 0.0),
+        V3::new(0.5 * a, s3 * a, 0.0),
+        V3::new(0.5 * a, -s3 * a, 0.0),
+    ];
+    let tris = [[0, 1, 2], [1, 0, 3]];
+    let refs =
+        tris.map(|t| RefTri::new([p[t[0]], p[t[1]], p[t[2]]].map(|x| rot * x), H, None).unwrap());
+    let area = refs[0].area;
+    // U and dU/dλ from the element gradients.
+    let eval = |l: f64| {
+        let x = p.map(|v| rot * V3::new(l * v.x, v.y, 0.0));
+        let (mut u, mut d) = (0.0, 0.0);
+        for (r, t) in refs.iter().zip(tris.iter()) {
+            let ev = m.eval(r, &[x[t[0]], x[t[1]], x[t[2]]], false).unwrap();
+            u += ev.energy;
+            for (k, &v) in t.iter().enumerate() {
+                let g = V3::new(ev.grad[3 * k], ev.grad[3 * k + 1], ev.grad[3 * k + 2]);
+                d += g.dot(&(rot * V3::new(p[v].x, 0.0, 0.0)));
+            }
+        }
+        (u, d)
+    };
+    let steps = law.steps(None);
+    let closed = |l: f64| {
+        let e60 = (0.25 * l * l + 0.75).sqrt() - 1.0;
+        let (p0, s0, _) = steps.eval(l - 1.0);
+        let (p6, s6, _) = steps.eval(e60);
+        (
+            H * area * (2.0 * p0 + 4.0 * p6),
+            H * area * (2.0 * s0 + 4.0 * s6 * 0.25 * l / (1.0 + e60)),
+        )
+    };
+    for &l in &[0.9, 1.1, 1.175, 1.2, 1.3, 1.45] {
+        let (u, d) = eval(l);
+        let (uc, dc) = closed(l);
+        assert!(
+            (u - uc).abs() < 1e-12 * uc && (d - dc).abs() < 1e-10 * dc.abs(),
+            "λ={l}"
+        );
+    }
+    for b in eps {
+        let l = 1.0 + b;
+        let dl = 1e-9;
+        let (_, dm) = eval(l - dl);
+        let (_, dp) = eval(l + dl);
+        // Continuous force: the jump is only the O(δ) tangent term.
+        assert!((dp - dm).abs() < 1e-6 * dp.abs(), "ε={b}: {dm} vs {dp}");
+        // Tangent jumps by 2 H A (E_next − E_prev) (the 60° edges stay in E₁).
+        let h = 1e-4;
+        let tan = |l: f64| (eval(l + h).1 - eval(l - h).1) / (2.0 * h);
+        let jump = tan(l + 2.0 * h) - tan(l - 2.0 * h);
+        let k = if b == eps[0] { 1 } else { 2 };
+        let expect = 2.0 * H * area * (e[k] - e[k - 1]);
+        assert!(
+            (jump - expect).abs() < 1e-3 * expect.abs(),
+            "ε={b}: jump {jump} vs {expect}"
+        );
+    }
+}
