@@ -30,7 +30,7 @@ impl Membrane for Gent {
         }
         let (s, gs, hs) = k.s(r, want_hess);
         let x = 1.0 - s / self.jm;
-        if !(x > 0.0) {
+        if x.is_nan() || x <= 0.0 {
             return None;
         }
         let vol = r.area * r.thickness;

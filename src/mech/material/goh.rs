@@ -42,7 +42,7 @@ impl Goh {
     /// ψ, ψ′, ψ″ at x = I* − 1 > 0 (with the exponent guard).
     pub fn psi(&self, x: f64) -> (f64, f64, f64) {
         let (k1, k2) = (self.k1, self.k2);
-        if !(k2 > 0.0) {
+        if k2.is_nan() || k2 <= 0.0 {
             // k₂ → 0 limit: ψ = k₁ x²/2.
             return (0.5 * k1 * x * x, k1 * x, k1);
         }
@@ -86,7 +86,7 @@ impl Membrane for Goh {
         for a in 0..2 {
             let Some((i4, g4)) = k.i4(r, a) else { continue };
             let x = ka * (s + 3.0) + kb * i4 - 1.0;
-            if !(x > 0.0) {
+            if x.is_nan() || x <= 0.0 {
                 continue;
             }
             let (p, d1, d2) = self.psi(x);

@@ -1,6 +1,8 @@
 //! Finite-difference, invariance and analytic patch tests for every
 //! membrane material. Run with `--nocapture` to see the measured errors.
 
+#![allow(clippy::needless_range_loop)]
+
 use super::invariants::Kin;
 use super::*;
 use crate::mech::element::{Eval, Grad9, Hess9, Membrane, RefTri, V3};
