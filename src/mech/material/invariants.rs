@@ -87,7 +87,7 @@ impl Kin {
         let cross = (q[1] - q[0]).cross(&(q[2] - q[0]));
         let twice = cross.norm();
         let area = 0.5 * twice;
-        if !area.is_finite() || !(area > COLLAPSE_RATIO * r.area) {
+        if !area.is_finite() || area <= COLLAPSE_RATIO * r.area {
             return None;
         }
         let normal = cross / twice;
@@ -131,8 +131,8 @@ impl Kin {
         let inv = 1.0 / (self.area * r.area);
         for i in 0..3 {
             let bp = b[i].transpose() * p * inv;
-            for l in 0..3 {
-                add_block(&mut h, i, l, &(bp * b[l]));
+            for (l, bl) in b.iter().enumerate() {
+                add_block(&mut h, i, l, &(bp * bl));
             }
             add_block(&mut h, i, (i + 1) % 3, &(-nx));
             add_block(&mut h, i, (i + 2) % 3, &nx);

@@ -7,11 +7,25 @@
 //! * [`NeoHookean`] — incompressible neo-Hookean, HNF (§5.2).
 //! * [`StVenantKirchhoff`] — St Venant–Kirchhoff via Delingette's
 //!   biquadratic springs ("TBS", §5.4).
+//! * [`Gent`] — incompressible Gent with lock-up J_m (§5.2).
+//! * [`Goh`] — incompressible Gasser–Ogden–Holzapfel with two fibre families
+//!   from `RefTri::fiber` and dispersion κ (seed 001 eq. 17–19).
+//! * [`MassSpring`] — mass–spring model, three edge springs per triangle with
+//!   a linear, three-step or anisotropic three-step [`Law`] (§5.5).
 
+pub mod gent;
+pub mod goh;
 pub mod invariants;
+pub mod msm;
 pub mod neo_hookean;
 pub mod svk;
 
+pub use gent::Gent;
+pub use goh::{GOH_EXP_MAX, Goh};
+pub use msm::{
+    Law, MassSpring, SEED000_EPS, seed000_anisotropic, seed000_isotropic, seed000_longitudinal,
+    seed000_transverse,
+};
 pub use neo_hookean::NeoHookean;
 pub use svk::StVenantKirchhoff;
 

@@ -54,7 +54,7 @@ impl Membrane for StVenantKirchhoff {
 
     fn eval(&self, r: &RefTri, q: &[V3; 3], want_hess: bool) -> Option<Eval> {
         let area = 0.5 * (q[1] - q[0]).cross(&(q[2] - q[0])).norm();
-        if !area.is_finite() || !(area > COLLAPSE_RATIO * r.area) {
+        if !area.is_finite() || area <= COLLAPSE_RATIO * r.area {
             return None;
         }
         let m = self.spring_matrix(r);

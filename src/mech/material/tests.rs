@@ -1,6 +1,8 @@
 //! Finite-difference, invariance and analytic patch tests for every
 //! membrane material. Run with `--nocapture` to see the measured errors.
 
+#![allow(clippy::needless_range_loop)]
+
 use super::invariants::Kin;
 use super::*;
 use crate::mech::element::{Eval, Grad9, Hess9, Membrane, RefTri, V3};
@@ -503,5 +505,459 @@ fn svk_uniaxial_and_biaxial_closed_form() {
                 "ν={nu} λ={l1}: {d1} vs {t}"
             );
         }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Gent
+
+#[test]
+fn gent_fd() {
+    let m = Gent {
+        mu: 1.0 / 3.0,
+        jm: 2.3,
+    };
+    run_material("gent Jm=2.3", &m, m.mu, None, 0.8, 1.4, 0.05, 25, 300);
+    // Close to lock-up (equibiaxial λ ≈ 1.55–1.6 gives s ≈ 1.9–2.27).
+    run_material("gent near lock-up", &m, m.mu, None, 1.55, 1.6, 0.0, 20, 301);
+}
+
+#[test]
+fn gent_closed_form_and_lock_up() {
+    let (mu, jm) = (0.3, 2.3);
+    let m = Gent { mu, jm };
+    let side = 2.0;
+    let vol = side * side * H;
+    let patch = Patch::new(side, None);
+    for &l in &[0.85f64, 1.0, 1.2, 1.5, 1.6] {
+        let s: f64 = 2.0 * l * l + l.powi(-4) - 3.0;
+        let (u, d1, _) = patch.eval(&m, l, l);
+        let w = -0.5 * mu * jm * (1.0 - s / jm).ln();
+        assert!((u - vol * w).abs() < 1e-12 * (1.0 + u.abs()), "λ={l}");
+        // dU/dλ = V W_s ds/dλ / 2 per direction: ds/dλ₁ = 2λ − 2λ⁻⁵.
+        let t = vol * 0.5 * mu / (1.0 - s / jm) * (2.0 * l - 2.0 * l.powi(-5));
+        assert!(
+            (d1 - t).abs() < 1e-10 * (1.0 + t.abs()),
+            "λ={l}: {d1} vs {t}"
+        );
+    }
+    // Beyond lock-up (λ = 1.7: s ≈ 2.9 > J_m): inadmissible, not NaN.
+    let x = patch.current(1.7, 1.7);
+    let t = patch.tris[0];
+    assert!(
+        m.eval(&patch.refs[0], &[x[t[0]], x[t[1]], x[t[2]]], true)
+            .is_none()
+    );
+    // Large J_m: Gent → neo-Hookean.
+    let g = Gent { mu, jm: 1e9 };
+    let nh = NeoHookean { mu };
+    let (ug, _, _) = patch.eval(&g, 1.3, 0.9);
+    let (un, _, _) = patch.eval(&nh, 1.3, 0.9);
+    assert!((ug - un).abs() < 1e-8 * un);
+}
+
+// ---------------------------------------------------------------------------
+// GOH
+
+#[test]
+fn goh_fd() {
+    let theta = std::f64::consts::FRAC_PI_4;
+    for (kappa, ks) in [(0.2, "0.2"), (1.0 / 3.0, "1/3")] {
+        // Seed stiffness at moderate strain (most states have I* > 1).
+        let m = Goh {
+            mu: 0.9,
+            k1: 1.1,
+            k2: 1000.0,
+            kappa,
+        };
+        run_material(
+            &format!("goh κ={ks} k2=1000"),
+            &m,
+            m.mu,
+            Some(theta),
+            0.97,
+            1.08,
+            0.01,
+            25,
+            400,
+        );
+        // Small k₂, large strain.
+        let m = Goh {
+            mu: 0.9,
+            k1: 1.1,
+            k2: 2.0,
+            kappa,
+        };
+        run_material(
+            &format!("goh κ={ks} k2=2"),
+            &m,
+            m.mu,
+            Some(theta),
+            0.8,
+            1.4,
+            0.05,
+            25,
+            401,
+        );
+        // k₂ = 1000 well inside the guarded (Taylor-continued) region.
+        let m = Goh {
+            mu: 0.9,
+            k1: 1.1,
+            k2: 1000.0,
+            kappa,
+        };
+        run_material(
+            &format!("goh κ={ks} k2=1000 guarded"),
+            &m,
+            m.mu,
+            Some(theta),
+            1.3,
+            1.6,
+            0.02,
+            20,
+            402,
+        );
+    }
+    // One fibre family only (the other zero): still consistent.
+    let mut rng = SplitMix64::new(403);
+    let m = Goh {
+        mu: 0.9,
+        k1: 1.1,
+        k2: 5.0,
+        kappa: 0.1,
+    };
+    let mut worst = Errs::default();
+    while worst.n < 20 {
+        let (p, scale) = rand_tri(&mut rng);
+        let f = fibres(&p, 0.3, &mut rng);
+        let r = RefTri::new(p, H, Some([f[0], V3::zeros()])).unwrap();
+        assert!(r.fiber[1].norm() == 0.0);
+        let q = rand_state(&r, &p, 0.8, 1.4, 0.05, &mut rng);
+        worst.max(fd_check(&m, &r, &q, scale).unwrap());
+    }
+    eprintln!(
+        "goh one family: grad {:.2e} hess {:.2e}",
+        worst.grad, worst.hess
+    );
+    assert!(worst.grad <= 1e-6 && worst.hess <= 1e-6);
+}
+
+#[test]
+fn goh_guard_is_finite_and_c2() {
+    let m = Goh {
+        mu: 0.9,
+        k1: 1.1,
+        k2: 1000.0,
+        kappa: 0.2,
+    };
+    let xc = (GOH_EXP_MAX / m.k2).sqrt();
+    let (a, b) = (m.psi(xc * (1.0 - 1e-12)), m.psi(xc * (1.0 + 1e-12)));
+    assert!(
+        (a.0 - b.0).abs() <= 1e-9 * a.0
+            && (a.1 - b.1).abs() <= 1e-9 * a.1
+            && (a.2 - b.2).abs() <= 1e-9 * a.2
+    );
+    // A hugely stretched triangle: finite, no NaN.
+    let p = [
+        V3::new(0.0, 0.0, 0.0),
+        V3::new(1.0, 0.0, 0.0),
+        V3::new(0.0, 1.0, 0.0),
+    ];
+    let r = RefTri::new(
+        p,
+        H,
+        Some([V3::new(1.0, 1.0, 0.0), V3::new(1.0, -1.0, 0.0)]),
+    )
+    .unwrap();
+    let q = p.map(|x| x * 5.0);
+    let e = m.eval(&r, &q, true).unwrap();
+    assert!(e.energy.is_finite() && e.energy > 1e40);
+    // Small k₂ uses exp_m1 (no cancellation) and k₂ = 0 is the quadratic limit.
+    let small = Goh { k2: 1e-9, ..m }.psi(0.1);
+    let zero = Goh { k2: 0.0, ..m }.psi(0.1);
+    assert!((small.0 - zero.0).abs() < 1e-12 && (small.1 - zero.1).abs() < 1e-9);
+}
+
+#[test]
+fn goh_closed_forms() {
+    let side = 2.0;
+    let vol = side * side * H;
+    let (mu, k1, k2) = (0.9, 1.1, 3.0);
+    let psi = |i: f64| {
+        if i > 1.0 {
+            k1 / (2.0 * k2) * ((k2 * (i - 1.0).powi(2)).exp() - 1.0)
+        } else {
+            0.0
+        }
+    };
+    for theta in [0.0, 0.4, std::f64::consts::FRAC_PI_4, 1.2] {
+        let f = [
+            V3::new(theta.cos(), theta.sin(), 0.0),
+            V3::new(theta.cos(), -theta.sin(), 0.0),
+        ];
+        let patch = Patch::new(side, Some(f));
+        for &l in &[0.9f64, 1.0, 1.1, 1.25] {
+            let s: f64 = 2.0 * l * l + l.powi(-4) - 3.0;
+            // κ = 1/3: NH + 2 ψ((s + 3)/3), independent of the fibre angle.
+            let m = Goh {
+                mu,
+                k1,
+                k2,
+                kappa: 1.0 / 3.0,
+            };
+            let (u, _, _) = patch.eval(&m, l, l);
+            let w = 0.5 * mu * s + 2.0 * psi((s + 3.0) / 3.0);
+            assert!(
+                (u - vol * w).abs() < 1e-12 * (1.0 + u.abs()),
+                "θ={theta} λ={l}: {u} vs {}",
+                vol * w
+            );
+            // κ = 0.2: equibiaxial gives I₄ = λ² for any in-plane angle.
+            let kappa = 0.2;
+            let m = Goh { mu, k1, k2, kappa };
+            let (u, _, _) = patch.eval(&m, l, l);
+            let w = 0.5 * mu * s + 2.0 * psi(kappa * (s + 3.0) + (1.0 - 3.0 * kappa) * l * l);
+            assert!(
+                (u - vol * w).abs() < 1e-12 * (1.0 + u.abs()),
+                "θ={theta} λ={l}"
+            );
+        }
+        // Uniaxial along e_x with κ = 0: I₄ = λ² cos²θ + λ₂² sin²θ.
+        let (l1, l2) = (1.2, 0.95);
+        let m = Goh {
+            mu,
+            k1,
+            k2,
+            kappa: 0.0,
+        };
+        let (u, _, _) = patch.eval(&m, l1, l2);
+        let s = l1 * l1 + l2 * l2 + (l1 * l2).powi(-2) - 3.0;
+        let i4 = l1 * l1 * theta.cos().powi(2) + l2 * l2 * theta.sin().powi(2);
+        let w = 0.5 * mu * s + 2.0 * psi(i4);
+        assert!((u - vol * w).abs() < 1e-12 * (1.0 + u.abs()), "θ={theta}");
+    }
+    // No fibres: GOH is neo-Hookean.
+    let patch = Patch::new(side, None);
+    let (ug, _, _) = patch.eval(
+        &Goh {
+            mu,
+            k1,
+            k2,
+            kappa: 0.2,
+        },
+        1.3,
+        0.8,
+    );
+    let (un, _, _) = patch.eval(&NeoHookean { mu }, 1.3, 0.8);
+    assert!((ug - un).abs() < 1e-14 * un);
+}
+
+// ---------------------------------------------------------------------------
+// Mass–spring model
+
+/// Edge strains ε_e = ℓ_e/ℓ₀ − 1 of one triangle.
+fn edge_strains(r: &RefTri, q: &[V3; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|e| (q[(e + 2) % 3] - q[(e + 1) % 3]).norm() / r.rest_len2[e].sqrt() - 1.0)
+}
+
+#[test]
+fn msm_fd() {
+    let theta = 0.6;
+    let cases: [(&str, Law, Option<f64>); 4] = [
+        ("msm linear", Law::Linear { young: 1.0 }, None),
+        ("msm three-step", seed000_isotropic(), None),
+        ("msm anisotropic", seed000_anisotropic(), Some(theta)),
+        ("msm anisotropic, no fibre", seed000_anisotropic(), None),
+    ];
+    for (k, (label, law, th)) in cases.into_iter().enumerate() {
+        let m = MassSpring { law };
+        let w = run_material(label, &m, 1.0, th, 0.8, 1.4, 0.05, 30, 500 + k as u64);
+        assert_eq!(w.n, 30);
+    }
+    // Replays the three-step states (seed 501, same draw sequence): they
+    // straddle both breakpoints and include compression.
+    let mut rng = SplitMix64::new(501);
+    let mut count = [0usize; 4];
+    for _ in 0..30 {
+        let (p, _) = rand_tri(&mut rng);
+        let r = RefTri::new(p, H, None).unwrap();
+        rigid_check(
+            &MassSpring {
+                law: seed000_isotropic(),
+            },
+            &r,
+            &p,
+            1.0 * r.area * H,
+            &mut rng,
+        );
+        let q = rand_state(&r, &p, 0.8, 1.4, 0.05, &mut rng);
+        for e in edge_strains(&r, &q) {
+            count[if e < 0.0 {
+                0
+            } else if e <= 0.175 {
+                1
+            } else if e <= 0.3 {
+                2
+            } else {
+                3
+            }] += 1;
+        }
+    }
+    eprintln!("msm strain regimes (compression, E1, E2, E3): {count:?}");
+    assert!(count.iter().all(|&c| c >= 5), "{count:?}");
+}
+
+#[test]
+fn msm_linear_is_a_hooke_spring() {
+    let mut rng = SplitMix64::new(510);
+    let young = 1.3;
+    let m = MassSpring {
+        law: Law::Linear { young },
+    };
+    for _ in 0..20 {
+        let (p, _) = rand_tri(&mut rng);
+        let r = RefTri::new(p, H, None).unwrap();
+        let q = rand_state(&r, &p, 0.8, 1.4, 0.05, &mut rng);
+        let u = m.eval(&r, &q, false).unwrap().energy;
+        // ½ k (ℓ − ℓ₀)², k = E H A_T / ℓ₀² (Van Gelder ν = 0 / Lloyd).
+        let w: f64 = (0..3)
+            .map(|e| {
+                let l0 = r.rest_len2[e].sqrt();
+                let l = (q[(e + 2) % 3] - q[(e + 1) % 3]).norm();
+                0.5 * young * H * r.area / (l0 * l0) * (l - l0).powi(2)
+            })
+            .sum();
+        assert!((u - w).abs() < 1e-12 * w, "{u} vs {w}");
+    }
+}
+
+/// Anisotropic springs: edge-by-edge effective moduli from the angle between
+/// the rest edge and fiber[0] (computed here from the reference points).
+#[test]
+fn msm_anisotropic_edge_moduli() {
+    let law = seed000_anisotropic();
+    let Law::Anisotropic { fibre, cross, eps } = law else {
+        unreachable!()
+    };
+    let s = law.steps(Some(1.0));
+    assert_eq!(s.e, fibre);
+    let s = law.steps(Some(0.0));
+    assert_eq!(s.e, cross);
+    let mut rng = SplitMix64::new(520);
+    let m = MassSpring { law };
+    for _ in 0..20 {
+        let (p, _) = rand_tri(&mut rng);
+        let th = rng.range(0.0, 3.0);
+        let f = fibres(&p, th, &mut rng);
+        let r = RefTri::new(p, H, Some(f)).unwrap();
+        let q = rand_state(&r, &p, 0.8, 1.4, 0.05, &mut rng);
+        let strains = edge_strains(&r, &q);
+        let mut w = 0.0;
+        for e in 0..3 {
+            let t = (p[(e + 2) % 3] - p[(e + 1) % 3]).normalize();
+            let c2 = t.dot(&f[0]).powi(2);
+            let es =
+                [0, 1, 2].map(|k| (fibre[k].powi(2) * c2 + cross[k].powi(2) * (1.0 - c2)).sqrt());
+            // Φ(ε) by numerical quadrature of the continuous σ(ε).
+            let sigma = |x: f64| {
+                if x <= eps[0] {
+                    es[0] * x
+                } else if x <= eps[1] {
+                    es[0] * eps[0] + es[1] * (x - eps[0])
+                } else {
+                    es[0] * eps[0] + es[1] * (eps[1] - eps[0]) + es[2] * (x - eps[1])
+                }
+            };
+            let n = 20000;
+            let x = strains[e];
+            let phi: f64 = (0..n)
+                .map(|i| sigma((i as f64 + 0.5) / n as f64 * x))
+                .sum::<f64>()
+                * x
+                / n as f64;
+            w += H * r.area * phi;
+        }
+        let u = m.eval(&r, &q, false).unwrap().energy;
+        assert!((u - w).abs() < 1e-6 * w, "{u} vs {w}");
+    }
+}
+
+/// Two equilateral triangles sharing an edge, stretched by λ along that edge:
+/// U = H A [2 Φ(λ − 1) + 4 Φ(ε₆₀)], ε₆₀ = √(λ²/4 + 3/4) − 1. The generalised
+/// force dU/dλ is continuous across ε = 0.175 while the tangent jumps by
+/// 2 H A (E₂ − E₁).
+#[test]
+fn msm_rhombus_breakpoint_continuity() {
+    let law = seed000_isotropic();
+    let Law::ThreeStep { e, eps } = law else {
+        unreachable!()
+    };
+    let m = MassSpring { law };
+    let a = 2.0;
+    let rot = *Rotation3::from_axis_angle(
+        &nalgebra::Unit::new_normalize(Vector3::new(0.2, -1.0, 0.4)),
+        0.9,
+    )
+    .matrix();
+    let s3 = 3f64.sqrt() / 2.0;
+    let p = [
+        V3::new(0.0, 0.0, 0.0),
+        V3::new(a, 0.0, 0.0),
+        V3::new(0.5 * a, s3 * a, 0.0),
+        V3::new(0.5 * a, -s3 * a, 0.0),
+    ];
+    let tris = [[0, 1, 2], [1, 0, 3]];
+    let refs =
+        tris.map(|t| RefTri::new([p[t[0]], p[t[1]], p[t[2]]].map(|x| rot * x), H, None).unwrap());
+    let area = refs[0].area;
+    // U and dU/dλ from the element gradients.
+    let eval = |l: f64| {
+        let x = p.map(|v| rot * V3::new(l * v.x, v.y, 0.0));
+        let (mut u, mut d) = (0.0, 0.0);
+        for (r, t) in refs.iter().zip(tris.iter()) {
+            let ev = m.eval(r, &[x[t[0]], x[t[1]], x[t[2]]], false).unwrap();
+            u += ev.energy;
+            for (k, &v) in t.iter().enumerate() {
+                let g = V3::new(ev.grad[3 * k], ev.grad[3 * k + 1], ev.grad[3 * k + 2]);
+                d += g.dot(&(rot * V3::new(p[v].x, 0.0, 0.0)));
+            }
+        }
+        (u, d)
+    };
+    let steps = law.steps(None);
+    let closed = |l: f64| {
+        let e60 = (0.25 * l * l + 0.75).sqrt() - 1.0;
+        let (p0, s0, _) = steps.eval(l - 1.0);
+        let (p6, s6, _) = steps.eval(e60);
+        (
+            H * area * (2.0 * p0 + 4.0 * p6),
+            H * area * (2.0 * s0 + 4.0 * s6 * 0.25 * l / (1.0 + e60)),
+        )
+    };
+    for &l in &[0.9, 1.1, 1.175, 1.2, 1.3, 1.45] {
+        let (u, d) = eval(l);
+        let (uc, dc) = closed(l);
+        assert!(
+            (u - uc).abs() < 1e-12 * uc && (d - dc).abs() < 1e-10 * dc.abs(),
+            "λ={l}"
+        );
+    }
+    for b in eps {
+        let l = 1.0 + b;
+        let dl = 1e-9;
+        let (_, dm) = eval(l - dl);
+        let (_, dp) = eval(l + dl);
+        // Continuous force: the jump is only the O(δ) tangent term.
+        assert!((dp - dm).abs() < 1e-6 * dp.abs(), "ε={b}: {dm} vs {dp}");
+        // Tangent jumps by 2 H A (E_next − E_prev) (the 60° edges stay in E₁).
+        let h = 1e-4;
+        let tan = |l: f64| (eval(l + h).1 - eval(l - h).1) / (2.0 * h);
+        let jump = tan(l + 2.0 * h) - tan(l - 2.0 * h);
+        let k = if b == eps[0] { 1 } else { 2 };
+        let expect = 2.0 * H * area * (e[k] - e[k - 1]);
+        assert!(
+            (jump - expect).abs() < 1e-3 * expect.abs(),
+            "ε={b}: jump {jump} vs {expect}"
+        );
     }
 }

@@ -1,0 +1,204 @@
+//! Mass–spring model as a per-triangle element (ALGORITHMS.md §5.5; seeds
+//! 000/002/004).
+//!
+//! Each triangle T puts one spring on each of its three edges with the
+//! Van Gelder (ν = 0) = Lloyd stiffness k = E H A_T / ℓ₀², so summing the two
+//! triangles of an interior edge gives the seed's k_ij = E H Σ_s A_s / ℓ₀²
+//! (A_T is the *rest* area, so k is a constant of the reference mesh).
+//!
+//! Non-linear law: E(ε) is a *tangent* modulus, i.e. a continuous
+//! piecewise-linear engineering stress σ(ε), ε = ℓ/ℓ₀ − 1:
+//!   σ = E₁ ε                               (ε ≤ ε₁, compression included)
+//!   σ = E₁ ε₁ + E₂ (ε − ε₁)                (ε₁ < ε ≤ ε₂)
+//!   σ = E₁ ε₁ + E₂ (ε₂ − ε₁) + E₃ (ε − ε₂)  (ε > ε₂)
+//! Spring energy U = H A_T Φ(ε), Φ(ε) = ∫₀^ε σ, so the spring force is
+//! dU/dℓ = H A_T σ(ε)/ℓ₀ (= k (ℓ − ℓ₀) for a constant E) and the stiffness
+//! d²U/dℓ² = H A_T E_t(ε)/ℓ₀². (The brief's "H A_T ℓ₀ ∫σ" would give a
+//! force ℓ₀² times too large; the energy above is the one whose gradient
+//! is the seed's spring force.)
+//! Spring Hessian block K = k_t e eᵀ + (f/ℓ)(I − e eᵀ), which for a
+//! constant E is k[(1 − ℓ₀/ℓ)(I − e eᵀ) + e eᵀ]; the vertex blocks are
+//! [[K, −K], [−K, K]]. E_t is discontinuous at the breakpoints (σ is
+//! continuous, the Hessian jumps), exactly as in the seed.
+//!
+//! Anisotropy (seed 000): E(ε, α₀) = √(E_f² sin²α₀ + E_cf² cos²α₀). Since α₀
+//! is fixed per edge, the exact-energy form used here is a per-edge
+//! effective three-step law whose moduli are E_s(α₀) = √(E_f,s² w_f +
+//! E_cf,s² w_c) for each step s, with the same breakpoints. Convention:
+//! `fibre` moduli act along `RefTri::fiber[0]`: w_f = cos²φ, w_c = sin²φ,
+//! φ = angle between the rest edge and fiber[0] (i.e. the seed's α₀ is
+//! measured from the cross-fibre direction, α₀ = π/2 − φ). A triangle
+//! without a fibre direction uses the isotropic mean law
+//! √((E_f,s² + E_cf,s²)/2) (the φ-average of E_s²).
+
+use super::invariants::{COLLAPSE_RATIO, finite_eval};
+use crate::mech::element::{Eval, Grad9, Hess9, Membrane, RefTri, V3};
+use nalgebra::Matrix3;
+
+/// Stress–strain law of one spring (moduli in MPa, strains dimensionless).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Law {
+    /// Constant Young's modulus.
+    Linear { young: f64 },
+    /// Three tangent moduli E₁, E₂, E₃ with breakpoints ε₁ < ε₂.
+    ThreeStep { e: [f64; 3], eps: [f64; 2] },
+    /// Three-step moduli along the fibre (`fibre`, along RefTri::fiber[0])
+    /// and across it (`cross`), combined per edge (see the module doc).
+    Anisotropic {
+        fibre: [f64; 3],
+        cross: [f64; 3],
+        eps: [f64; 2],
+    },
+}
+
+/// Seed 000 three-step breakpoints ε₁ = 0.175, ε₂ = 0.3.
+pub const SEED000_EPS: [f64; 2] = [0.175, 0.3];
+
+/// Seed 000 averaged isotropic pericardium: 106 / 569 / 1200 kPa.
+pub fn seed000_isotropic() -> Law {
+    Law::ThreeStep {
+        e: [0.106, 0.569, 1.2],
+        eps: SEED000_EPS,
+    }
+}
+
+/// Seed 000 longitudinal direction, used isotropically: 137 / 568 / 968 kPa.
+pub fn seed000_longitudinal() -> Law {
+    Law::ThreeStep {
+        e: [0.137, 0.568, 0.968],
+        eps: SEED000_EPS,
+    }
+}
+
+/// Seed 000 transverse direction, used isotropically: 63 / 570 / 1400 kPa.
+pub fn seed000_transverse() -> Law {
+    Law::ThreeStep {
+        e: [0.063, 0.57, 1.4],
+        eps: SEED000_EPS,
+    }
+}
+
+/// Seed 000 anisotropic: longitudinal moduli along fiber[0], transverse
+/// across it.
+pub fn seed000_anisotropic() -> Law {
+    Law::Anisotropic {
+        fibre: [0.137, 0.568, 0.968],
+        cross: [0.063, 0.57, 1.4],
+        eps: SEED000_EPS,
+    }
+}
+
+/// A resolved per-edge piecewise-linear law.
+#[derive(Debug, Clone, Copy)]
+pub struct Steps {
+    pub e: [f64; 3],
+    pub eps: [f64; 2],
+}
+
+impl Steps {
+    /// (Φ(ε), σ(ε), E_t(ε)).
+    pub fn eval(&self, x: f64) -> (f64, f64, f64) {
+        let [e1, e2, e3] = self.e;
+        let [x1, x2] = self.eps;
+        if x <= x1 {
+            return (0.5 * e1 * x * x, e1 * x, e1);
+        }
+        let s1 = e1 * x1;
+        let p1 = 0.5 * e1 * x1 * x1;
+        if x <= x2 {
+            let t = x - x1;
+            return (p1 + s1 * t + 0.5 * e2 * t * t, s1 + e2 * t, e2);
+        }
+        let d = x2 - x1;
+        let s2 = s1 + e2 * d;
+        let p2 = p1 + s1 * d + 0.5 * e2 * d * d;
+        let t = x - x2;
+        (p2 + s2 * t + 0.5 * e3 * t * t, s2 + e3 * t, e3)
+    }
+}
+
+impl Law {
+    /// The law of an edge whose rest direction makes cos²φ = `c2` with the
+    /// first fibre direction (`None`: no fibre on this triangle).
+    pub fn steps(&self, c2: Option<f64>) -> Steps {
+        match *self {
+            Law::Linear { young } => Steps {
+                e: [young; 3],
+                eps: [0.0, 0.0],
+            },
+            Law::ThreeStep { e, eps } => Steps { e, eps },
+            Law::Anisotropic { fibre, cross, eps } => {
+                let (wf, wc) = match c2 {
+                    Some(c2) => (c2, 1.0 - c2),
+                    None => (0.5, 0.5),
+                };
+                Steps {
+                    e: [0, 1, 2]
+                        .map(|s| (fibre[s] * fibre[s] * wf + cross[s] * cross[s] * wc).sqrt()),
+                    eps,
+                }
+            }
+        }
+    }
+}
+
+/// Mass–spring membrane (three edge springs per triangle).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MassSpring {
+    pub law: Law,
+}
+
+impl Membrane for MassSpring {
+    fn name(&self) -> &'static str {
+        "msm"
+    }
+
+    fn eval(&self, r: &RefTri, q: &[V3; 3], want_hess: bool) -> Option<Eval> {
+        let area = 0.5 * (q[1] - q[0]).cross(&(q[2] - q[0])).norm();
+        if !area.is_finite() || area <= COLLAPSE_RATIO * r.area {
+            return None;
+        }
+        let ha = r.thickness * r.area;
+        let fib = r.fiber[0];
+        let has_fibre = fib.norm_squared() > 0.0;
+        let mut energy = 0.0;
+        let mut grad = Grad9::zeros();
+        let mut hess = want_hess.then(Hess9::zeros);
+        for e in 0..3 {
+            let (i, j) = ((e + 1) % 3, (e + 2) % 3);
+            let l0 = r.rest_len2[e].sqrt();
+            let c2 = has_fibre.then(|| {
+                // Rest edge P_j − P_i = −2 A_P n_P × D_e.
+                let t = r.normal.cross(&r.d[e]);
+                let c = t.dot(&fib);
+                (c * c / t.norm_squared()).min(1.0)
+            });
+            let law = self.law.steps(c2);
+            let v = q[j] - q[i];
+            let l = v.norm();
+            let (phi, sigma, et) = law.eval(l / l0 - 1.0);
+            energy += ha * phi;
+            let f = ha * sigma / l0;
+            let u = v / l;
+            for c in 0..3 {
+                grad[3 * j + c] += f * u[c];
+                grad[3 * i + c] -= f * u[c];
+            }
+            if let Some(h) = hess.as_mut() {
+                let kt = ha * et / (l0 * l0);
+                let uu = u * u.transpose();
+                let k = uu * kt + (Matrix3::identity() - uu) * (f / l);
+                for a in 0..3 {
+                    for b in 0..3 {
+                        let x = k[(a, b)];
+                        h[(3 * i + a, 3 * i + b)] += x;
+                        h[(3 * j + a, 3 * j + b)] += x;
+                        h[(3 * i + a, 3 * j + b)] -= x;
+                        h[(3 * j + a, 3 * i + b)] -= x;
+                    }
+                }
+            }
+        }
+        finite_eval(energy, &grad, hess.as_ref()).then_some(Eval { energy, grad, hess })
+    }
+}
