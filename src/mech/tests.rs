@@ -74,3 +74,41 @@ fn debug_history() {
     }
     eprintln!("{} {:?} {:.2}s", r.lambda, r.outcome.reason, t.elapsed().as_secs_f64());
 }
+
+#[test]
+fn gent_and_goh_spheres_match_closed_forms() {
+    use super::material::{Gent, Goh};
+    let p = 80.0 * MMHG;
+    let k = p * R0 / (MU * H);
+    let jm = 2.3;
+    let exact = invert(k, 1.6, |l| 2.0 * jm * (1.0 / l - l.powi(-7)) / (jm - 2.0 * l * l - l.powi(-4) + 3.0));
+    assert!((exact - 1.07022).abs() < 5e-5, "{exact}");
+    let r = inflate_sphere(Box::new(Gent { mu: MU, jm }), R0, H, 5, p);
+    assert!(r.outcome.converged, "{:?}", r.outcome.reason);
+    let e = rel_err(r.lambda, exact);
+    eprintln!("Gent sphere λ {:.6} vs {exact:.6} rel err {e:.2e}", r.lambda);
+    assert!(e < 0.005);
+    // GOH with κ = 1/3 is isotropic: W = μ/2 s + 2ψ(I₁/3) whatever the fibres.
+    let goh = Goh { mu: MU, k1: 0.2, k2: 50.0, kappa: 1.0 / 3.0 };
+    let w1 = |i1: f64| 0.5 * MU + 2.0 * goh.psi((i1 / 3.0 - 1.0).max(0.0)).1 / 3.0;
+    let exact = invert(p * R0 / H, 1.3, |l| sphere_w1(l, w1));
+    let r = inflate_sphere(Box::new(goh), R0, H, 5, p);
+    assert!(r.outcome.converged, "{:?}", r.outcome.reason);
+    let e = rel_err(r.lambda, exact);
+    eprintln!("GOH κ=1/3 sphere λ {:.6} vs {exact:.6} rel err {e:.2e}", r.lambda);
+    assert!(e < 0.005);
+}
+
+#[test]
+fn gent_cylinder_matches_the_table() {
+    use super::material::Gent;
+    let p = 80.0 * MMHG;
+    let k = p * R0 / (MU * H);
+    let exact = invert(k, 1.6, |l| cylinder_gent(l, 2.3));
+    assert!((exact - 1.24601).abs() < 2e-4, "{exact}");
+    let r = inflate_cylinder(Box::new(Gent { mu: MU, jm: 2.3 }), R0, H, 160, p);
+    assert!(r.outcome.converged, "{:?}", r.outcome.reason);
+    let e = rel_err(r.lambda, exact);
+    eprintln!("Gent cylinder λ {:.6} vs {exact:.6} rel err {e:.2e}", r.lambda);
+    assert!(e < 0.005);
+}
