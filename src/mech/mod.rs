@@ -7,4 +7,5 @@
 //! not gradients (suturing, the seed's area-weighted contact planes) live in
 //! the force-based relaxation path.
 
+pub mod contact;
 pub mod element;
