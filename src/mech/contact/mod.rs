@@ -5,6 +5,7 @@
 pub mod bvh;
 pub mod closest_point;
 pub mod penalty;
+pub mod planes;
 
 #[cfg(test)]
 mod tests;
