@@ -6,6 +6,7 @@ pub mod bvh;
 pub mod closest_point;
 pub mod penalty;
 pub mod planes;
+pub mod tri_tri;
 
 #[cfg(test)]
 mod tests;
