@@ -237,6 +237,26 @@ impl Bvh {
         self.nodes.len()
     }
 
+    /// Quality of the tree for the current boxes: the summed surface area of
+    /// all node boxes divided by the root's (≈ expected number of nodes a
+    /// random query visits). Refits keep the topology, so this grows as the
+    /// mesh deforms; rebuild when it exceeds, say, 1.5× its value right
+    /// after the last build.
+    pub fn cost(&self) -> f64 {
+        let area = |b: &Aabb| {
+            if b.is_empty() {
+                return 0.0;
+            }
+            let e = b.max - b.min;
+            2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+        };
+        let root = self.nodes.first().map_or(0.0, |n| area(&n.aabb));
+        if root <= 0.0 {
+            return self.nodes.len() as f64;
+        }
+        self.nodes.iter().map(|n| area(&n.aabb)).sum::<f64>() / root
+    }
+
     /// Box of the whole tree (empty for an empty tree).
     pub fn root_box(&self) -> Aabb {
         self.nodes.first().map_or(Aabb::empty(), |n| n.aabb)
@@ -263,10 +283,13 @@ impl Bvh {
         if self.nodes.is_empty() {
             return;
         }
-        let mut stack: Vec<u32> = Vec::with_capacity(64);
-        stack.push(0);
-        while let Some(i) = stack.pop() {
-            let n = &self.nodes[i as usize];
+        // Median splits give a balanced tree: depth ≤ log2(n) + 1, so a
+        // fixed stack of 64 entries never overflows.
+        let mut stack = [0u32; 64];
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let n = &self.nodes[stack[top] as usize];
             if !hit(&n.aabb) {
                 continue;
             }
@@ -279,8 +302,9 @@ impl Bvh {
                     }
                 }
             } else {
-                stack.push(n.right);
-                stack.push(n.first);
+                stack[top] = n.right;
+                stack[top + 1] = n.first;
+                top += 2;
             }
         }
     }

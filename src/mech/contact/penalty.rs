@@ -82,6 +82,17 @@ impl ContactParams {
     pub fn ramp(&self) -> f64 {
         0.5 * self.margin
     }
+
+    /// Stiffness from a design pressure (ALGORITHMS.md §7.2: k_c ≈ α P A / m
+    /// per node, i.e. k = α P / m per unit area): under the pressure
+    /// `pressure` (MPa) the penetration beyond the ramp is m/α, so the
+    /// surfaces settle at a separation m − δ/2 − m/α = (3/4 − 1/α) m.
+    pub fn from_pressure(margin: f64, pressure: f64, alpha: f64) -> ContactParams {
+        ContactParams {
+            margin,
+            stiffness: alpha * pressure / margin,
+        }
+    }
 }
 
 /// φ(g), φ'(g), φ''(g) of the module documentation, ramp width `delta`
@@ -344,7 +355,8 @@ pub fn find_pairs(
 }
 
 /// Energy (N·mm), gradient blocks (N; node, A, B, C; force = −grad) and
-/// optional Gauss–Newton Hessian (N/mm) of one pair at positions `x`. The
+/// optional Gauss–Newton Hessian (N/mm; row/column 3·block + coordinate,
+/// blocks in the order of [`Pair::dofs`]) of one pair at positions `x`. The
 /// closest point and feature are recomputed at `x`; the side and area are
 /// the pair's. A degenerate triangle or non-finite input gives zeros.
 pub fn pair_eval(
@@ -409,6 +421,23 @@ pub fn eval_all(
         }
     }
     e
+}
+
+/// Recomputes `gap` and `feature` of every pair at positions `x` (same
+/// triangles and sides), e.g. before [`contact_mask`] at a state other than
+/// the one `find_pairs` saw. A degenerate triangle gets gap = +∞.
+pub fn update_gaps(x: &[V3], tris: &[[u32; 3]], pairs: &mut [Pair], params: &ContactParams) {
+    for p in pairs.iter_mut() {
+        let t = tris[p.tri as usize];
+        let (a, b, c) = (&x[t[0] as usize], &x[t[1] as usize], &x[t[2] as usize]);
+        match gap(&x[p.node as usize], a, b, c, Some(p.side), params.margin) {
+            Some(ge) => {
+                p.gap = ge.gap;
+                p.feature = ge.feature;
+            }
+            None => p.gap = f64::INFINITY,
+        }
+    }
 }
 
 /// Per node, bit b set when the node touches body b (a pair with gap < 0;
