@@ -32,8 +32,9 @@
 //!
 //! with δ = m/2 (the quadratic force ramp of ALGORITHMS.md §7.2). φ is C²
 //! and convex; the contact pressure is k·(−φ'(g)) (MPa): zero at g = 0,
-//! k·g²/(2δ) on the ramp, k·(−g − δ/2) beyond it. With a pressure P the
-//! equilibrium penetration is g = −P/k − δ/2 (if P ≥ kδ/2).
+//! k·g²/(2δ) on the ramp, k·(−g − δ/2) beyond it. Under a pressure P the
+//! equilibrium gap is g = −√(2δP/k) when P ≤ kδ/2 (on the ramp), else
+//! g = −P/k − δ/2.
 //!
 //! # Derivatives (what is exact)
 //!
@@ -83,10 +84,22 @@ impl ContactParams {
         0.5 * self.margin
     }
 
+    /// Equilibrium gap g (mm, ≤ 0) under a contact pressure `pressure`
+    /// (MPa): the g with k·(−φ'(g)) = P.
+    pub fn equilibrium_gap(&self, pressure: f64) -> f64 {
+        let d = self.ramp();
+        let p = pressure.max(0.0);
+        if p <= self.stiffness * d / 2.0 {
+            -(2.0 * d * p / self.stiffness).sqrt()
+        } else {
+            -p / self.stiffness - d / 2.0
+        }
+    }
+
     /// Stiffness from a design pressure (ALGORITHMS.md §7.2: k_c ≈ α P A / m
-    /// per node, i.e. k = α P / m per unit area): under the pressure
-    /// `pressure` (MPa) the penetration beyond the ramp is m/α, so the
-    /// surfaces settle at a separation m − δ/2 − m/α = (3/4 − 1/α) m.
+    /// per node, i.e. k = α P / m per unit area). Under the pressure
+    /// `pressure` (MPa) the penetration past g = 0 is m/√α for α ≥ 4 (on
+    /// the cubic ramp; e.g. α = 25: 0.2 m), and m/α + m/4 for α < 4.
     pub fn from_pressure(margin: f64, pressure: f64, alpha: f64) -> ContactParams {
         ContactParams {
             margin,

@@ -505,3 +505,105 @@ fn find_pairs_is_deterministic_across_thread_counts() {
     update_gaps(&x, &t, &mut c, &prm);
     assert_eq!(a, c);
 }
+
+#[test]
+fn node_block_of_hessian_is_exact_in_the_face_region() {
+    // With the triangle fixed, the face-region gap is linear in x, so the
+    // Gauss–Newton node block a k φ'' n nᵀ is the exact Hessian there.
+    let mut r = SplitMix64::new(31);
+    let prm = ContactParams {
+        margin: 0.2,
+        stiffness: 50.0,
+    };
+    let mut n = 0;
+    let mut worst: f64 = 0.0;
+    while n < 100 {
+        let tri = [rv(&mut r, 1.0), rv(&mut r, 1.0), rv(&mut r, 1.0)];
+        let xn = rv(&mut r, 1.0);
+        let Some(ge) = gap(&xn, &tri[0], &tri[1], &tri[2], Some(1), prm.margin) else {
+            continue;
+        };
+        if ge.feature != Feature::Face || !(ge.gap < -0.01) || ge.w.iter().any(|&w| w < 0.02) {
+            continue;
+        }
+        n += 1;
+        let x = vec![xn, tri[0], tri[1], tri[2]];
+        let tris = vec![[0u32, 0, 0], [1, 2, 3]];
+        let p = Pair {
+            node: 0,
+            tri: 1,
+            body: 1,
+            side: 1,
+            area: 0.3,
+            gap: ge.gap,
+            feature: ge.feature,
+        };
+        let h = pair_eval(&x, &tris, &p, &prm, true).2.unwrap();
+        for c in 0..3 {
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[0][c] += 1e-6;
+            xm[0][c] -= 1e-6;
+            let fd = (pair_eval(&xp, &tris, &p, &prm, false).1[0]
+                - pair_eval(&xm, &tris, &p, &prm, false).1[0])
+                / 2e-6;
+            worst = worst.max((fd - h.fixed_view::<3, 1>(0, c)).norm() / h.norm());
+        }
+    }
+    eprintln!("node-block Hessian FD rel. error {worst:.2e}");
+    assert!(worst < 1e-6);
+}
+
+#[test]
+fn pressed_sheet_settles_at_the_predicted_gap() {
+    // Sheet 1 (free nodes) is pressed onto sheet 0 (fixed) by a uniform
+    // pressure P; Newton with the Gauss–Newton node blocks finds the
+    // equilibrium gap of the documentation, on the ramp (α = 20) and on
+    // the linear part (α = 2).
+    for alpha in [20.0, 2.0] {
+        let pres = 90.0 * crate::units::MMHG_IN_MPA;
+        let prm = ContactParams::from_pressure(0.1, pres, alpha);
+        let (mut x, t, nb, tb) = two_sheets(0.09);
+        let area = node_areas(&x, &t);
+        let n0 = 21 * 21;
+        let bvh = Bvh::build(&x, &t);
+        // Only sheet 1's nodes are tested (sheet 0 is rigid): zero area on 0.
+        let mut a1 = area.clone();
+        a1[..n0].fill(0.0);
+        let pairs = find_pairs(&x, &t, &nb, &tb, &a1, &bvh, &prm, &Sides::new(), 0.05);
+        // Nodes over the interior of sheet 0 only.
+        let inner: Vec<&Pair> = pairs
+            .iter()
+            .filter(|p| {
+                p.feature == Feature::Face && {
+                    let q = x[p.node as usize];
+                    q.x > 0.2 && q.x < 1.8 && q.y > 0.2 && q.y < 1.8
+                }
+            })
+            .collect();
+        assert!(inner.len() > 100);
+        for p in &inner {
+            let i = p.node as usize;
+            for _ in 0..30 {
+                let (_, g, h) = pair_eval(&x, &t, p, &prm, true);
+                // Pressure load −P a ẑ: gradient of P a z.
+                let grad = g[0] + V3::new(0.0, 0.0, pres * p.area);
+                let k = h.unwrap().fixed_view::<3, 3>(0, 0).into_owned()
+                    + nalgebra::Matrix3::identity() * 1e-9;
+                let dx = k.lu().solve(&(-grad)).unwrap();
+                x[i] += dx;
+                if dx.norm() < 1e-14 {
+                    break;
+                }
+            }
+            let gap_now = x[i].z - 0.0 - prm.margin;
+            let want = prm.equilibrium_gap(pres);
+            assert!((gap_now - want).abs() < 1e-10, "{gap_now} vs {want}");
+            let pen = if alpha >= 4.0 {
+                0.1 / alpha.sqrt()
+            } else {
+                0.1 / alpha + 0.025
+            };
+            assert!((want + pen).abs() < 1e-12, "{want} vs {pen}");
+        }
+    }
+}
