@@ -36,6 +36,15 @@ impl Aabb {
         }
     }
 
+    /// The cube `center ± half` (ALGORITHMS.md §7.2: "query the AABB of each
+    /// node, of size ±m").
+    pub fn around(center: &V3, half: f64) -> Aabb {
+        Aabb {
+            min: center - V3::repeat(half),
+            max: center + V3::repeat(half),
+        }
+    }
+
     pub fn is_empty(&self) -> bool {
         !(self.min.x <= self.max.x && self.min.y <= self.max.y && self.min.z <= self.max.z)
     }
