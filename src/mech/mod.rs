@@ -7,6 +7,7 @@
 //! not gradients (suturing, the seed's area-weighted contact planes) live in
 //! the force-based relaxation path.
 
+pub mod contact;
 pub mod element;
 pub mod material;
 pub mod pressure;

@@ -1,0 +1,23 @@
+//! Contact for membranes (ALGORITHMS.md §7): the BVH broad phase, closest
+//! points, node-to-triangle penalty contact between bodies, the seed's
+//! penalty planes and an exact triangle–triangle intersection test.
+//!
+//! Typical use in a solver iteration (positions `x`, mm):
+//!
+//! ```text
+//! bvh.refit(&x);                                   // rebuild when bvh.cost() has grown ~1.5×
+//! let pairs = penalty::find_pairs(&x, &tris, &node_body, &tri_body, &area, &bvh, &params, &sides, reach);
+//! for p in &pairs { let (e, g, h) = penalty::pair_eval(&x, &tris, p, &params, true); /* assemble at p.dofs(&tris) */ }
+//! // after a converged load step:
+//! sides.commit(&x, &tris, &pairs);
+//! let mask = penalty::contact_mask(x.len(), &pairs);   // `contact` point data
+//! ```
+
+pub mod bvh;
+pub mod closest_point;
+pub mod penalty;
+pub mod planes;
+pub mod tri_tri;
+
+#[cfg(test)]
+mod tests;
