@@ -284,6 +284,8 @@ fn value_name(kind: ParamKind) -> &'static str {
             crate::units::Kind::Pressure => "PRESSURE",
             crate::units::Kind::Angle => "ANGLE",
             crate::units::Kind::Intensity => "HU",
+            crate::units::Kind::Force => "FORCE",
+            crate::units::Kind::Time => "TIME",
         },
         ParamKind::Lengths3 => "\"X, Y, Z mm\"",
         ParamKind::Int { .. } => "N",

@@ -25,6 +25,10 @@ pub enum Kind {
     Angle,
     /// CT number. Internal unit: HU.
     Intensity,
+    /// Internal unit: N (solver tolerances).
+    Force,
+    /// Internal unit: s (time limits).
+    Time,
 }
 
 impl Kind {
@@ -34,6 +38,8 @@ impl Kind {
             Kind::Pressure => "pressure or stress",
             Kind::Angle => "angle",
             Kind::Intensity => "CT intensity",
+            Kind::Force => "force",
+            Kind::Time => "time",
         }
     }
 
@@ -43,6 +49,8 @@ impl Kind {
             Kind::Pressure => "\"80 mmHg\" or \"900 kPa\"",
             Kind::Angle => "\"30 deg\"",
             Kind::Intensity => "\"25 HU\"",
+            Kind::Force => "\"1e-7 N\"",
+            Kind::Time => "\"600 s\"",
         }
     }
 
@@ -53,6 +61,8 @@ impl Kind {
             Kind::Pressure => "MPa",
             Kind::Angle => "deg",
             Kind::Intensity => "HU",
+            Kind::Force => "N",
+            Kind::Time => "s",
         }
     }
 
@@ -80,6 +90,8 @@ impl Kind {
                 ("rad", 1.0),
             ],
             Kind::Intensity => &[("HU", 1.0)],
+            Kind::Force => &[("N", 1.0), ("mN", 1e-3), ("uN", 1e-6)],
+            Kind::Time => &[("s", 1.0), ("min", 60.0), ("ms", 1e-3)],
         }
     }
 

@@ -11,11 +11,15 @@ pub mod contact;
 pub mod element;
 pub mod material;
 pub mod pressure;
+pub mod shapes;
 pub mod solve;
 pub mod sparse;
 pub mod system;
-pub mod shapes;
 pub mod verify;
 
+pub mod closure;
+pub mod config;
+pub mod stage;
+pub mod terms;
 #[cfg(test)]
 mod tests;

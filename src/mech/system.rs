@@ -36,6 +36,10 @@ pub trait Term: Send + Sync {
     fn stats(&self) -> Option<(&'static str, usize)> {
         None
     }
+    /// Per node, bit b set when it touches body b (contact terms only).
+    fn contact_mask(&self, _x: &[V3]) -> Option<Vec<u8>> {
+        None
+    }
 }
 
 pub struct System {

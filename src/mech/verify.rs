@@ -62,19 +62,33 @@ pub struct Inflation {
 
 fn refs(x: &[V3], tris: &[[u32; 3]], thickness: f64, fibers: Option<[V3; 2]>) -> Vec<RefTri> {
     tris.iter()
-        .map(|t| RefTri::new(t.map(|i| x[i as usize]), thickness, fibers).expect("non-degenerate shape"))
+        .map(|t| {
+            RefTri::new(t.map(|i| x[i as usize]), thickness, fibers).expect("non-degenerate shape")
+        })
         .collect()
 }
 
 fn mean_edge(x: &[V3], tris: &[[u32; 3]]) -> f64 {
-    let s: f64 = tris.iter().map(|t| (0..3).map(|k| (x[t[k] as usize] - x[t[(k + 1) % 3] as usize]).norm()).sum::<f64>()).sum();
+    let s: f64 = tris
+        .iter()
+        .map(|t| {
+            (0..3)
+                .map(|k| (x[t[k] as usize] - x[t[(k + 1) % 3] as usize]).norm())
+                .sum::<f64>()
+        })
+        .sum();
     s / (3 * tris.len()) as f64
 }
 
 fn radii(x: &[V3], planar: bool) -> (f64, f64) {
-    let r: Vec<f64> = x.iter().map(|p| if planar { p.xy().norm() } else { p.norm() }).collect();
+    let r: Vec<f64> = x
+        .iter()
+        .map(|p| if planar { p.xy().norm() } else { p.norm() })
+        .collect();
     let mean = r.iter().sum::<f64>() / r.len() as f64;
-    let (lo, hi) = r.iter().fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+    let (lo, hi) = r
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
     (mean, (hi - lo) / mean)
 }
 
@@ -88,7 +102,11 @@ pub fn inflate_sphere(mat: Box<dyn Membrane>, r0: f64, h: f64, level: u32, p: f6
     // Poles (0, ±1, ±t)-type vertices are not on the axes; pin the three
     // nodes closest to +z, −z and +x against rigid motion, compatible with a
     // uniform expansion about the origin.
-    let closest = |d: V3| (0..x0.len()).min_by(|&a, &b| (x0[a] - d * r0).norm().total_cmp(&(x0[b] - d * r0).norm())).unwrap();
+    let closest = |d: V3| {
+        (0..x0.len())
+            .min_by(|&a, &b| (x0[a] - d * r0).norm().total_cmp(&(x0[b] - d * r0).norm()))
+            .unwrap()
+    };
     let (top, bot, eq) = (closest(V3::z()), closest(-V3::z()), closest(V3::x()));
     for n in [top, bot] {
         // Keep this node on its own ray from the origin: fix the two
@@ -118,7 +136,10 @@ pub fn inflate_sphere(mat: Box<dyn Membrane>, r0: f64, h: f64, level: u32, p: f6
             }
         }
     }
-    let fib = [V3::new(1.0, 0.0, 1.0).normalize(), V3::new(1.0, 0.0, -1.0).normalize()];
+    let fib = [
+        V3::new(1.0, 0.0, 1.0).normalize(),
+        V3::new(1.0, 0.0, -1.0).normalize(),
+    ];
     let mut sys = System {
         refs: refs(&xr, &tris, h, Some(fib)),
         tris: tris.clone(),
@@ -139,7 +160,13 @@ pub fn inflate_sphere(mat: Box<dyn Membrane>, r0: f64, h: f64, level: u32, p: f6
     let outcome = newton(&mut sys, &mut x, &opt);
     let (mean, spread) = radii(&x, false);
     let (m0, _) = radii(&xr, false);
-    Inflation { lambda: mean / m0, spread, nodes: x.len(), mean_edge_mm: mean_edge(&xr, &tris), outcome }
+    Inflation {
+        lambda: mean / m0,
+        spread,
+        nodes: x.len(),
+        mean_edge_mm: mean_edge(&xr, &tris),
+        outcome,
+    }
 }
 
 /// Inflate a cylinder of radius `r0`, `nt` nodes around, with every axial
@@ -158,7 +185,10 @@ pub fn inflate_cylinder(mat: Box<dyn Membrane>, r0: f64, h: f64, nt: usize, p: f
             fixed[n][0] = true;
         }
     }
-    let fib = [V3::new(1.0, 1.0, 1.0).normalize(), V3::new(1.0, 1.0, -1.0).normalize()];
+    let fib = [
+        V3::new(1.0, 1.0, 1.0).normalize(),
+        V3::new(1.0, 1.0, -1.0).normalize(),
+    ];
     let mut sys = System {
         refs: refs(&x0, &tris, h, Some(fib)),
         tris: tris.clone(),
@@ -179,5 +209,11 @@ pub fn inflate_cylinder(mat: Box<dyn Membrane>, r0: f64, h: f64, nt: usize, p: f
     opt.max_step_mm = r0;
     let outcome = newton(&mut sys, &mut x, &opt);
     let (mean, spread) = radii(&x, true);
-    Inflation { lambda: mean / r0, spread, nodes: x.len(), mean_edge_mm: mean_edge(&x0, &tris), outcome }
+    Inflation {
+        lambda: mean / r0,
+        spread,
+        nodes: x.len(),
+        mean_edge_mm: mean_edge(&x0, &tris),
+        outcome,
+    }
 }

@@ -30,6 +30,7 @@ pub fn registry() -> &'static [&'static StageSpec] {
         &crate::surface::stage::SPEC,
         &crate::valve::stage::SPEC,
         &crate::leaflet::stage::SPEC,
+        &crate::mech::stage::SPEC,
     ];
     STAGES
 }

@@ -29,6 +29,8 @@ pub enum ArtifactKind {
     Template,
     /// A directory of files.
     Dir,
+    /// Closure mechanics settings (`close.toml`, explicit units).
+    MechConfig,
 }
 
 impl ArtifactKind {
@@ -42,6 +44,7 @@ impl ArtifactKind {
             ArtifactKind::Json => "JSON",
             ArtifactKind::Template => "leaflet template (.toml)",
             ArtifactKind::Dir => "directory",
+            ArtifactKind::MechConfig => "mechanics settings (.toml)",
         }
     }
 }

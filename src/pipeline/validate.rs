@@ -37,6 +37,9 @@ pub fn input(kind: ArtifactKind, path: &Path) -> Result<()> {
         ArtifactKind::Template => {
             crate::leaflet::template::read_templates(path)?;
         }
+        ArtifactKind::MechConfig => {
+            crate::mech::config::read(path)?;
+        }
         ArtifactKind::Dir => {
             if !path.is_dir() {
                 return Err(Error::bad_input(path, "expected a directory"));

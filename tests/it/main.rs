@@ -1,6 +1,7 @@
 //! Integration tests: every user-visible behaviour of the `coapt` binary.
 
 mod bad_input;
+mod close;
 mod common;
 mod leaflets;
 mod phantom;

@@ -1,0 +1,344 @@
+//! Close a set of placed leaflets under diastolic pressure: the library
+//! function behind the `close` stage and `coapt bench close`.
+
+use std::time::Instant;
+
+use super::config::{CloseConfig, ContactKind, Reference, SolverKind};
+use super::contact::penalty::ContactParams;
+use super::contact::planes::Plane;
+use super::element::{RefTri, V3};
+use super::solve::{self, NewtonOptions, Outcome, RelaxOptions, Stop};
+use super::sparse::Dofs;
+use super::system::{PressureMode, System, Term};
+use super::terms::{LeafletContact, PlaneContact};
+
+/// Leaflets as the mechanics sees them (all in mm, LPS).
+#[derive(Debug, Clone)]
+pub struct Leaflets {
+    pub x: Vec<V3>,
+    pub tris: Vec<[u32; 3]>,
+    /// 0 interior, 1 sutured, 2 free edge.
+    pub boundary: Vec<u8>,
+    /// Leaflet (0, 1, 2) of each triangle.
+    pub leaflet: Vec<u16>,
+    /// Flat template coordinates (mm) of each node.
+    pub ref_uv: Option<Vec<[f64; 2]>>,
+    /// Fibre directions per triangle.
+    pub fibers: Option<Vec<[V3; 2]>>,
+}
+
+/// Valve axis (unit, LV → aorta) and a point on it.
+#[derive(Debug, Clone, Copy)]
+pub struct Axis {
+    pub origin: V3,
+    pub dir: V3,
+}
+
+#[derive(Debug, Clone)]
+pub struct Closed {
+    pub x: Vec<V3>,
+    pub outcome: Outcome,
+    /// Bit b: the node touches leaflet b (or plane b in plane mode).
+    pub contact: Vec<u8>,
+    /// Area stretch J and largest principal stretch per triangle.
+    pub area_stretch: Vec<f64>,
+    pub max_stretch: Vec<f64>,
+    pub setup_s: f64,
+    pub solve_s: f64,
+    pub pressure_sign: Vec<f64>,
+}
+
+/// Lug corners: sutured nodes that share a triangle edge with a free-edge node.
+pub fn corners(l: &Leaflets) -> Vec<u32> {
+    let mut c = Vec::new();
+    for t in &l.tris {
+        for k in 0..3 {
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            if l.boundary[a] == 1 && l.boundary[b] == 2 {
+                c.push(a as u32);
+            }
+            if l.boundary[b] == 1 && l.boundary[a] == 2 {
+                c.push(b as u32);
+            }
+        }
+    }
+    c.sort_unstable();
+    c.dedup();
+    c
+}
+
+/// The axis from the leaflets alone: normal of the plane through the lug
+/// corners, pointing from the sutured nodes (the nadirs lie below the
+/// commissures) towards the commissure plane; origin at the corners' mean.
+pub fn axis_from_leaflets(l: &Leaflets) -> Result<Axis, String> {
+    let c = corners(l);
+    if c.len() < 5 {
+        return Err(format!(
+            "found {} lug corners (sutured nodes next to the free edge); the axis needs three leaflets, or a valve.json",
+            c.len()
+        ));
+    }
+    let pts: Vec<V3> = c.iter().map(|&i| l.x[i as usize]).collect();
+    let mean = pts.iter().sum::<V3>() / pts.len() as f64;
+    let mut cov = nalgebra::Matrix3::zeros();
+    for p in &pts {
+        let d = p - mean;
+        cov += d * d.transpose();
+    }
+    let eig = cov.symmetric_eigen();
+    let k = (0..3)
+        .min_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]))
+        .unwrap();
+    let mut dir: V3 = eig.eigenvectors.column(k).into_owned();
+    let sut: Vec<V3> = (0..l.x.len())
+        .filter(|&i| l.boundary[i] == 1)
+        .map(|i| l.x[i])
+        .collect();
+    let sm = sut.iter().sum::<V3>() / sut.len().max(1) as f64;
+    if (mean - sm).dot(&dir) < 0.0 {
+        dir = -dir;
+    }
+    Ok(Axis { origin: mean, dir })
+}
+
+fn tri_area_vec(x: &[V3], t: &[u32; 3]) -> V3 {
+    (x[t[1] as usize] - x[t[0] as usize]).cross(&(x[t[2] as usize] - x[t[0] as usize])) * 0.5
+}
+
+/// Sign of the load per leaflet so that diastolic pressure pushes each
+/// leaflet towards the axis (the aortic side is the outer one).
+pub fn pressure_signs(l: &Leaflets, axis: &Axis, n_leaflets: usize) -> Vec<f64> {
+    let mut s = vec![0.0; n_leaflets];
+    for (t, tri) in l.tris.iter().enumerate() {
+        let a = tri_area_vec(&l.x, tri);
+        let c = (l.x[tri[0] as usize] + l.x[tri[1] as usize] + l.x[tri[2] as usize]) / 3.0;
+        let d = c - axis.origin;
+        let radial = d - axis.dir * d.dot(&axis.dir);
+        s[l.leaflet[t] as usize] += a.dot(&radial);
+    }
+    s.iter()
+        .map(|&v| if v > 0.0 { -1.0 } else { 1.0 })
+        .collect()
+}
+
+/// Seed 001 contact planes for each leaflet: through the axis and each of
+/// its two commissures (lug-corner pairs), facing the leaflet.
+fn planes_for(
+    l: &Leaflets,
+    axis: &Axis,
+    n_leaflets: usize,
+    eta1: f64,
+) -> Result<Vec<(Plane, Vec<u32>)>, String> {
+    let c = corners(l);
+    let mut node_leaf = vec![0u16; l.x.len()];
+    for (t, tri) in l.tris.iter().enumerate() {
+        for &i in tri {
+            node_leaf[i as usize] = l.leaflet[t];
+        }
+    }
+    let mut out = Vec::new();
+    for k in 0..n_leaflets as u16 {
+        let nodes: Vec<u32> = (0..l.x.len() as u32)
+            .filter(|&i| node_leaf[i as usize] == k)
+            .collect();
+        let mine: Vec<V3> = c
+            .iter()
+            .filter(|&&i| node_leaf[i as usize] == k)
+            .map(|&i| l.x[i as usize])
+            .collect();
+        if mine.len() != 2 {
+            return Err(format!(
+                "leaflet {} has {} lug corners, expected 2",
+                k + 1,
+                mine.len()
+            ));
+        }
+        let centroid = nodes.iter().map(|&i| l.x[i as usize]).sum::<V3>() / nodes.len() as f64;
+        let rad = |p: V3| {
+            let d = p - axis.origin;
+            d - axis.dir * d.dot(&axis.dir)
+        };
+        let r = 0.5 * (rad(mine[0]).norm() + rad(mine[1]).norm());
+        for corner in &mine {
+            let mut n = axis.dir.cross(&rad(*corner)).normalize();
+            if n.dot(&rad(centroid)) < 0.0 {
+                n = -n;
+            }
+            let p = Plane::new(axis.origin, n, eta1, 0.01 * r).ok_or("degenerate contact plane")?;
+            out.push((p, nodes.clone()));
+        }
+    }
+    Ok(out)
+}
+
+fn stretches(x: &[V3], refs: &[RefTri], tris: &[[u32; 3]]) -> (Vec<f64>, Vec<f64>) {
+    let mut j = Vec::with_capacity(tris.len());
+    let mut m = Vec::with_capacity(tris.len());
+    for (t, r) in tris.iter().zip(refs) {
+        let mut f = nalgebra::Matrix3::zeros();
+        for i in 0..3 {
+            f += x[t[i] as usize] * r.d[i].transpose();
+        }
+        let c = f.transpose() * f;
+        let ev = c.symmetric_eigen().eigenvalues;
+        m.push(ev.iter().fold(0.0f64, |a, &b| a.max(b)).max(0.0).sqrt());
+        j.push(tri_area_vec(x, t).norm() / r.area);
+    }
+    (j, m)
+}
+
+/// Close the leaflets. `axis`: from valve.json when known, else estimated.
+pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Closed, String> {
+    let t0 = Instant::now();
+    let n_leaflets = l.leaflet.iter().map(|&k| k as usize + 1).max().unwrap_or(0);
+    let axis = match axis {
+        Some(a) => a,
+        None => axis_from_leaflets(l)?,
+    };
+    let ref_x: Vec<V3> = match (cfg.reference, &l.ref_uv) {
+        (Reference::Placed, _) => l.x.clone(),
+        (Reference::Flat, Some(uv)) => uv.iter().map(|p| V3::new(p[0], p[1], 0.0)).collect(),
+        (Reference::Flat, None) => {
+            return Err("reference = \"flat\" needs point data ref_uv".into());
+        }
+    };
+    let mut refs = Vec::with_capacity(l.tris.len());
+    for (t, tri) in l.tris.iter().enumerate() {
+        let fib = l.fibers.as_ref().map(|f| f[t]);
+        refs.push(
+            RefTri::new(tri.map(|i| ref_x[i as usize]), cfg.thickness, fib).ok_or_else(|| {
+                format!("triangle {t} is degenerate in the reference configuration")
+            })?,
+        );
+    }
+    let fixed: Vec<[bool; 3]> = l.boundary.iter().map(|&b| [b == 1; 3]).collect();
+    if !fixed.iter().any(|f| f[0]) {
+        return Err("no sutured nodes (boundary = 1): the leaflets would float away".into());
+    }
+    let signs = pressure_signs(l, &axis, n_leaflets);
+    let tri_pressure: Vec<f64> = l
+        .leaflet
+        .iter()
+        .map(|&k| signs[k as usize] * cfg.pressure)
+        .collect();
+    let mut terms: Vec<Box<dyn Term>> = Vec::new();
+    match cfg.contact {
+        ContactKind::Leaflets if n_leaflets > 1 => {
+            let params = ContactParams::from_pressure(
+                cfg.contact_margin,
+                cfg.pressure.max(1e-6),
+                cfg.contact_alpha,
+            );
+            terms.push(Box::new(LeafletContact::new(
+                &l.x,
+                &l.tris,
+                &l.leaflet,
+                params,
+                2.0 * cfg.contact_margin,
+            )));
+        }
+        ContactKind::Planes => {
+            let planes = planes_for(l, &axis, n_leaflets, 1.1 * cfg.pressure)?;
+            terms.push(Box::new(PlaneContact::new(planes, &l.x, &l.tris)));
+        }
+        _ => {}
+    }
+    let mut sys = System {
+        tris: l.tris.clone(),
+        refs,
+        materials: vec![cfg.membrane()],
+        tri_material: vec![0; l.tris.len()],
+        dofs: Dofs::new(&fixed),
+        fixed,
+        tri_pressure,
+        pressure_scale: 1.0,
+        pressure_mode: PressureMode::Follower,
+        terms,
+        project: false,
+    };
+    let stop = Stop {
+        abs_n: cfg.tolerance,
+        rel: cfg.relative_tolerance,
+        max_iterations: cfg.max_iterations,
+        max_seconds: cfg.time_limit,
+    };
+    let setup_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let mut x = l.x.clone();
+    let nopt = NewtonOptions {
+        stop: stop.clone(),
+        max_step_mm: 1.0,
+        max_rejections: 12,
+    };
+    let outcome = match cfg.solver {
+        SolverKind::Newton => {
+            // Phase 1: the pressure as −P·V about a point on the axis, a
+            // potential, so projected Newton with Cholesky and an energy line
+            // search is robust from the unloaded, out-of-plane-floppy state.
+            // Phase 2: the exact follower load (no potential: the free edge
+            // moves), LU Newton from that nearby state.
+            let c = axis.origin;
+            sys.pressure_mode = PressureMode::Volume {
+                origin: [c.x, c.y, c.z],
+            };
+            sys.project = true;
+            let mut p1 = solve::newton(&mut sys, &mut x, &nopt);
+            for r in p1.history.iter_mut() {
+                r.phase = "newton-potential";
+            }
+            sys.pressure_mode = PressureMode::Follower;
+            sys.project = false;
+            let mut p2 = solve::newton(&mut sys, &mut x, &nopt);
+            p2.initial_residual_n = p1.initial_residual_n;
+            p1.history.append(&mut p2.history);
+            p2.history = p1.history;
+            p2.iterations += p1.iterations;
+            p2.reason = format!(
+                "potential phase: {}; follower phase: {}",
+                p1.reason, p2.reason
+            );
+            p2
+        }
+        SolverKind::Relax => {
+            let ropt = RelaxOptions {
+                stop: Stop {
+                    max_iterations: cfg.max_iterations.max(1000) * 100,
+                    ..stop
+                },
+                ..RelaxOptions::default()
+            };
+            solve::relax(&mut sys, &mut x, &ropt)
+        }
+        SolverKind::Combined => {
+            solve::combined(&mut sys, &mut x, &RelaxOptions::default(), &nopt, 10)
+        }
+    };
+    let solve_s = t1.elapsed().as_secs_f64();
+    if x.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
+        return Err(format!(
+            "the solver produced non-finite positions ({})",
+            outcome.reason
+        ));
+    }
+    // What the report calls touching: the contact term's own criterion at
+    // the final state (gap < 0 for leaflets, d ≤ η₂ for planes).
+    for t in sys.terms.iter_mut() {
+        t.update(&x);
+    }
+    let contact = sys
+        .terms
+        .iter()
+        .find_map(|t| t.contact_mask(&x))
+        .unwrap_or_else(|| vec![0; x.len()]);
+    let (area_stretch, max_stretch) = stretches(&x, &sys.refs, &sys.tris);
+    Ok(Closed {
+        x,
+        outcome,
+        contact,
+        area_stretch,
+        max_stretch,
+        setup_s,
+        solve_s,
+        pressure_sign: signs,
+    })
+}

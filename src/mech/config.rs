@@ -1,0 +1,328 @@
+//! `close.toml`: the mechanics of one closure, every quantity with its unit.
+//!
+//! ```toml
+//! model = "neo-hookean"      # msm | svk | neo-hookean | gent | goh
+//! mu = "300 kPa"             # neo-hookean, gent, goh (or young = "0.9 MPa": μ = E/3)
+//! thickness = "0.5 mm"
+//! pressure = "80 mmHg"
+//! contact = "leaflets"       # leaflets | planes | none
+//! solver = "newton"          # newton | relax | combined
+//! ```
+//! Optional: `poisson` (svk), `jm` (gent, default 2.3), `k1`, `k2`, `kappa`
+//! (goh), `msm_law` ("linear" with `young`, "seed000-isotropic",
+//! "seed000-anisotropic"), `contact_margin` (default 0.5 × thickness),
+//! `contact_alpha` (stiffness factor, default 25), `tolerance` (default
+//! "1e-7 N"), `relative_tolerance` (default 1e-7), `max_iterations`,
+//! `time_limit` (default "600 s"), `reference` ("placed": the placed leaflet
+//! is stress-free, as after the seeds' suturing; "flat": the flat template
+//! is the reference, leaving the suturing stress in the leaflet).
+
+use std::path::Path;
+
+use serde::Deserialize;
+
+use super::element::Membrane;
+use super::material::{Gent, Goh, MassSpring, NeoHookean, StVenantKirchhoff, msm};
+use crate::units::{self, Kind};
+use crate::{Error, Result};
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Raw {
+    model: String,
+    thickness: String,
+    pressure: String,
+    mu: Option<String>,
+    young: Option<String>,
+    poisson: Option<f64>,
+    jm: Option<f64>,
+    k1: Option<String>,
+    k2: Option<f64>,
+    kappa: Option<f64>,
+    msm_law: Option<String>,
+    contact: Option<String>,
+    contact_margin: Option<String>,
+    contact_alpha: Option<f64>,
+    solver: Option<String>,
+    tolerance: Option<String>,
+    relative_tolerance: Option<f64>,
+    max_iterations: Option<usize>,
+    time_limit: Option<String>,
+    reference: Option<String>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Model {
+    Msm(msm::Law),
+    Svk {
+        young: f64,
+        poisson: f64,
+    },
+    NeoHookean {
+        mu: f64,
+    },
+    Gent {
+        mu: f64,
+        jm: f64,
+    },
+    Goh {
+        mu: f64,
+        k1: f64,
+        k2: f64,
+        kappa: f64,
+    },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactKind {
+    Leaflets,
+    Planes,
+    None,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolverKind {
+    Newton,
+    Relax,
+    Combined,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reference {
+    Placed,
+    Flat,
+}
+
+#[derive(Debug, Clone)]
+pub struct CloseConfig {
+    pub model: Model,
+    pub thickness: f64,
+    pub pressure: f64,
+    pub contact: ContactKind,
+    pub contact_margin: f64,
+    pub contact_alpha: f64,
+    pub solver: SolverKind,
+    pub tolerance: f64,
+    pub relative_tolerance: f64,
+    pub max_iterations: usize,
+    pub time_limit: f64,
+    pub reference: Reference,
+}
+
+impl CloseConfig {
+    pub fn membrane(&self) -> Box<dyn Membrane> {
+        match &self.model {
+            Model::Msm(law) => Box::new(MassSpring { law: law.clone() }),
+            Model::Svk { young, poisson } => Box::new(StVenantKirchhoff {
+                young: *young,
+                poisson: *poisson,
+            }),
+            Model::NeoHookean { mu } => Box::new(NeoHookean { mu: *mu }),
+            Model::Gent { mu, jm } => Box::new(Gent { mu: *mu, jm: *jm }),
+            Model::Goh { mu, k1, k2, kappa } => Box::new(Goh {
+                mu: *mu,
+                k1: *k1,
+                k2: *k2,
+                kappa: *kappa,
+            }),
+        }
+    }
+
+    pub fn model_name(&self) -> &'static str {
+        self.membrane().name()
+    }
+
+    /// Canonical record for `closure.json`.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "model": format!("{:?}", self.model),
+            "thickness_mm": self.thickness,
+            "pressure_mpa": self.pressure,
+            "pressure_mmhg": self.pressure / units::MMHG_IN_MPA,
+            "contact": format!("{:?}", self.contact).to_lowercase(),
+            "contact_margin_mm": self.contact_margin,
+            "contact_alpha": self.contact_alpha,
+            "solver": format!("{:?}", self.solver).to_lowercase(),
+            "tolerance_n": self.tolerance,
+            "relative_tolerance": self.relative_tolerance,
+            "max_iterations": self.max_iterations,
+            "time_limit_s": self.time_limit,
+            "reference": format!("{:?}", self.reference).to_lowercase(),
+        })
+    }
+}
+
+pub fn read(path: &Path) -> Result<CloseConfig> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
+    parse(&text).map_err(|e| Error::bad_input(path, e))
+}
+
+fn q(kind: Kind, v: &Option<String>, key: &str) -> std::result::Result<Option<f64>, String> {
+    v.as_ref()
+        .map(|s| units::parse(kind, s).map_err(|e| format!("{key}: {e}")))
+        .transpose()
+}
+
+fn need(v: Option<f64>, key: &str, model: &str) -> std::result::Result<f64, String> {
+    v.ok_or_else(|| format!("model \"{model}\" needs `{key}`"))
+}
+
+pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
+    let raw: Raw = toml::from_str(text).map_err(|e| e.message().to_string())?;
+    let positive = |v: f64, key: &str| {
+        if v > 0.0 && v.is_finite() {
+            Ok(v)
+        } else {
+            Err(format!("{key} must be positive"))
+        }
+    };
+    let thickness = positive(
+        units::parse(Kind::Length, &raw.thickness).map_err(|e| format!("thickness: {e}"))?,
+        "thickness",
+    )?;
+    let pressure =
+        units::parse(Kind::Pressure, &raw.pressure).map_err(|e| format!("pressure: {e}"))?;
+    if !(pressure >= 0.0) {
+        return Err("pressure must be ≥ 0".into());
+    }
+    let mu = q(Kind::Pressure, &raw.mu, "mu")?;
+    let young = q(Kind::Pressure, &raw.young, "young")?;
+    let shear = mu.or(young.map(|e| e / 3.0));
+    let m = raw.model.as_str();
+    let model = match m {
+        "neo-hookean" => Model::NeoHookean {
+            mu: positive(need(shear, "mu", m)?, "mu")?,
+        },
+        "gent" => {
+            let jm = raw.jm.unwrap_or(2.3);
+            Model::Gent {
+                mu: positive(need(shear, "mu", m)?, "mu")?,
+                jm: positive(jm, "jm")?,
+            }
+        }
+        "goh" => {
+            let kappa = raw.kappa.unwrap_or(0.2);
+            if !(0.0..=1.0 / 3.0 + 1e-12).contains(&kappa) {
+                return Err(format!("kappa {kappa} must lie in [0, 1/3]"));
+            }
+            let k2 = raw.k2.unwrap_or(1000.0);
+            if !(k2 >= 0.0) {
+                return Err("k2 must be ≥ 0".into());
+            }
+            Model::Goh {
+                mu: positive(need(shear, "mu", m)?, "mu")?,
+                k1: positive(need(q(Kind::Pressure, &raw.k1, "k1")?, "k1", m)?, "k1")?,
+                k2,
+                kappa,
+            }
+        }
+        "svk" => {
+            let poisson = raw.poisson.unwrap_or(0.45);
+            if !(-1.0 < poisson && poisson < 1.0) {
+                return Err(format!("poisson {poisson} must lie in (−1, 1)"));
+            }
+            Model::Svk {
+                young: positive(need(young, "young", m)?, "young")?,
+                poisson,
+            }
+        }
+        "msm" => Model::Msm(
+            match raw.msm_law.as_deref().unwrap_or("seed000-isotropic") {
+                "linear" => msm::Law::Linear {
+                    young: positive(need(young, "young", m)?, "young")?,
+                },
+                "seed000-isotropic" => msm::seed000_isotropic(),
+                "seed000-anisotropic" => msm::seed000_anisotropic(),
+                other => {
+                    return Err(format!(
+                        "msm_law \"{other}\": expected linear, seed000-isotropic or seed000-anisotropic"
+                    ));
+                }
+            },
+        ),
+        other => {
+            return Err(format!(
+                "model \"{other}\": expected msm, svk, neo-hookean, gent or goh"
+            ));
+        }
+    };
+    let contact = match raw.contact.as_deref().unwrap_or("leaflets") {
+        "leaflets" => ContactKind::Leaflets,
+        "planes" => ContactKind::Planes,
+        "none" => ContactKind::None,
+        other => {
+            return Err(format!(
+                "contact \"{other}\": expected leaflets, planes or none"
+            ));
+        }
+    };
+    let solver = match raw.solver.as_deref().unwrap_or("newton") {
+        "newton" => SolverKind::Newton,
+        "relax" => SolverKind::Relax,
+        "combined" => SolverKind::Combined,
+        other => {
+            return Err(format!(
+                "solver \"{other}\": expected newton, relax or combined"
+            ));
+        }
+    };
+    let reference = match raw.reference.as_deref().unwrap_or("placed") {
+        "placed" => Reference::Placed,
+        "flat" => Reference::Flat,
+        other => return Err(format!("reference \"{other}\": expected placed or flat")),
+    };
+    let contact_margin =
+        q(Kind::Length, &raw.contact_margin, "contact_margin")?.unwrap_or(0.5 * thickness);
+    Ok(CloseConfig {
+        model,
+        thickness,
+        pressure,
+        contact,
+        contact_margin: positive(contact_margin, "contact_margin")?,
+        contact_alpha: positive(raw.contact_alpha.unwrap_or(25.0), "contact_alpha")?,
+        solver,
+        tolerance: positive(
+            q(Kind::Force, &raw.tolerance, "tolerance")?.unwrap_or(1e-7),
+            "tolerance",
+        )?,
+        relative_tolerance: positive(raw.relative_tolerance.unwrap_or(1e-7), "relative_tolerance")?,
+        max_iterations: raw.max_iterations.unwrap_or(300),
+        time_limit: positive(
+            q(Kind::Time, &raw.time_limit, "time_limit")?.unwrap_or(600.0),
+            "time_limit",
+        )?,
+        reference,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_units_and_refuses_bare_numbers_and_unknown_keys() {
+        let c = parse("model = \"goh\"\nmu = \"900 kPa\"\nk1 = \"1100 kPa\"\nkappa = 0.29\nthickness = \"0.4 mm\"\npressure = \"90 mmHg\"\n").unwrap();
+        assert_eq!(
+            c.model,
+            Model::Goh {
+                mu: 0.9,
+                k1: 1.1,
+                k2: 1000.0,
+                kappa: 0.29
+            }
+        );
+        assert!((c.pressure - 90.0 * 133.322e-6).abs() < 1e-9);
+        assert_eq!(c.contact, ContactKind::Leaflets);
+        assert!((c.contact_margin - 0.2).abs() < 1e-12);
+        let e = parse("model = \"neo-hookean\"\nmu = \"300\"\nthickness = \"0.4 mm\"\npressure = \"90 mmHg\"\n").unwrap_err();
+        assert!(e.contains("mu") && e.contains("unit"), "{e}");
+        let e = parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.4 mm\"\npressure = \"90 mmHg\"\nfoo = 1\n").unwrap_err();
+        assert!(e.contains("foo"), "{e}");
+        let e =
+            parse("model = \"svk\"\nthickness = \"0.4 mm\"\npressure = \"90 mmHg\"\n").unwrap_err();
+        assert!(e.contains("young"), "{e}");
+        let c = parse("model = \"neo-hookean\"\nyoung = \"0.9 MPa\"\nthickness = \"0.4 mm\"\npressure = \"90 mmHg\"\ntolerance = \"0.1 mN\"\n").unwrap();
+        assert_eq!(c.model, Model::NeoHookean { mu: 0.3 });
+        assert!((c.tolerance - 1e-4).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,286 @@
+//! The `close` stage: read placed leaflets, close them under diastolic
+//! pressure, write the deformed leaflets and the solver's record.
+
+use serde_json::{Value as Json, json};
+
+use super::closure::{self, Axis, Leaflets};
+use super::config;
+use super::contact::bvh::Bvh;
+use super::contact::closest_point::closest_point;
+use super::element::V3;
+use crate::geom::{DataArray, DataValues, Frame, Point3, TriMesh};
+use crate::io::{Transaction, atomic, vtp};
+use crate::pipeline::{ArtifactKind, Params, Port, Progress, StageIo, StageSpec};
+use crate::{Error, Result};
+
+pub static SPEC: StageSpec = StageSpec {
+    name: "close",
+    about: "Close the leaflets under diastolic pressure (membrane mechanics, contact, Newton)",
+    inputs: &[
+        Port {
+            name: "leaflets",
+            flag: "leaflets",
+            file: "leaflets.vtp",
+            kind: ArtifactKind::Mesh,
+            required: true,
+            help: "placed leaflets from `coapt leaflets` (point data boundary, ref_uv; cell data leaflet)",
+        },
+        Port {
+            name: "surface",
+            flag: "surface",
+            file: "aorta.vtp",
+            kind: ArtifactKind::Mesh,
+            required: true,
+            help: "lumen wall: the sutured nodes are checked to lie on it",
+        },
+        Port {
+            name: "config",
+            flag: "config",
+            file: "close.toml",
+            kind: ArtifactKind::MechConfig,
+            required: true,
+            help: "model, material, thickness, pressure, contact, solver (explicit units)",
+        },
+        Port {
+            name: "valve",
+            flag: "valve",
+            file: "valve.json",
+            kind: ArtifactKind::Json,
+            required: false,
+            help: "valve frame (axis); without it the axis is fitted to the lug corners",
+        },
+    ],
+    outputs: &[
+        Port {
+            name: "closed",
+            flag: "out",
+            file: "closed.vtp",
+            kind: ArtifactKind::Mesh,
+            required: true,
+            help: "deformed leaflets: point data displacement, contact; cell data area_stretch, max_stretch",
+        },
+        Port {
+            name: "log",
+            flag: "log",
+            file: "closure.json",
+            kind: ArtifactKind::Json,
+            required: true,
+            help: "model, parameters, solver history, contact pairs, timings, converged or why not",
+        },
+    ],
+    out_dir: None,
+    params: &[],
+    check: |_| Ok(()),
+    run,
+};
+
+fn v3(p: &Point3) -> V3 {
+    V3::new(p.x, p.y, p.z)
+}
+
+/// The mechanics' view of a leaflets mesh, or what is missing from it.
+pub fn leaflets_from_mesh(m: &TriMesh) -> std::result::Result<Leaflets, String> {
+    let boundary: Vec<u8> = m
+        .point_data
+        .get("boundary")
+        .and_then(|a| a.values.to_f64())
+        .ok_or("no point data 'boundary' (0 interior, 1 sutured, 2 free edge)")?
+        .iter()
+        .map(|&b| b as u8)
+        .collect();
+    let leaflet: Vec<u16> = m
+        .cell_data
+        .get("leaflet")
+        .and_then(|a| a.values.to_f64())
+        .ok_or("no cell data 'leaflet'")?
+        .iter()
+        .map(|&k| (k.max(1.0) - 1.0) as u16)
+        .collect();
+    if leaflet.iter().any(|&k| k > 7) {
+        return Err("cell data 'leaflet' must number leaflets 1..8".into());
+    }
+    let ref_uv = m
+        .point_data
+        .get("ref_uv")
+        .filter(|a| a.components == 2)
+        .and_then(|a| a.values.to_f64())
+        .map(|v| v.chunks(2).map(|c| [c[0], c[1]]).collect());
+    let fibers = match (m.cell_data.get("fiber1"), m.cell_data.get("fiber2")) {
+        (Some(a), Some(b)) if a.components == 3 && b.components == 3 => {
+            let (a, b) = (
+                a.values.to_f64().unwrap_or_default(),
+                b.values.to_f64().unwrap_or_default(),
+            );
+            Some(
+                (0..m.triangles.len())
+                    .map(|t| {
+                        [
+                            V3::new(a[3 * t], a[3 * t + 1], a[3 * t + 2]),
+                            V3::new(b[3 * t], b[3 * t + 1], b[3 * t + 2]),
+                        ]
+                    })
+                    .collect(),
+            )
+        }
+        _ => None,
+    };
+    Ok(Leaflets {
+        x: m.vertices.iter().map(v3).collect(),
+        tris: m.triangles.clone(),
+        boundary,
+        leaflet,
+        ref_uv,
+        fibers,
+    })
+}
+
+fn axis_from_valve(path: &std::path::Path) -> Result<Axis> {
+    let v: Json = serde_json::from_slice(&std::fs::read(path).map_err(|e| Error::read(path, e))?)
+        .map_err(|e| Error::bad_input(path, e.to_string()))?;
+    let get =
+        |p: &Json| -> Option<V3> { Some(V3::new(p[0].as_f64()?, p[1].as_f64()?, p[2].as_f64()?)) };
+    let dir = get(&v["valve_frame"]["axis"])
+        .ok_or_else(|| Error::bad_input(path, "no valve_frame.axis"))?;
+    let origin = get(&v["commissure_cylinder"]["centre_mm"])
+        .ok_or_else(|| Error::bad_input(path, "no commissure_cylinder.centre_mm"))?;
+    if !(dir.norm() > 0.5) {
+        return Err(Error::bad_input(
+            path,
+            "valve_frame.axis is not a unit vector",
+        ));
+    }
+    Ok(Axis {
+        origin,
+        dir: dir.normalize(),
+    })
+}
+
+/// Distance (mm) of every sutured node to the wall.
+fn suture_distances(l: &Leaflets, wall: &TriMesh) -> Vec<f64> {
+    let wx: Vec<V3> = wall.vertices.iter().map(v3).collect();
+    let bvh = Bvh::build(&wx, &wall.triangles);
+    let mut out = Vec::new();
+    for (i, p) in l.x.iter().enumerate() {
+        if l.boundary[i] != 1 {
+            continue;
+        }
+        let mut r = 0.5;
+        loop {
+            let mut best = f64::INFINITY;
+            bvh.query_sphere(p, r, |t| {
+                let tri = wall.triangles[t as usize];
+                let c = closest_point(
+                    p,
+                    &wx[tri[0] as usize],
+                    &wx[tri[1] as usize],
+                    &wx[tri[2] as usize],
+                );
+                best = best.min((c.point - p).norm());
+            });
+            if best <= r || r > 1e3 {
+                out.push(best);
+                break;
+            }
+            r *= 4.0;
+        }
+    }
+    out
+}
+
+fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
+    let lpath = io.input("leaflets").expect("required");
+    let mesh = vtp::read_mesh(lpath)?;
+    let leaflets = leaflets_from_mesh(&mesh).map_err(|e| Error::bad_input(lpath, e))?;
+    let cpath = io.input("config").expect("required");
+    let cfg = config::read(cpath)?;
+    let spath = io.input("surface").expect("required");
+    let wall = vtp::read_mesh(spath)?;
+    let d = suture_distances(&leaflets, &wall);
+    let dmax = d.iter().cloned().fold(0.0, f64::max);
+    let axis = match io.input("valve") {
+        Some(p) => Some(axis_from_valve(p)?),
+        None => None,
+    };
+    progress.set(0.05);
+    let closed = closure::close(&leaflets, &cfg, axis).map_err(|e| Error::bad_input(lpath, e))?;
+    progress.set(0.95);
+    let o = &closed.outcome;
+    let log = json!({
+        "frame": "LPS",
+        "config": cfg.to_json(),
+        "model": cfg.model_name(),
+        "nodes": leaflets.x.len(),
+        "triangles": leaflets.tris.len(),
+        "free_dofs": leaflets.boundary.iter().filter(|&&b| b != 1).count() * 3,
+        "sutured_to_wall_mm": {"max": dmax, "mean": d.iter().sum::<f64>() / d.len().max(1) as f64},
+        "suturing": "skipped: the placed leaflets are taken as the stress-free sutured configuration (reference = placed) or the flat template is the reference (reference = flat)",
+        "pressure_sign_per_leaflet": closed.pressure_sign,
+        "solver": {
+            "converged": o.converged,
+            "reason": o.reason,
+            "iterations": o.iterations,
+            "residual_n": o.residual_n,
+            "initial_residual_n": o.initial_residual_n,
+            "history": o.history,
+        },
+        "nodes_in_contact": closed.contact.iter().filter(|&&m| m != 0).count(),
+        "timing_s": {"setup": closed.setup_s, "solve": closed.solve_s},
+    });
+    let text = serde_json::to_string_pretty(&log).expect("json") + "\n";
+    if !o.converged {
+        atomic::write_atomic(io.output("log"), |w| {
+            std::io::Write::write_all(w, text.as_bytes())
+        })?;
+        return Err(Error::failed(
+            "close",
+            format!(
+                "did not converge: {} (history in {})",
+                o.reason,
+                io.output("log").display()
+            ),
+        ));
+    }
+    let mut out = mesh.clone();
+    out.vertices = closed
+        .x
+        .iter()
+        .map(|p| Point3::new(p.x, p.y, p.z))
+        .collect();
+    let disp: Vec<[f64; 3]> = closed
+        .x
+        .iter()
+        .zip(&leaflets.x)
+        .map(|(a, b)| [a.x - b.x, a.y - b.y, a.z - b.z])
+        .collect();
+    out.point_data
+        .insert(DataArray::vectors_f64("displacement", &disp));
+    out.point_data.insert(DataArray::new(
+        "contact",
+        1,
+        DataValues::U8(closed.contact.clone()),
+    ));
+    out.cell_data.insert(DataArray::scalars_f64(
+        "area_stretch",
+        closed.area_stretch.clone(),
+    ));
+    out.cell_data.insert(DataArray::scalars_f64(
+        "max_stretch",
+        closed.max_stretch.clone(),
+    ));
+    out.frame = Frame::Lps;
+    let pd = out.to_polydata();
+    let mut tx = Transaction::new();
+    tx.write(io.output("closed"), |w| {
+        vtp::encode(w, &pd, &vtp::WriteOptions::default())
+    })?;
+    tx.write_bytes(io.output("log"), text.as_bytes())?;
+    tx.commit()?;
+    progress.set(1.0);
+    Ok(json!({
+        "converged": true,
+        "iterations": o.iterations,
+        "residual_n": o.residual_n,
+        "nodes_in_contact": closed.contact.iter().filter(|&&m| m != 0).count(),
+        "solve_s": closed.solve_s,
+    }))
+}
