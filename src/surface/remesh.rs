@@ -314,9 +314,9 @@ impl Work {
         self.out[m as usize] = f0 + 1;
     }
 
-    /// Remove the source `a` of `h`, merging it into its destination `b`
-    /// (which keeps its position). `ring_a` holds a's outgoing half-edges.
-    fn collapse(&mut self, h: u32, ring_a: &[u32]) {
+    /// Remove the source `a` of `h`, merging it into its destination `b`,
+    /// which moves to `p`. `ring_a` holds a's outgoing half-edges.
+    fn collapse(&mut self, h: u32, ring_a: &[u32], p: Point3) {
         let t = self.opp[h as usize];
         let (f0, f1) = (h / 3, t / 3);
         let (a, b, c, d) = (
@@ -338,6 +338,7 @@ impl Work {
         self.out[c as usize] = x;
         self.out[d as usize] = z;
         self.out[a as usize] = DEAD;
+        self.pos[b as usize] = p;
         self.valence[b as usize] = self.valence[a as usize] + self.valence[b as usize] - 4;
         self.valence[a as usize] = 0;
         self.valence[c as usize] -= 1;
@@ -402,15 +403,17 @@ impl Work {
         n
     }
 
-    /// Whether removing the source `a` of `h` into its destination `b` is
-    /// allowed; fills `ring_a`.
+    /// Where the vertices of `h` would merge when its source `a` is removed
+    /// into its destination `b`, if that is allowed: the midpoint when `a`
+    /// and `b` are of one kind (both off the rims, or both inner rim vertices
+    /// on this rim edge), else `b` (a rim or corner vertex stays put).
     fn can_collapse(
         &self,
         h: u32,
         high2: f64,
         ring_a: &mut Vec<u32>,
         ring_b: &mut Vec<u32>,
-    ) -> bool {
+    ) -> Option<Point3> {
         let t = self.opp[h as usize];
         let (a, b) = (self.corner[h as usize], self.dest(h));
         let (c, d) = (self.corner[pv(h) as usize], self.corner[pv(t) as usize]);
@@ -418,15 +421,11 @@ impl Work {
         match fa {
             0 => {}
             // Along the rim only.
-            2 => {
-                if !self.is_feature(h) {
-                    return false;
-                }
-            }
-            _ => return false,
+            2 if self.is_feature(h) => {}
+            _ => return None,
         }
         if self.valence[c as usize] <= 3 || self.valence[d as usize] <= 3 {
-            return false;
+            return None;
         }
         self.ring(a, ring_a);
         self.ring(b, ring_b);
@@ -439,36 +438,41 @@ impl Work {
             }
         }
         if common != 2 {
-            return false;
+            return None;
         }
-        let p = self.pos[b as usize];
-        let (f0, f1) = (h / 3, t / 3);
-        let mut na = Vector3::zeros();
-        for &g in ring_a.iter() {
-            na += self.area_vector(g / 3);
-        }
-        let Some(na) = na.try_normalize(1e-300) else {
-            return false;
+        let (pa, pb) = (self.pos[a as usize], self.pos[b as usize]);
+        let p = if self.features(b).0 == fa {
+            Point3::from(0.5 * (pa.coords + pb.coords))
+        } else {
+            pb
         };
-        for &g in ring_a.iter() {
-            let u = self.dest(g);
-            let pu = self.pos[u as usize];
-            if u != b && (pu - p).norm_squared() > high2 {
-                return false;
-            }
-            let f = g / 3;
-            if f == f0 || f == f1 {
-                continue;
-            }
-            let pw = self.pos[self.corner[pv(g) as usize] as usize];
-            let n_new = (pu - p).cross(&(pw - p));
-            let norm = n_new.norm();
-            // No triangle turned over or made degenerate.
-            if norm == 0.0 || n_new.dot(&na) < 0.3 * norm {
-                return false;
+        let (f0, f1) = (h / 3, t / 3);
+        let mut nref = Vector3::zeros();
+        for &g in ring_a.iter().chain(ring_b.iter()) {
+            nref += self.area_vector(g / 3);
+        }
+        let nref = nref.try_normalize(1e-300)?;
+        for (ring, other) in [(&*ring_a, b), (&*ring_b, a)] {
+            for &g in ring {
+                let u = self.dest(g);
+                let pu = self.pos[u as usize];
+                if u != other && (pu - p).norm_squared() > high2 {
+                    return None;
+                }
+                let f = g / 3;
+                if f == f0 || f == f1 {
+                    continue;
+                }
+                let pw = self.pos[self.corner[pv(g) as usize] as usize];
+                let n_new = (pu - p).cross(&(pw - p));
+                let norm = n_new.norm();
+                // No triangle turned over or made degenerate.
+                if norm == 0.0 || n_new.dot(&nref) < 0.3 * norm {
+                    return None;
+                }
             }
         }
-        true
+        Some(p)
     }
 
     fn collapse_short(&mut self, low2: f64, high2: f64) -> usize {
@@ -486,17 +490,22 @@ impl Work {
             let ok_t = self.can_collapse(t, high2, &mut rb, &mut ra);
             let (a, b) = (self.corner[h as usize], self.dest(h));
             // Both allowed: remove the vertex of higher valence.
-            let remove_a = match (ok_h, ok_t) {
-                (false, false) => continue,
-                (true, false) => true,
-                (false, true) => false,
-                (true, true) => self.valence[a as usize] >= self.valence[b as usize],
+            let (g, p) = match (ok_h, ok_t) {
+                (None, None) => continue,
+                (Some(p), None) => (h, p),
+                (None, Some(p)) => (t, p),
+                (Some(p), Some(q)) => {
+                    if self.valence[a as usize] >= self.valence[b as usize] {
+                        (h, p)
+                    } else {
+                        (t, q)
+                    }
+                }
             };
-            let g = if remove_a { h } else { t };
             let src = self.corner[g as usize];
             self.ring(src, &mut ra);
             let ring = std::mem::take(&mut ra);
-            self.collapse(g, &ring);
+            self.collapse(g, &ring, p);
             ra = ring;
             n += 1;
         }
