@@ -526,7 +526,7 @@ impl Work {
             let (a, b) = (self.corner[h as usize], self.dest(h));
             let (c, d) = (self.corner[pv(h) as usize], self.corner[pv(t) as usize]);
             let val = |v: u32| self.valence[v as usize] as i64;
-            if val(a) <= 3 || val(b) <= 3 {
+            if c == d || val(a) <= 3 || val(b) <= 3 {
                 continue;
             }
             let dev = |x: i64| (x - 6) * (x - 6);

@@ -37,7 +37,7 @@ pub static SPEC: StageSpec = StageSpec {
             file: "surface.json",
             kind: ArtifactKind::Json,
             required: true,
-            help: "counts, area, enclosed volume, smoothing volume change, timings",
+            help: "counts, area, enclosed volume, smoothing volume change, remeshing statistics, timings",
         },
     ],
     out_dir: None,

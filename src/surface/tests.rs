@@ -751,3 +751,24 @@ fn remeshing_refuses_open_surfaces_and_bad_lengths() {
     let err = remesh(&input, &labels[1..], &RemeshParams::new(1.0)).unwrap_err();
     assert!(err.to_string().contains("closed"), "{err}");
 }
+
+#[test]
+fn remeshing_keeps_every_component_closed_with_keep_all() {
+    // The ball and its one-voxel speck (8 triangles of 0.35 mm edges, far
+    // below 4/5 L): the speck must stay a closed surface, not collapse into
+    // a degenerate one.
+    let (mask, _) = ball_mask(5.0, 0.5);
+    let params = SurfaceParams {
+        largest_only: false,
+        remesh: Some(RemeshParams::new(1.0)),
+        ..SurfaceParams::default()
+    };
+    let (m, rep) = surface_from_mask(&mask, &params).unwrap();
+    assert_closed_manifold(&m);
+    let topo = m.topology();
+    assert_eq!(
+        (topo.components, topo.euler_characteristic),
+        (2, 4),
+        "{rep:?}"
+    );
+}
