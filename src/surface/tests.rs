@@ -660,10 +660,10 @@ fn remeshing_keeps_caps_flat_and_rims_closed() {
     }
     // Cap triangles stay in their planes.
     let h = 0.5;
-    for t in 0..m.triangles.len() {
+    for (t, &r) in ra.iter().enumerate() {
         let c = m.corners(t);
         let ctr = Point3::from((c[0].coords + c[1].coords + c[2].coords) / 3.0);
-        match ra[t] {
+        match r {
             1 => assert!(
                 (ctr - on_plane).dot(&normal).abs() < h,
                 "cut cap triangle {t} off its plane"
