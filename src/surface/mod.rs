@@ -4,12 +4,14 @@
 //! [`marching_cubes::extract`] is the crack-free, flying-edges style
 //! extractor (case table in [`tables`]); [`surface_from_mask`] is the stage's
 //! library function: optional Gaussian pre-blur, extraction, the largest
-//! component, Taubin smoothing ([`smooth`]) and cap labels ([`regions`]).
+//! component, Taubin smoothing ([`smooth`]), cap labels ([`regions`]) and
+//! optional isotropic remeshing that keeps the labels ([`remesh`]).
 
 pub mod blur;
 pub mod components;
 pub mod marching_cubes;
 pub mod regions;
+pub mod remesh;
 pub mod smooth;
 pub mod stage;
 pub mod tables;
@@ -24,6 +26,7 @@ use serde::Serialize;
 use crate::geom::{DataArray, DataValues, Frame, TriMesh, Volume};
 use crate::{Error, Result};
 pub use marching_cubes::{Isosurface, extract};
+pub use remesh::{RemeshParams, RemeshReport};
 pub use smooth::Taubin;
 
 /// Parameters of [`surface_from_mask`].
@@ -36,6 +39,8 @@ pub struct SurfaceParams {
     pub taubin: Taubin,
     /// Keep only the largest connected component.
     pub largest_only: bool,
+    /// Isotropic remeshing after smoothing and labelling; `None`: off.
+    pub remesh: Option<RemeshParams>,
 }
 
 impl Default for SurfaceParams {
@@ -45,6 +50,7 @@ impl Default for SurfaceParams {
             blur_sigma_mm: 0.0,
             taubin: Taubin::default(),
             largest_only: true,
+            remesh: None,
         }
     }
 }
@@ -64,6 +70,9 @@ pub struct SurfaceReport {
     /// (smoothed − raw) / raw volume of the kept component, percent.
     pub smoothing_volume_change_pct: f64,
     pub cap_triangles: [usize; 2],
+    /// Present when the surface was remeshed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub remesh: Option<RemeshReport>,
     pub timing_s: Timings,
 }
 
@@ -74,6 +83,7 @@ pub struct Timings {
     pub component: f64,
     pub smoothing: f64,
     pub regions: f64,
+    pub remesh: f64,
 }
 
 /// Mask → labelled wall mesh. Fails (stage failure) on an empty mask.
@@ -123,14 +133,25 @@ pub fn surface_from_mask(
     let t = Instant::now();
     let raw_volume = mesh.signed_volume();
     smooth::taubin(&mut mesh, &params.taubin);
-    let volume = mesh.signed_volume();
+    let smoothed_volume = mesh.signed_volume();
     tm.smoothing = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
     let sp = mask.spacing();
     let h = (sp[0] * sp[1] * sp[2]).cbrt();
-    let region = regions::label(&mesh, &on_border, h);
+    let mut region = regions::label(&mesh, &on_border, h);
     tm.regions = t.elapsed().as_secs_f64();
+
+    let mut remesh_report = None;
+    if let Some(rp) = &params.remesh {
+        let t = Instant::now();
+        let (m, r, rep) = remesh::remesh(&mesh, &region, rp)?;
+        check_remeshed(&mesh, &m)?;
+        (mesh, region) = (m, r);
+        remesh_report = Some(rep);
+        tm.remesh = t.elapsed().as_secs_f64();
+    }
+    let volume = mesh.signed_volume();
     let caps = [
         region.iter().filter(|&&r| r == regions::CUT_CAP).count(),
         region.iter().filter(|&&r| r == regions::BORDER_CAP).count(),
@@ -153,9 +174,25 @@ pub fn surface_from_mask(
         area_mm2: mesh.total_area(),
         enclosed_volume_mm3: volume,
         raw_volume_mm3: raw_volume,
-        smoothing_volume_change_pct: 100.0 * (volume - raw_volume) / raw_volume,
+        smoothing_volume_change_pct: 100.0 * (smoothed_volume - raw_volume) / raw_volume,
         cap_triangles: caps,
+        remesh: remesh_report,
         timing_s: tm,
     };
     Ok((mesh, report))
+}
+
+/// The remeshed surface must be as closed and of the same topology as its input.
+fn check_remeshed(before: &TriMesh, after: &TriMesh) -> Result<()> {
+    let fail =
+        |what: String| Error::failed("surface", format!("remeshing broke the surface: {what}"));
+    after.sanity_check().map_err(|e| fail(e.to_string()))?;
+    let (a, b) = (before.topology(), after.topology());
+    if b.boundary_edges != 0 || b.euler_characteristic != a.euler_characteristic {
+        return Err(fail(format!(
+            "{} open edges, Euler characteristic {} (was {})",
+            b.boundary_edges, b.euler_characteristic, a.euler_characteristic
+        )));
+    }
+    Ok(())
 }

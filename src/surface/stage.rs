@@ -2,16 +2,18 @@
 
 use serde_json::{Value as Json, json};
 
-use super::{SurfaceParams, Taubin, surface_from_mask};
+use super::{RemeshParams, SurfaceParams, Taubin, surface_from_mask};
 use crate::geom::Frame;
 use crate::io::{Transaction, nifti, vtp};
-use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
+use crate::pipeline::{
+    ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec, Value,
+};
 use crate::units::Kind;
 use crate::{Error, Result};
 
 pub static SPEC: StageSpec = StageSpec {
     name: "surface",
-    about: "Closed, outward wall mesh of the aortic lumen from its mask (marching cubes + Taubin)",
+    about: "Closed, outward wall mesh of the aortic lumen from its mask (marching cubes + Taubin, optional remeshing)",
     inputs: &[Port {
         name: "mask",
         flag: "mask",
@@ -35,7 +37,7 @@ pub static SPEC: StageSpec = StageSpec {
             file: "surface.json",
             kind: ArtifactKind::Json,
             required: true,
-            help: "counts, area, enclosed volume, smoothing volume change, timings",
+            help: "counts, area, enclosed volume, smoothing volume change, remeshing statistics, timings",
         },
     ],
     out_dir: None,
@@ -67,6 +69,12 @@ pub static SPEC: StageSpec = StageSpec {
             default: Some("false"),
             help: "keep every connected component, not only the largest",
         },
+        Param {
+            name: "target_edge",
+            kind: ParamKind::Quantity(Kind::Length),
+            default: None,
+            help: "isotropic remeshing to this edge length after smoothing, caps kept (default: off)",
+        },
     ],
     check: |p| params_from(p).map(|_| ()),
     run,
@@ -77,6 +85,15 @@ pub fn params_from(p: &Params) -> Result<SurfaceParams> {
     if !(0.0..=20.0).contains(&blur) {
         return Err(Error::value(format!("blur {blur} mm: expected 0 to 20 mm")));
     }
+    let remesh = match p.get("target_edge") {
+        Value::Quantity(l, _) if (0.05..=50.0).contains(l) => Some(RemeshParams::new(*l)),
+        Value::Quantity(l, _) => {
+            return Err(Error::value(format!(
+                "target edge {l} mm: expected 0.05 to 50 mm"
+            )));
+        }
+        _ => None,
+    };
     Ok(SurfaceParams {
         iso: p.float("iso"),
         blur_sigma_mm: blur,
@@ -85,6 +102,7 @@ pub fn params_from(p: &Params) -> Result<SurfaceParams> {
             ..Taubin::default()
         },
         largest_only: !p.flag("keep_all"),
+        remesh,
     })
 }
 

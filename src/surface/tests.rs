@@ -465,3 +465,310 @@ fn output_is_bit_identical_with_one_or_two_threads() {
     );
     assert_eq!(a.cell_data, b.cell_data);
 }
+
+// ---- Isotropic remeshing -------------------------------------------------
+
+use super::remesh::{RemeshParams, remesh};
+
+/// Unique edge lengths of a mesh, sorted.
+fn edge_lengths(m: &TriMesh) -> Vec<f64> {
+    let mut l: Vec<f64> = m
+        .adjacency()
+        .edges
+        .iter()
+        .map(|&[a, b]| (m.vertices[a as usize] - m.vertices[b as usize]).norm())
+        .collect();
+    l.sort_by(f64::total_cmp);
+    l
+}
+
+/// Feature edges (between triangles of different labels): how many, the
+/// number of closed loops they form, and whether every rim vertex has
+/// exactly two of them.
+fn rims(m: &TriMesh, label: &[u8]) -> (usize, usize, bool) {
+    let adj = m.adjacency();
+    let feat: Vec<[u32; 2]> = (0..adj.edges.len())
+        .filter(|&e| {
+            let t = adj.triangles_of_edge(e);
+            label[t[0] as usize] != label[t[1] as usize]
+        })
+        .map(|e| adj.edges[e])
+        .collect();
+    let n = m.vertices.len();
+    let mut deg = vec![0usize; n];
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn find(p: &mut [usize], mut x: usize) -> usize {
+        while p[x] != x {
+            p[x] = p[p[x]];
+            x = p[x];
+        }
+        x
+    }
+    for &[a, b] in &feat {
+        deg[a as usize] += 1;
+        deg[b as usize] += 1;
+        let (ra, rb) = (find(&mut parent, a as usize), find(&mut parent, b as usize));
+        parent[ra] = rb;
+    }
+    let on: Vec<usize> = (0..n).filter(|&v| deg[v] > 0).collect();
+    let mut roots: Vec<usize> = on.iter().map(|&v| find(&mut parent, v)).collect();
+    roots.sort_unstable();
+    roots.dedup();
+    (feat.len(), roots.len(), on.iter().all(|&v| deg[v] == 2))
+}
+
+fn sphere_mesh(r: f64, h: f64) -> (TriMesh, Point3) {
+    let c = Point3::new(r + 2.013, r + 1.987, r + 2.021);
+    let n = ((2.0 * r + 4.0) / h) as usize + 1;
+    (
+        mesh_of(&extract(&sampled([n; 3], scaled(h), sphere_sdf(c, r)), 0.0)),
+        c,
+    )
+}
+
+#[test]
+fn remeshed_sphere_has_target_edges_stays_on_the_surface_and_keeps_volume() {
+    let (r, l) = (10.0, 1.0);
+    let (input, c) = sphere_mesh(r, 0.5);
+    let labels = vec![regions::WALL; input.triangles.len()];
+    let (m, lab, rep) = remesh(&input, &labels, &RemeshParams::new(l)).unwrap();
+    assert_closed_manifold(&m);
+    assert_eq!(m.topology().euler_characteristic, 2);
+    assert!(lab.iter().all(|&x| x == regions::WALL));
+    assert!(m.signed_volume() > 0.0);
+    // Marching cubes gives ~0.1–0.7 mm edges at h = 0.5 mm; the remeshed
+    // mesh is much coarser.
+    assert!(
+        m.triangles.len() * 2 < input.triangles.len(),
+        "{} → {}",
+        input.triangles.len(),
+        m.triangles.len()
+    );
+    let len = edge_lengths(&m);
+    let band = len
+        .iter()
+        .filter(|&&x| (0.8 * l..=4.0 / 3.0 * l).contains(&x))
+        .count() as f64
+        / len.len() as f64;
+    eprintln!(
+        "sphere r {r} L {l}: {} → {} triangles, {:.1} % of edges in [0.8L, 4/3 L], {rep:#?}",
+        input.triangles.len(),
+        m.triangles.len(),
+        100.0 * band
+    );
+    assert!(band >= 0.9, "{:.1} % of edges in band", 100.0 * band);
+    // Every vertex on the input surface, hence on the analytic sphere.
+    let (mean, max) = radial_errors(&m, c, r);
+    let (_, in_max) = radial_errors(&input, c, r);
+    assert!(
+        max < 0.05 && mean < 0.02,
+        "mean {mean} max {max} (input {in_max})"
+    );
+    let dv = (m.signed_volume() - input.signed_volume()) / input.signed_volume();
+    assert!(dv.abs() < 0.005, "volume change {:.3} %", 100.0 * dv);
+    assert!((rep.volume_change_pct - 100.0 * dv).abs() < 1e-9);
+    let slivers = (0..m.triangles.len())
+        .filter(|&t| m.quality(t).min_angle < 20f64.to_radians())
+        .count();
+    assert!(
+        (slivers as f64) < 0.01 * m.triangles.len() as f64,
+        "{slivers} of {} triangles with an angle below 20°",
+        m.triangles.len()
+    );
+    assert_eq!(rep.output_triangles, m.triangles.len());
+}
+
+#[test]
+fn remeshed_torus_keeps_genus_one() {
+    let (big, small) = (8.0, 3.0);
+    let c = Point3::new(12.03, 11.98, 6.01);
+    let sdf = move |p: Point3| {
+        let d = p - c;
+        small - ((d.x * d.x + d.y * d.y).sqrt() - big).hypot(d.z)
+    };
+    let input = mesh_of(&extract(&sampled([49, 49, 25], scaled(0.5), sdf), 0.0));
+    assert_eq!(input.topology().euler_characteristic, 0);
+    let labels = vec![regions::WALL; input.triangles.len()];
+    let (m, _, _) = remesh(&input, &labels, &RemeshParams::new(1.0)).unwrap();
+    assert_closed_manifold(&m);
+    let topo = m.topology();
+    assert_eq!((topo.euler_characteristic, topo.components), (0, 1));
+    for p in &m.vertices {
+        let d = p - c;
+        let q = ((d.x * d.x + d.y * d.y).sqrt() - big).hypot(d.z);
+        assert!(
+            (q - small).abs() < 0.05,
+            "{p:?} off the torus by {}",
+            q - small
+        );
+    }
+    let dv = (m.signed_volume() - input.signed_volume()) / input.signed_volume();
+    assert!(dv.abs() < 0.005, "volume change {:.3} %", 100.0 * dv);
+}
+
+/// The tube of `caps_are_labelled_where_the_mask_was_cut`.
+fn cut_tube() -> (Volume<u8>, Vector3, Point3, f64) {
+    let h = 0.5;
+    let (nx, nz) = (40usize, 50usize);
+    let axis_c = Point3::new(0.5 * (nx - 1) as f64 * h, 0.5 * (nx - 1) as f64 * h, 0.0);
+    let normal = Vector3::new(0.35, -0.2, -1.0).normalize();
+    let on_plane = Point3::new(axis_c.x, axis_c.y, 6.0);
+    let vol = sampled([nx, nx, nz], scaled(h), |p| {
+        let d = p - axis_c;
+        (d.x.hypot(d.y) < 7.0 && (p - on_plane).dot(&normal) < 0.0) as u8 as f64
+    })
+    .map(|&x| x as u8);
+    let top = (nz - 1) as f64 * h + 0.5 * h;
+    (vol, normal, on_plane, top)
+}
+
+fn region_of(m: &TriMesh) -> Vec<u8> {
+    match &m.cell_data.get("region").unwrap().values {
+        DataValues::I32(v) => v.iter().map(|&x| x as u8).collect(),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn remeshing_keeps_caps_flat_and_rims_closed() {
+    let (vol, normal, on_plane, top) = cut_tube();
+    let (before, _) = surface_from_mask(&vol, &SurfaceParams::default()).unwrap();
+    let params = SurfaceParams {
+        remesh: Some(RemeshParams::new(1.0)),
+        ..SurfaceParams::default()
+    };
+    let (m, rep) = surface_from_mask(&vol, &params).unwrap();
+    assert_closed_manifold(&m);
+    assert_eq!(rep.euler_characteristic, 2);
+    let (rb, ra) = (region_of(&before), region_of(&m));
+    let rr = rep.remesh.as_ref().unwrap();
+    assert!(m.triangles.len() * 2 < before.triangles.len(), "{rr:?}");
+    // Each label keeps its area (the caps are not eaten by the wall).
+    let area = |m: &TriMesh, r: &[u8]| {
+        let mut a = [0.0; 3];
+        for t in 0..m.triangles.len() {
+            a[r[t] as usize] += m.area(t);
+        }
+        a
+    };
+    let (ab, aa) = (area(&before, &rb), area(&m, &ra));
+    for k in 0..3 {
+        assert!(
+            (aa[k] - ab[k]).abs() < 0.03 * ab[k],
+            "areas {ab:?} → {aa:?}"
+        );
+    }
+    // Cap triangles stay in their planes.
+    let h = 0.5;
+    for (t, &r) in ra.iter().enumerate() {
+        let c = m.corners(t);
+        let ctr = Point3::from((c[0].coords + c[1].coords + c[2].coords) / 3.0);
+        match r {
+            1 => assert!(
+                (ctr - on_plane).dot(&normal).abs() < h,
+                "cut cap triangle {t} off its plane"
+            ),
+            2 => assert!(
+                (ctr.z - top).abs() < h,
+                "border cap triangle {t} off its plane"
+            ),
+            _ => {}
+        }
+    }
+    // The rims: as many closed loops as before, every rim vertex on two rim edges.
+    let (nb, loops_b, simple_b) = rims(&before, &rb);
+    let (na, loops_a, simple_a) = rims(&m, &ra);
+    eprintln!(
+        "rims: {nb} edges in {loops_b} loops (simple: {simple_b}) → {na} in {loops_a} ({simple_a})"
+    );
+    assert_eq!(loops_a, loops_b);
+    assert!(simple_a || !simple_b, "a rim lost its loop structure");
+    assert!(na > 0 && na < nb);
+    // Rim vertices stay on the input rim.
+    let adj = before.adjacency();
+    let rim_b: Vec<[Point3; 2]> = (0..adj.edges.len())
+        .filter(|&e| {
+            let t = adj.triangles_of_edge(e);
+            rb[t[0] as usize] != rb[t[1] as usize]
+        })
+        .map(|e| adj.edges[e].map(|v| before.vertices[v as usize]))
+        .collect();
+    let adj = m.adjacency();
+    for e in 0..adj.edges.len() {
+        let t = adj.triangles_of_edge(e);
+        if ra[t[0] as usize] == ra[t[1] as usize] {
+            continue;
+        }
+        for v in adj.edges[e] {
+            let p = m.vertices[v as usize];
+            let d = rim_b
+                .iter()
+                .map(|[a, b]| {
+                    let ab = b - a;
+                    let s = ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
+                    (p - (a + ab * s)).norm()
+                })
+                .fold(f64::INFINITY, f64::min);
+            assert!(d < 1e-6, "rim vertex {v} is {d} mm off the input rim");
+        }
+    }
+}
+
+#[test]
+fn remeshing_is_deterministic_and_thread_independent() {
+    let (input, _) = sphere_mesh(6.0, 0.5);
+    let labels: Vec<u8> = (0..input.triangles.len())
+        .map(|t| (input.corners(t)[0].z > 9.0) as u8)
+        .collect();
+    let run = |n: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .unwrap()
+            .install(|| remesh(&input, &labels, &RemeshParams::new(0.8)).unwrap())
+    };
+    let (a, b, c) = (run(1), run(2), run(2));
+    for other in [&b, &c] {
+        assert_eq!(a.0.triangles, other.0.triangles);
+        assert_eq!(a.1, other.1);
+        assert!(
+            a.0.vertices
+                .iter()
+                .zip(&other.0.vertices)
+                .all(|(p, q)| p.coords.map(f64::to_bits) == q.coords.map(f64::to_bits))
+        );
+    }
+    assert_closed_manifold(&a.0);
+}
+
+#[test]
+fn remeshing_refuses_open_surfaces_and_bad_lengths() {
+    let (mut input, _) = sphere_mesh(4.0, 0.5);
+    let labels = vec![0u8; input.triangles.len()];
+    assert!(remesh(&input, &labels, &RemeshParams::new(0.0)).is_err());
+    assert!(remesh(&input, &labels, &RemeshParams::new(f64::NAN)).is_err());
+    input.triangles.pop();
+    let err = remesh(&input, &labels[1..], &RemeshParams::new(1.0)).unwrap_err();
+    assert!(err.to_string().contains("closed"), "{err}");
+}
+
+#[test]
+fn remeshing_keeps_every_component_closed_with_keep_all() {
+    // The ball and its one-voxel speck (8 triangles of 0.35 mm edges, far
+    // below 4/5 L): the speck must stay a closed surface, not collapse into
+    // a degenerate one.
+    let (mask, _) = ball_mask(5.0, 0.5);
+    let params = SurfaceParams {
+        largest_only: false,
+        remesh: Some(RemeshParams::new(1.0)),
+        ..SurfaceParams::default()
+    };
+    let (m, rep) = surface_from_mask(&mask, &params).unwrap();
+    assert_closed_manifold(&m);
+    let topo = m.topology();
+    assert_eq!(
+        (topo.components, topo.euler_characteristic),
+        (2, 4),
+        "{rep:?}"
+    );
+}
