@@ -141,18 +141,43 @@ fn planes_for(
         let nodes: Vec<u32> = (0..l.x.len() as u32)
             .filter(|&i| node_leaf[i as usize] == k)
             .collect();
-        let mine: Vec<V3> = c
+        let cand: Vec<V3> = c
             .iter()
             .filter(|&&i| node_leaf[i as usize] == k)
             .map(|&i| l.x[i as usize])
             .collect();
-        if mine.len() != 2 {
+        if cand.len() < 2 {
             return Err(format!(
                 "leaflet {} has {} lug corners, expected 2",
                 k + 1,
-                mine.len()
+                cand.len()
             ));
         }
+        // Sutured nodes next to the free edge gather at the two ends:
+        // split them about the farthest pair and average each end.
+        let far = |p: &V3| {
+            (0..cand.len())
+                .max_by(|&a, &b| (cand[a] - p).norm().total_cmp(&(cand[b] - p).norm()))
+                .unwrap()
+        };
+        let (ia, ib) = (far(&cand[0]), 0);
+        let ib = if ia == ib {
+            far(&cand[ia])
+        } else {
+            far(&cand[ia])
+        };
+        let (pa, pb) = (cand[ia], cand[ib]);
+        let (mut ca, mut cb, mut na, mut nb) = (V3::zeros(), V3::zeros(), 0.0, 0.0);
+        for p in &cand {
+            if (p - pa).norm() <= (p - pb).norm() {
+                ca += p;
+                na += 1.0;
+            } else {
+                cb += p;
+                nb += 1.0;
+            }
+        }
+        let mine = [ca / na, cb / nb];
         let centroid = nodes.iter().map(|&i| l.x[i as usize]).sum::<V3>() / nodes.len() as f64;
         let rad = |p: V3| {
             let d = p - axis.origin;
@@ -230,11 +255,7 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
                 cfg.contact_alpha,
             );
             terms.push(Box::new(LeafletContact::new(
-                &l.x,
-                &l.tris,
-                &l.leaflet,
-                params,
-                2.0 * cfg.contact_margin,
+                &l.x, &l.tris, &l.leaflet, params, 2.0,
             )));
         }
         ContactKind::Planes => {
@@ -255,6 +276,7 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
         pressure_mode: PressureMode::Follower,
         terms,
         project: false,
+        pressure_tangent: true,
     };
     let stop = Stop {
         abs_n: cfg.tolerance,
@@ -267,37 +289,53 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
     let mut x = l.x.clone();
     let nopt = NewtonOptions {
         stop: stop.clone(),
-        max_step_mm: 1.0,
+        max_step_mm: 0.5,
         max_rejections: 12,
+        ptc: false,
     };
     let outcome = match cfg.solver {
         SolverKind::Newton => {
-            // Phase 1: the pressure as −P·V about a point on the axis, a
-            // potential, so projected Newton with Cholesky and an energy line
-            // search is robust from the unloaded, out-of-plane-floppy state.
-            // Phase 2: the exact follower load (no potential: the free edge
-            // moves), LU Newton from that nearby state.
-            let c = axis.origin;
-            sys.pressure_mode = PressureMode::Volume {
-                origin: [c.x, c.y, c.z],
-            };
+            // The follower load has no potential (the free edge moves).
+            // Phase 1: pseudo-transient continuation on the PSD part of the
+            // tangent, robust from the unloaded, out-of-plane-floppy state,
+            // until the residual has dropped 100-fold. Phase 2: Newton with
+            // the exact, non-symmetric tangent (LU), quadratic near the end.
             sys.project = true;
-            let mut p1 = solve::newton(&mut sys, &mut x, &nopt);
-            for r in p1.history.iter_mut() {
-                r.phase = "newton-potential";
-            }
-            sys.pressure_mode = PressureMode::Follower;
-            sys.project = false;
-            let mut p2 = solve::newton(&mut sys, &mut x, &nopt);
-            p2.initial_residual_n = p1.initial_residual_n;
-            p1.history.append(&mut p2.history);
-            p2.history = p1.history;
-            p2.iterations += p1.iterations;
-            p2.reason = format!(
-                "potential phase: {}; follower phase: {}",
-                p1.reason, p2.reason
+            sys.pressure_tangent = false;
+            let coarse = Stop {
+                rel: 1e-2,
+                ..stop.clone()
+            };
+            let mut p1 = solve::newton(
+                &mut sys,
+                &mut x,
+                &NewtonOptions {
+                    ptc: true,
+                    stop: coarse,
+                    ..nopt.clone()
+                },
             );
-            p2
+            for r in p1.history.iter_mut() {
+                r.phase = "continuation";
+            }
+            if !p1.converged {
+                p1
+            } else {
+                sys.project = false;
+                sys.pressure_tangent = true;
+                let mut exact = nopt.clone();
+                exact.stop.rel = stop.rel * p1.initial_residual_n / p1.residual_n.max(1e-300);
+                exact.stop.max_iterations =
+                    stop.max_iterations.saturating_sub(p1.iterations).max(1);
+                let mut p2 = solve::newton(&mut sys, &mut x, &exact);
+                p2.initial_residual_n = p1.initial_residual_n;
+                p1.history.append(&mut p2.history);
+                p2.history = p1.history;
+                p2.iterations += p1.iterations;
+                p2.seconds += p1.seconds;
+                p2.reason = format!("continuation: {}; Newton: {}", p1.reason, p2.reason);
+                p2
+            }
         }
         SolverKind::Relax => {
             let ropt = RelaxOptions {

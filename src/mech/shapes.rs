@@ -144,3 +144,53 @@ mod tests {
         }
     }
 }
+
+/// Flat disc of radius `r` in the z = 0 plane, rings about `h` apart
+/// (ring k has 6k nodes), normals +z. Returns (positions, triangles, rim).
+pub fn disc(r: f64, h: f64) -> (Vec<V3>, Vec<[u32; 3]>, Vec<bool>) {
+    let n = (r / h).round().max(1.0) as usize;
+    let mut v = vec![V3::zeros()];
+    let mut start = vec![0usize];
+    for k in 1..=n {
+        start.push(v.len());
+        let rk = r * k as f64 / n as f64;
+        for j in 0..6 * k {
+            let a = std::f64::consts::TAU * j as f64 / (6 * k) as f64;
+            v.push(V3::new(rk * a.cos(), rk * a.sin(), 0.0));
+        }
+    }
+    let ring = |k: usize, j: usize| -> u32 {
+        if k == 0 {
+            0
+        } else {
+            (start[k] + j % (6 * k)) as u32
+        }
+    };
+    let mut f = Vec::new();
+    for k in 0..n {
+        // Walk both rings by angle, always advancing the one behind.
+        let (na, nb) = (if k == 0 { 1 } else { 6 * k }, 6 * (k + 1));
+        let (mut i, mut j) = (0usize, 0usize);
+        while i < na || j < nb {
+            let ai = (i as f64 + 0.0) / na as f64;
+            let bj = j as f64 / nb as f64;
+            let adv_outer = if k == 0 {
+                true
+            } else {
+                i >= na || (j < nb && (bj + 1.0 / nb as f64) <= (ai + 1.0 / na as f64) + 1e-12)
+            };
+            if adv_outer {
+                f.push([ring(k, i), ring(k + 1, j), ring(k + 1, j + 1)]);
+                j += 1;
+            } else {
+                f.push([ring(k, i), ring(k + 1, j), ring(k, i + 1)]);
+                i += 1;
+            }
+            if k == 0 && j >= nb {
+                break;
+            }
+        }
+    }
+    let rim = (0..v.len()).map(|i| i >= start[n]).collect();
+    (v, f, rim)
+}

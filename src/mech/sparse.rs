@@ -316,6 +316,24 @@ mod tests {
         for i in 0..dofs.n_eq {
             assert!((ax[i] - rhs[i]).abs() < 1e-10);
         }
+        // A non-symmetric block: LU must solve A x = b, not Aᵀ x = b.
+        let mut ns = vals.clone();
+        let skew = SMatrix::<f64, 6, 6>::from_fn(|i, j| {
+            if i < j {
+                0.7
+            } else if i > j {
+                -0.7
+            } else {
+                0.0
+            }
+        });
+        pat.add_block(&dofs, &mut ns, &[1, 2], &skew);
+        let mut y = rhs.clone();
+        pat.solve_lu(&ns, &mut y).unwrap();
+        let ay = pat.mul(&ns, &y);
+        for i in 0..dofs.n_eq {
+            assert!((ay[i] - rhs[i]).abs() < 1e-10, "LU solves the transpose");
+        }
         // Not positive definite → a clear error, not a panic.
         let neg: Vec<f64> = vals.iter().map(|v| -v).collect();
         let mut z = rhs.clone();

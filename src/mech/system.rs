@@ -58,6 +58,8 @@ pub struct System {
     pub terms: Vec<Box<dyn Term>>,
     /// Project element Hessians to PSD in the tangent.
     pub project: bool,
+    /// Include the load stiffness of the pressure in the tangent.
+    pub pressure_tangent: bool,
 }
 
 /// The state is outside a material's domain (an inverted or collapsed
@@ -214,7 +216,7 @@ impl System {
         }
         for t in 0..self.tris.len() {
             let p = self.tri_pressure[t] * self.pressure_scale;
-            if p == 0.0 {
+            if p == 0.0 || !self.pressure_tangent {
                 continue;
             }
             let q = self.tri_q(x, t);

@@ -160,3 +160,155 @@ fn gent_cylinder_matches_the_table() {
     );
     assert!(e < 0.005);
 }
+
+/// The assembled tangent is the derivative of the assembled residual: an
+/// open cylinder patch (clamped bottom ring, free top edge) under follower
+/// pressure, with penalty planes, neo-Hookean, at a perturbed state.
+#[test]
+fn assembled_tangent_is_the_derivative_of_the_residual() {
+    use super::contact::planes::Plane;
+    use super::element::{RefTri, V3};
+    use super::material::NeoHookean;
+    use super::sparse::{Dofs, Pattern};
+    use super::system::{PressureMode, System};
+    use super::terms::PlaneContact;
+    let (x0, tris) = super::shapes::cylinder(5.0, 3.0, 24, 5);
+    let fixed: Vec<[bool; 3]> = x0.iter().map(|p| [p.z < -1.49; 3]).collect();
+    let refs: Vec<RefTri> = tris
+        .iter()
+        .map(|t| RefTri::new(t.map(|i| x0[i as usize]), 0.4, None).unwrap())
+        .collect();
+    let mut rng = crate::rng::SplitMix64::new(11);
+    let x: Vec<V3> = x0
+        .iter()
+        .zip(&fixed)
+        .map(|(p, f)| {
+            if f[0] {
+                *p
+            } else {
+                p + V3::new(
+                    rng.range(-0.2, 0.2),
+                    rng.range(-0.2, 0.2),
+                    rng.range(-0.2, 0.2),
+                )
+            }
+        })
+        .collect();
+    let plane = Plane::new(V3::new(0.0, 4.8, 0.0), V3::new(0.0, -1.0, 0.0), 0.012, 0.5).unwrap();
+    let all: Vec<u32> = (0..x.len() as u32).collect();
+    let mut sys = System {
+        refs,
+        tris: tris.clone(),
+        materials: vec![Box::new(NeoHookean { mu: 0.3 })],
+        tri_material: vec![0; tris.len()],
+        dofs: Dofs::new(&fixed),
+        fixed,
+        tri_pressure: vec![-0.0107; tris.len()],
+        pressure_scale: 1.0,
+        pressure_mode: PressureMode::Follower,
+        terms: vec![Box::new(PlaneContact::new(vec![(plane, all)], &x, &tris))],
+        project: false,
+        pressure_tangent: true,
+    };
+    for t in sys.terms.iter_mut() {
+        t.update(&x);
+    }
+    assert!(
+        x.iter().any(|p| plane.distance(p) < plane.eta2),
+        "the plane must be active somewhere"
+    );
+    let pat = Pattern::new(x.len(), &sys.dofs, &sys.couplings());
+    let mut vals = vec![0.0; pat.nnz()];
+    sys.tangent(&x, &pat, &mut vals).unwrap();
+    let v: Vec<f64> = (0..sys.dofs.n_eq).map(|_| rng.range(-1.0, 1.0)).collect();
+    let kv = pat.mul(&vals, &v);
+    let eps = 1e-6;
+    let rp = sys.pack(&sys.residual(&sys.step(&x, &v, eps)).unwrap());
+    let rm = sys.pack(&sys.residual(&sys.step(&x, &v, -eps)).unwrap());
+    let fd: Vec<f64> = rp
+        .iter()
+        .zip(&rm)
+        .map(|(a, b)| -(a - b) / (2.0 * eps))
+        .collect();
+    let err = kv
+        .iter()
+        .zip(&fd)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt();
+    let scale = fd.iter().map(|a| a * a).sum::<f64>().sqrt();
+    assert!(
+        err <= 1e-6 * scale,
+        "tangent vs FD: {err:.3e} of {scale:.3e}"
+    );
+}
+
+#[test]
+fn hencky_clamped_disc_within_two_percent() {
+    use super::shapes::disc;
+    // The disc mesh is a proper, consistently oriented triangulation.
+    let (v, f, rim) = disc(10.0, 1.0);
+    let m = crate::geom::TriMesh::new(v.iter().map(|p| (*p).into()).collect(), f.clone());
+    m.sanity_check().unwrap();
+    let area: f64 = f
+        .iter()
+        .map(|t| {
+            0.5 * (v[t[1] as usize] - v[t[0] as usize])
+                .cross(&(v[t[2] as usize] - v[t[0] as usize]))
+                .z
+        })
+        .sum();
+    assert!(
+        area > 0.98 * std::f64::consts::PI * 100.0 && area < std::f64::consts::PI * 100.0,
+        "{area}"
+    );
+    assert_eq!(rim.iter().filter(|&&r| r).count(), 60);
+    // VERIFICATION.md §2: a = 10 mm, h = 0.5 mm, E = 3μ = 1 MPa, ν = 0.5,
+    // q = 1 kPa → w0 = 0.59488·a·(qa/Eh)^(1/3) = 1.61 mm.
+    let (a, h, q): (f64, f64, f64) = (10.0, 0.5, 0.001);
+    let w0 = 0.59488 * a * (q * a / (1.0 * h)).cbrt();
+    let (w, o) = hencky(Box::new(NeoHookean { mu: 1.0 / 3.0 }), a, h, q, 0.4);
+    assert!(o.converged, "{}", o.reason);
+    eprintln!(
+        "Hencky NH: w0 {w:.4} vs {w0:.4} ({:+.2} %), {} it",
+        100.0 * (w - w0) / w0,
+        o.iterations
+    );
+    // Hencky's law is linear plane stress; the incompressible neo-Hookean
+    // membrane stiffens and thins differently at these 2–3 % strains.
+    assert!((w - w0).abs() < 0.04 * w0);
+    let (w, o) = hencky(
+        Box::new(StVenantKirchhoff {
+            young: 1.0,
+            poisson: 0.5,
+        }),
+        a,
+        h,
+        q,
+        0.4,
+    );
+    assert!(o.converged, "{}", o.reason);
+    eprintln!(
+        "Hencky SVK ν=0.5: w0 {w:.4} vs {w0:.4} ({:+.2} %)",
+        100.0 * (w - w0) / w0
+    );
+    assert!((w - w0).abs() < 0.02 * w0);
+    // ν = 0 with St.V-K: c_w = 0.71832.
+    let w0 = 0.71832 * a * (q * a / (1.0 * h)).cbrt();
+    let (w, o) = hencky(
+        Box::new(StVenantKirchhoff {
+            young: 1.0,
+            poisson: 0.0,
+        }),
+        a,
+        h,
+        q,
+        0.4,
+    );
+    assert!(o.converged, "{}", o.reason);
+    eprintln!(
+        "Hencky SVK ν=0: w0 {w:.4} vs {w0:.4} ({:+.2} %)",
+        100.0 * (w - w0) / w0
+    );
+    assert!((w - w0).abs() < 0.02 * w0);
+}

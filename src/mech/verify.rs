@@ -152,6 +152,7 @@ pub fn inflate_sphere(mat: Box<dyn Membrane>, r0: f64, h: f64, level: u32, p: f6
         pressure_mode: PressureMode::Volume { origin: [0.0; 3] },
         terms: Vec::new(),
         project: true,
+        pressure_tangent: true,
     };
     let mut opt = NewtonOptions::default();
     opt.stop.abs_n = 1e-10;
@@ -201,6 +202,7 @@ pub fn inflate_cylinder(mat: Box<dyn Membrane>, r0: f64, h: f64, nt: usize, p: f
         pressure_mode: PressureMode::Follower,
         terms: Vec::new(),
         project: false,
+        pressure_tangent: true,
     };
     let mut x = x0.clone();
     let mut opt = NewtonOptions::default();
@@ -216,4 +218,38 @@ pub fn inflate_cylinder(mat: Box<dyn Membrane>, r0: f64, h: f64, nt: usize, p: f
         mean_edge_mm: mean_edge(&x0, &tris),
         outcome,
     }
+}
+
+/// Hencky's clamped circular membrane: centre deflection (mm) of a disc of
+/// radius `a`, thickness `h`, under `q` (MPa), with the conservative
+/// pressure (the rim is fixed) and projected Newton.
+pub fn hencky(mat: Box<dyn Membrane>, a: f64, h: f64, q: f64, mesh: f64) -> (f64, Outcome) {
+    let (x0, tris, rim) = shapes::disc(a, mesh);
+    let fixed: Vec<[bool; 3]> = rim.iter().map(|&r| [r; 3]).collect();
+    let mut sys = System {
+        refs: refs(&x0, &tris, h, None),
+        tris: tris.clone(),
+        materials: vec![mat],
+        tri_material: vec![0; tris.len()],
+        dofs: Dofs::new(&fixed),
+        fixed,
+        tri_pressure: vec![q; tris.len()],
+        pressure_scale: 1.0,
+        pressure_mode: PressureMode::Volume { origin: [0.0; 3] },
+        terms: Vec::new(),
+        project: true,
+        pressure_tangent: true,
+    };
+    // A flat membrane has no out-of-plane stiffness: start from a small
+    // paraboloid so the first tangent is not singular.
+    let mut x: Vec<V3> = x0
+        .iter()
+        .map(|p| V3::new(p.x, p.y, 0.05 * a * (1.0 - p.xy().norm_squared() / (a * a))))
+        .collect();
+    let mut opt = NewtonOptions::default();
+    opt.stop.abs_n = 1e-10;
+    opt.stop.rel = 1e-10;
+    opt.max_step_mm = 0.2 * a;
+    let o = newton(&mut sys, &mut x, &opt);
+    (x[0].z, o)
 }

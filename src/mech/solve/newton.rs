@@ -18,6 +18,11 @@ pub struct NewtonOptions {
     pub max_step_mm: f64,
     /// Give up after this many consecutive rejected steps.
     pub max_rejections: usize,
+    /// Pseudo-transient continuation for loads without a potential: solve
+    /// (K⁺ + s·diag) d = R with the PSD part K⁺ of the tangent (Cholesky),
+    /// take the step unless it triples the residual, and let the shift s
+    /// (1/Δt) follow the residual ratio (switched evolution relaxation).
+    pub ptc: bool,
 }
 
 impl Default for NewtonOptions {
@@ -26,6 +31,7 @@ impl Default for NewtonOptions {
             stop: Stop::default(),
             max_step_mm: 1.0,
             max_rejections: 12,
+            ptc: false,
         }
     }
 }
@@ -121,7 +127,11 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
         let diag = pat.diagonal(&vals);
         let mean_diag = diag.iter().map(|d| d.abs()).sum::<f64>() / diag.len().max(1) as f64;
         let rhs = sys.pack(&r);
-        let symmetric = sys.symmetric() && sys.terms.iter().all(|t| t.energy(x).is_some());
+        let symmetric =
+            opt.ptc || (sys.symmetric() && sys.terms.iter().all(|t| t.energy(x).is_some()));
+        if opt.ptc && out.iterations == 1 {
+            shift = 1.0;
+        }
         // Factorise, raising the shift until the factorisation succeeds.
         let mut d = None;
         for _ in 0..20 {
@@ -193,7 +203,16 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
                 }
             } else if let Ok(rn1) = sys.residual(&xn) {
                 let m = norm(&rn1);
-                if m.is_finite() && m * m <= rn * rn * (1.0 - 1e-4 * alpha) {
+                if opt.ptc {
+                    if m.is_finite() && m <= 3.0 * rn {
+                        // Δt grows geometrically while steps are taken: the
+                        // residual of a membrane rises before it falls, so
+                        // following the residual ratio (SER) would stall.
+                        shift = (shift * 0.5).max(1e-12);
+                        accepted = Some(xn);
+                        break;
+                    }
+                } else if m.is_finite() && m * m <= rn * rn * (1.0 - 1e-4 * alpha) {
                     accepted = Some(xn);
                     break;
                 }
@@ -205,7 +224,7 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
                 *x = xn;
                 rec.step = alpha;
                 rejections = 0;
-                if alpha == 1.0 {
+                if alpha == 1.0 && !opt.ptc {
                     shift = if shift < 1e-6 { 0.0 } else { shift * 0.1 };
                 }
             }
