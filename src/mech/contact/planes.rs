@@ -17,13 +17,34 @@
 //! ∂²e/∂x² = (2η₁ a/(3η₂)) n nᵀ  when f > 0, else 0
 //! ```
 //!
-//! which is C¹ (the Hessian jumps at d = η₂/2). With a pressure P < η₁ the
-//! equilibrium sits at d* = (η₂/2)(1 − P/η₁).
+//! which is only C¹: the Hessian jumps at d = η₂/2, and at equilibrium the
+//! nodes at the rim of a coaptation zone sit right there (their contact
+//! force tends to zero), which stalls Newton. So the kink of f is rounded:
+//! with u = 1 − 2d/η₂, f = u for u ≥ w, (u + w)²/(4w) for |u| < w, 0 below,
+//! w = [`ROUND`] (a change of the force by at most η₁ΣA/3 · w/4, only at
+//! the rim). With a pressure P < η₁ the equilibrium sits at
+//! d* = (η₂/2)(1 − P/η₁).
 
 use nalgebra::Matrix3;
 
 use crate::mech::element::V3;
 use crate::units::MMHG_IN_MPA;
+
+/// Half-width w of the rounded kink of f, in units of u = 1 − 2d/η₂.
+pub const ROUND: f64 = 0.05;
+
+/// The rounded ramp: (f, f′, F) with F′ = f, F(−w) = 0.
+fn ramp(u: f64) -> (f64, f64, f64) {
+    let w = ROUND;
+    if u >= w {
+        (u, 1.0, 0.5 * u * u + w * w / 6.0)
+    } else if u > -w {
+        let v = u + w;
+        (v * v / (4.0 * w), v / (2.0 * w), v * v * v / (12.0 * w))
+    } else {
+        (0.0, 0.0, 0.0)
+    }
+}
 
 /// A penalty plane. `normal` must be a unit vector (use [`Plane::new`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -88,10 +109,9 @@ impl Plane {
         (x - self.point).dot(&self.normal)
     }
 
-    /// f(d) = max(1 − 2d/η₂, 0).
+    /// f(d) = max(1 − 2d/η₂, 0) with its kink rounded (module docs).
     pub fn factor(&self, x: &V3) -> f64 {
-        let f = 1.0 - 2.0 * self.distance(x) / self.eta2;
-        if f > 0.0 { f } else { 0.0 }
+        ramp(1.0 - 2.0 * self.distance(x) / self.eta2).0
     }
 
     /// Whether the plane pushes on `x` (d < η₂/2).
@@ -115,15 +135,10 @@ impl Plane {
     /// non-finite input.
     pub fn eval(&self, x: &V3, area_sum: f64, want_hess: bool) -> (f64, V3, Option<Matrix3<f64>>) {
         let c = self.eta1 * area_sum / 3.0;
-        let f = self.factor(x);
-        let e = c * self.eta2 / 4.0 * f * f;
-        let h = want_hess.then(|| {
-            if f > 0.0 {
-                self.normal * self.normal.transpose() * (2.0 * c / self.eta2)
-            } else {
-                Matrix3::zeros()
-            }
-        });
+        let (f, df, big_f) = ramp(1.0 - 2.0 * self.distance(x) / self.eta2);
+        let e = c * self.eta2 / 2.0 * big_f;
+        let h =
+            want_hess.then(|| self.normal * self.normal.transpose() * (2.0 * c / self.eta2 * df));
         if !(e.is_finite() && (c * f).is_finite()) {
             return (0.0, V3::zeros(), want_hess.then(Matrix3::zeros));
         }
