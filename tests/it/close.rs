@@ -144,3 +144,87 @@ fn a_closure_that_does_not_converge_exits_1_with_its_history_and_no_mesh() {
     // The placed leaflets hang from the sutures: those nodes lie on the wall.
     assert!(v["sutured_to_wall_mm"]["max"].as_f64().unwrap() < 0.05);
 }
+
+/// The sample valve closes with the seed 001 contact planes: converged, no
+/// NaN, sutures unmoved, every leaflet pressed onto its planes and carried
+/// towards the axis, and the same bytes whatever the thread count.
+#[test]
+fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
+    use coapt::io::vtp;
+    let d = tmpdir("close-planes");
+    let surface = sample_leaflets(&d);
+    let cfg = repo().join("pipelines/close.toml");
+    let run = |threads: &str, out: &str| {
+        let o = coapt(&[
+            "close",
+            "--leaflets",
+            &s(&d.join("leaflets.vtp")),
+            "--surface",
+            &s(&surface),
+            "--config",
+            &s(&cfg),
+            "--valve",
+            &s(&d.join("valve.json")),
+            "--out",
+            &s(&d.join(out)),
+            "--log",
+            &s(&d.join(format!("{out}.json"))),
+            "--threads",
+            threads,
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    run("1", "closed1.vtp");
+    run("2", "closed2.vtp");
+    assert_eq!(std::fs::read(d.join("closed1.vtp")).unwrap(), std::fs::read(d.join("closed2.vtp")).unwrap());
+    let log: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("closed1.vtp.json")).unwrap()).unwrap();
+    assert_eq!(log["solver"]["converged"], true);
+    assert!(log["solver"]["residual_n"].as_f64().unwrap() <= 1e-7);
+    let before = vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
+    let after = vtp::read_mesh(&d.join("closed1.vtp")).unwrap();
+    let valve: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("valve.json")).unwrap()).unwrap();
+    let v = |j: &serde_json::Value| coapt::geom::Vector3::new(j[0].as_f64().unwrap(), j[1].as_f64().unwrap(), j[2].as_f64().unwrap());
+    let (axis, centre) = (v(&valve["valve_frame"]["axis"]), v(&valve["commissure_cylinder"]["centre_mm"]));
+    let radial = |p: &coapt::geom::Point3| {
+        let q = p.coords - centre;
+        (q - axis * q.dot(&axis)).norm()
+    };
+    let bnd = before.point_data.get("boundary").unwrap().values.to_f64().unwrap();
+    let contact = after.point_data.get("contact").unwrap().values.to_f64().unwrap();
+    let (mut free_before, mut free_after, mut n_free) = (0.0, 0.0, 0.0);
+    for i in 0..before.vertices.len() {
+        assert!(after.vertices[i].iter().all(|c| c.is_finite()));
+        if bnd[i] == 1.0 {
+            assert_eq!(before.vertices[i], after.vertices[i], "a sutured node moved");
+        }
+        if bnd[i] == 2.0 {
+            free_before += radial(&before.vertices[i]);
+            free_after += radial(&after.vertices[i]);
+            n_free += 1.0;
+        }
+    }
+    assert!(free_after / n_free < 0.9 * free_before / n_free, "free edges did not move towards the axis: {} → {} mm", free_before / n_free, free_after / n_free);
+    // Diastole pushes the bellies towards the ventricle.
+    let (mut down, mut n) = (0.0, 0.0);
+    for i in 0..before.vertices.len() {
+        if bnd[i] == 0.0 {
+            down += (after.vertices[i] - before.vertices[i]).dot(&axis);
+            n += 1.0;
+        }
+    }
+    assert!(down / n < -0.1, "mean axial move of interior nodes {} mm", down / n);
+    // Each leaflet touches both of its planes.
+    let leaf = after.cell_data.get("leaflet").unwrap().values.to_f64().unwrap();
+    for k in 1..=3 {
+        let mut bits = 0u8;
+        for (t, tri) in after.triangles.iter().enumerate() {
+            if leaf[t] == k as f64 {
+                for &i in tri {
+                    bits |= contact[i as usize] as u8;
+                }
+            }
+        }
+        assert_eq!(bits.count_ones(), 2, "leaflet {k} touches planes {bits:b}");
+    }
+}
