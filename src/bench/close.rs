@@ -158,6 +158,36 @@ pub struct Metrics {
     /// Lowest point of the whole leaflet.
     pub lowest_mm: f64,
     pub max_displacement_mm: f64,
+    /// Deepest node behind a contact plane (mm, ≥ 0; planes through the
+    /// axis and the two lug corners, as `contact = "planes"` builds them).
+    pub max_penetration_mm: f64,
+}
+
+/// Signed distances of `x` to the two planes through the +z axis and the
+/// lug corners of the placed leaflet `l`, positive on the leaflet's side.
+pub fn plane_distances(l: &Leaflets, x: &[V3]) -> Vec<[f64; 2]> {
+    let c = closure::corners(l);
+    let rad = |p: &V3| V3::new(p.x, p.y, 0.0);
+    let centroid = rad(&(l.x.iter().sum::<V3>() / l.x.len() as f64));
+    // Split the corners by the side of the centroid's radial line.
+    let side = |p: &V3| centroid.cross(&rad(p)).z >= 0.0;
+    let mut normals = Vec::new();
+    for s in [true, false] {
+        let pts: Vec<V3> = c
+            .iter()
+            .map(|&i| l.x[i as usize])
+            .filter(|p| side(p) == s)
+            .collect();
+        let m = rad(&(pts.iter().sum::<V3>() / pts.len().max(1) as f64));
+        let mut n = V3::z().cross(&m).normalize();
+        if n.dot(&centroid) < 0.0 {
+            n = -n;
+        }
+        normals.push(n);
+    }
+    x.iter()
+        .map(|p| [normals[0].dot(&rad(p)), normals[1].dot(&rad(p))])
+        .collect()
 }
 
 pub fn metrics(l: &Leaflets, c: &Closed) -> Metrics {
@@ -184,6 +214,10 @@ pub fn metrics(l: &Leaflets, c: &Closed) -> Metrics {
             .iter()
             .zip(&l.x)
             .map(|(a, b)| (a - b).norm())
+            .fold(0.0, f64::max),
+        max_penetration_mm: plane_distances(l, &c.x)
+            .iter()
+            .map(|d| (-d[0]).max(-d[1]))
             .fold(0.0, f64::max),
     }
 }
@@ -254,13 +288,13 @@ pub fn run_one(h: f64, model: &str, solver: &str, time_limit_s: f64) -> Result<R
     })
 }
 
-const HEADER: &str = "h_mm,nodes,triangles,converged,iterations,residual_n,initial_residual_n,wall_s,contact_nodes,contact_area_mm2,coaptation_height_mm,contact_zmin_mm,free_edge_zmin_mm,lowest_mm,max_displacement_mm,reason";
+const HEADER: &str = "h_mm,nodes,triangles,converged,iterations,residual_n,initial_residual_n,wall_s,contact_nodes,contact_area_mm2,coaptation_height_mm,contact_zmin_mm,free_edge_zmin_mm,lowest_mm,max_displacement_mm,max_penetration_mm,reason";
 
 fn csv_line(r: &Row) -> String {
     let m = r.metrics;
     let f = |g: fn(&Metrics) -> f64| m.map(|m| format!("{:.4}", g(&m))).unwrap_or_default();
     format!(
-        "{},{},{},{},{},{:.3e},{:.3e},{:.3},{},{},{},{},{},{},{},\"{}\"",
+        "{},{},{},{},{},{:.3e},{:.3e},{:.3},{},{},{},{},{},{},{},{},\"{}\"",
         r.h,
         r.nodes,
         r.triangles,
@@ -276,6 +310,7 @@ fn csv_line(r: &Row) -> String {
         f(|m| m.free_edge_zmin_mm),
         f(|m| m.lowest_mm),
         f(|m| m.max_displacement_mm),
+        f(|m| m.max_penetration_mm),
         r.reason.replace('"', "'")
     )
 }
@@ -289,19 +324,20 @@ fn print_line(r: &Row) -> String {
     match r.metrics {
         Some(m) => {
             s += &format!(
-                " {:>6} {:>8.2} {:>7.2} {:>7.2} {:>7.2} {:>7.2}",
+                " {:>6} {:>8.2} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>7.3}",
                 m.contact_nodes,
                 m.contact_area_mm2,
                 m.coaptation_height_mm,
                 m.free_edge_zmin_mm,
                 m.lowest_mm,
-                m.max_displacement_mm
+                m.max_displacement_mm,
+                m.max_penetration_mm
             )
         }
         None => {
             s += &format!(
-                " {:>6} {:>8} {:>7} {:>7} {:>7} {:>7}",
-                "-", "-", "-", "-", "-", "-"
+                " {:>6} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7}",
+                "-", "-", "-", "-", "-", "-", "-"
             )
         }
     }
@@ -374,7 +410,7 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
         TEMPLATE[0], TEMPLATE[1], TEMPLATE[2], TEMPLATE[3]
     );
     println!(
-        "{:>5} {:>6} {:>4} {:>5} {:>10} {:>9} {:>8} {:>6} {:>8} {:>7} {:>7} {:>7} {:>7}",
+        "{:>5} {:>6} {:>4} {:>5} {:>10} {:>9} {:>8} {:>6} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7}",
         "h_mm",
         "nodes",
         "conv",
@@ -387,7 +423,8 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
         "coapt_h",
         "free_lo",
         "lowest",
-        "max_u"
+        "max_u",
+        "pen_mm"
     );
     let mut rows = Vec::new();
     for &h in &hs {
@@ -519,5 +556,112 @@ mod tests {
             "h 1.0: converged {} after {} iterations, residual {:.3e} N ({}); {:?}",
             c.outcome.converged, c.outcome.iterations, c.outcome.residual_n, c.outcome.reason, m
         );
+    }
+}
+
+#[cfg(test)]
+mod diag {
+    use super::*;
+
+    #[test]
+    #[ignore]
+    fn bench_close_diagnose() {
+        for h in [1.0, 0.7, 0.5] {
+            let cfg = config::parse(&config_text("svk", "newton", 120.0)).unwrap();
+            let (l, axis) = ozaki_cylinder(h).unwrap();
+            let c = closure::close(&l, &cfg, Some(axis)).unwrap();
+            let uv = l.ref_uv.as_ref().unwrap();
+            let (i, u) =
+                c.x.iter()
+                    .zip(&l.x)
+                    .map(|(a, b)| (a - b).norm())
+                    .enumerate()
+                    .max_by(|a, b| a.1.total_cmp(&b.1))
+                    .unwrap();
+            let ang = |p: &V3| p.y.atan2(p.x).to_degrees();
+            let rr = |p: &V3| p.x.hypot(p.y);
+            eprintln!(
+                "h {h}: conv {} res {:.2e}; max u {u:.2} at node {i} uv {:?} b {} from {:?} (r {:.2} ang {:.1}) to {:?} (r {:.2} ang {:.1})",
+                c.outcome.converged,
+                c.outcome.residual_n,
+                uv[i],
+                l.boundary[i],
+                l.x[i].as_slice(),
+                rr(&l.x[i]),
+                ang(&l.x[i]),
+                c.x[i].as_slice(),
+                rr(&c.x[i]),
+                ang(&c.x[i])
+            );
+            let amin = c.area_stretch.iter().cloned().fold(f64::INFINITY, f64::min);
+            let amax = c.area_stretch.iter().cloned().fold(0.0, f64::max);
+            let smax = c.max_stretch.iter().cloned().fold(0.0, f64::max);
+            let compressed = c.max_stretch.iter().filter(|&&s| s < 1.0).count();
+            eprintln!(
+                "  J in [{amin:.3}, {amax:.3}], max stretch {smax:.3}, {compressed}/{} triangles with max stretch < 1",
+                c.max_stretch.len()
+            );
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for p in &c.x {
+                lo = lo.min(ang(p));
+                hi = hi.max(ang(p));
+            }
+            let cor = closure::corners(&l);
+            let ca: Vec<f64> = cor.iter().map(|&k| ang(&l.x[k as usize])).collect();
+            let dmin = plane_distances(&l, &c.x)
+                .iter()
+                .map(|d| d[0].min(d[1]))
+                .fold(f64::INFINITY, f64::min);
+            let d0 = plane_distances(&l, &l.x)
+                .iter()
+                .map(|d| d[0].min(d[1]))
+                .fold(f64::INFINITY, f64::min);
+            eprintln!("  min plane distance placed {d0:.4} closed {dmin:.4} mm");
+            eprintln!("  closed angles [{lo:.2}, {hi:.2}] deg; corners at {ca:.2?} deg");
+            let mut fe: Vec<usize> = (0..l.x.len()).filter(|&k| l.boundary[k] == 2).collect();
+            fe.sort_by(|&a, &b| uv[a][0].total_cmp(&uv[b][0]));
+            let prof: Vec<String> = fe
+                .iter()
+                .step_by((fe.len() / 8).max(1))
+                .map(|&k| {
+                    format!(
+                        "u{:.1}:r{:.2},a{:.1},z{:.2}",
+                        uv[k][0],
+                        rr(&c.x[k]),
+                        ang(&c.x[k]),
+                        c.x[k].z
+                    )
+                })
+                .collect();
+            eprintln!("  free edge {}", prof.join(" "));
+            let prof0: Vec<String> = fe
+                .iter()
+                .step_by((fe.len() / 8).max(1))
+                .map(|&k| {
+                    format!(
+                        "u{:.1}:r{:.2},a{:.1},z{:.2}",
+                        uv[k][0],
+                        rr(&l.x[k]),
+                        ang(&l.x[k]),
+                        l.x[k].z
+                    )
+                })
+                .collect();
+            eprintln!("  free edge placed {}", prof0.join(" "));
+            let last: Vec<String> = c
+                .outcome
+                .history
+                .iter()
+                .rev()
+                .take(6)
+                .map(|r| {
+                    format!(
+                        "{}#{} {:.2e} a{:.2e} s{:.1e}",
+                        r.phase, r.iteration, r.residual_n, r.step, r.shift
+                    )
+                })
+                .collect();
+            eprintln!("  last: {}", last.join(" | "));
+        }
     }
 }
