@@ -402,13 +402,21 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
     let model = m.get_one::<String>("model").expect("default");
     let solver = m.get_one::<String>("solver").expect("default");
     let limit = *m.get_one::<f64>("time-limit").expect("default");
-    if !(limit > 0.0) {
+    if limit.is_nan() || limit <= 0.0 {
         return Err(Error::usage("--time-limit must be positive"));
     }
     println!(
         "ozaki-cylinder: template D {} H {} Hf {} Lf {} mm on R {R} mm (Hc {HC}, Hb {HB}, gaps {GAP} mm), {model}, {solver}, planes, {threads} thread(s)",
         TEMPLATE[0], TEMPLATE[1], TEMPLATE[2], TEMPLATE[3]
     );
+    if let Template::Ozaki(t) = template() {
+        println!(
+            "suture path {:.2} mm vs template attachment edge {:.2} mm (free edge {:.2} mm); the placed leaflet is the stress-free reference",
+            Path3::new(suture_path()).length(),
+            t.sutured_length(),
+            t.free_length()
+        );
+    }
     println!(
         "{:>5} {:>6} {:>4} {:>5} {:>10} {:>9} {:>8} {:>6} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7}",
         "h_mm",
