@@ -574,7 +574,11 @@ mod diag {
     #[test]
     #[ignore]
     fn bench_close_diagnose() {
-        for h in [1.0, 0.7, 0.5] {
+        // COAPT_DIAG_H="0.35,0.5" picks the meshes.
+        let hs: Vec<f64> = std::env::var("COAPT_DIAG_H")
+            .map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect())
+            .unwrap_or_else(|_| vec![1.0, 0.7, 0.5]);
+        for h in hs {
             let cfg = config::parse(&config_text("svk", "newton", 120.0)).unwrap();
             let (l, axis) = ozaki_cylinder(h).unwrap();
             let c = closure::close(&l, &cfg, Some(axis)).unwrap();
@@ -670,6 +674,18 @@ mod diag {
                 })
                 .collect();
             eprintln!("  last: {}", last.join(" | "));
+            let hist = &c.outcome.history;
+            let n_cont = hist.iter().filter(|r| r.phase == "continuation").count();
+            let every: Vec<String> = hist
+                .iter()
+                .step_by((hist.len() / 25).max(1))
+                .map(|r| format!("{}:{:.1e}", r.iteration, r.residual_n))
+                .collect();
+            eprintln!(
+                "  {n_cont} continuation + {} Newton records; residual every few: {}",
+                hist.len() - n_cont,
+                every.join(" ")
+            );
         }
     }
 }
