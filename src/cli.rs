@@ -172,6 +172,7 @@ fn command() -> Command {
                             .value_parser(clap::value_parser!(u32).range(1..=50)),
                     ),
             )
+            .subcommand(bench::close::command())
             .subcommand(
                 Command::new("segment")
                     .about("Segmentation accuracy against the phantom truth and seconds per step")
@@ -382,6 +383,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 println!("{}", bench::surface::run(mask, iso, repeat, threads)?);
                 Ok(())
             }
+            Some(("close", b)) => bench::close::dispatch(b, threads),
             Some(("segment", b)) => {
                 let set = b.get_one::<String>("cases").expect("has default");
                 let baseline = b.get_one::<String>("baseline").map(String::as_str);

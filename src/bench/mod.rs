@@ -2,6 +2,7 @@
 //! child `coapt` process so that peak memory belongs to one run alone. One
 //! file per benchmark.
 
+pub mod close;
 pub mod phantom;
 pub mod segment;
 pub mod surface;

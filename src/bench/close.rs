@@ -1,0 +1,691 @@
+//! `coapt bench close --case ozaki-cylinder`: the peer case of issue 6 /
+//! VERIFICATION.md §4, in process. One leaflet of the parametric Ozaki
+//! template (D 19, H 11, H_f 2, L_f 24 mm) meshed by the advancing front and
+//! placed as the `leaflets` stage places it (`place_radial`, ω = −40°) on a
+//! cylindrical root R = 12 mm (axis +z through the origin, commissures at
+//! z = 0) whose suture line is seed 001 eq. 1 with H_c 1.5, H_b 9 mm and
+//! 4 mm gaps between the three leaflets; St.V-K E 1 MPa ν 0, 0.5 mm, 80 mmHg,
+//! the two seed 001 contact planes. Prints one line per mesh.
+
+use std::f64::consts::PI;
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::{Arg, ArgMatches, Command};
+
+use crate::geom::{Point3, Vector3};
+use crate::leaflet::aft;
+use crate::leaflet::place::{self, Path3};
+use crate::leaflet::template::{OzakiTemplate, Template};
+use crate::mech::closure::{self, Axis, Closed, Leaflets};
+use crate::mech::config;
+use crate::mech::element::V3;
+use crate::valve::suture::PathSpec;
+use crate::{Error, Result};
+
+/// Root radius, straight part, belly depth, gap between leaflets (mm).
+pub const R: f64 = 12.0;
+pub const HC: f64 = 1.5;
+pub const HB: f64 = 9.0;
+pub const GAP: f64 = 4.0;
+/// Template D, H, H_f, L_f (mm).
+pub const TEMPLATE: [f64; 4] = [19.0, 11.0, 2.0, 24.0];
+/// The `leaflets` stage's default extrusion lean.
+pub const OMEGA_DEG: f64 = -40.0;
+/// Meshes of the benchmark (mm).
+pub const MESHES: [f64; 4] = [1.0, 0.7, 0.5, 0.35];
+
+/// The suture path: eq. 1 on the cylinder from angle GAP/(2R) to
+/// 2π/3 − GAP/(2R), commissures at z = 0, nadir at −(H_c + H_b); points
+/// exactly on the cylinder, ≈ 0.003 mm apart.
+pub fn suture_path() -> Vec<Point3> {
+    let half_gap = GAP / (2.0 * R);
+    let (a, b) = (half_gap, 2.0 * PI / 3.0 - half_gap);
+    let spec = PathSpec {
+        angle_a: a,
+        height_a: 0.0,
+        angle_b: b,
+        height_b: 0.0,
+        hc: HC,
+        nadir_angle: (a + b) / 2.0,
+        nadir_height: -HC - HB,
+    };
+    let per = 4000;
+    (0..=4 * per)
+        .map(|k| {
+            let (ang, z) = spec.at(k as f64 / per as f64);
+            Point3::new(R * ang.cos(), R * ang.sin(), z)
+        })
+        .collect()
+}
+
+/// The template of the peer case.
+pub fn template() -> Template {
+    let [d, h, hf, lf] = TEMPLATE;
+    Template::Ozaki(OzakiTemplate::new(d, h, hf, lf).expect("valid peer template"))
+}
+
+/// The peer case at mesh size `h` (mm): one leaflet, boundary 1 sutured /
+/// 2 free, leaflet 0 everywhere, ref_uv the flat mesh, no fibres; the axis
+/// through the commissure height (z = 0) along +z.
+pub fn ozaki_cylinder(h: f64) -> Result<(Leaflets, Axis), String> {
+    if !(h > 0.0 && h.is_finite()) {
+        return Err(format!("mesh size h = {h} mm must be positive"));
+    }
+    let t = template();
+    let m = aft::mesh(&t.outline(), h)?;
+    let (s, w) = place::column_coords(&t, &m);
+    let path = Path3::new(suture_path());
+    let (mut x, _omega) = place::place_radial(
+        &s,
+        &w,
+        &path,
+        &Vector3::z(),
+        &Point3::origin(),
+        OMEGA_DEG.to_radians(),
+        0.5,
+    );
+    // Sutured nodes sit on the path's chords (sagitta ≈ 1e-7 mm): put them
+    // on the cylinder exactly, keeping angle and height.
+    for (p, &b) in x.iter_mut().zip(&m.boundary) {
+        if b == 1 {
+            let r = p.x.hypot(p.y);
+            p.x *= R / r;
+            p.y *= R / r;
+        }
+    }
+    let l = Leaflets {
+        x: x.iter().map(|p| p.coords).collect(),
+        tris: m.tris.clone(),
+        boundary: m.boundary.clone(),
+        leaflet: vec![0; m.tris.len()],
+        ref_uv: Some(m.nodes.clone()),
+        fibers: None,
+    };
+    let axis = Axis {
+        origin: V3::zeros(),
+        dir: V3::z(),
+    };
+    Ok((l, axis))
+}
+
+/// Fibre directions per triangle (for GOH): the flat template's u axis
+/// (circumferential) and its mirror, pushed forward to the placed leaflet.
+pub fn circumferential_fibres(l: &Leaflets) -> Option<Vec<[V3; 2]>> {
+    let uv = l.ref_uv.as_ref()?;
+    Some(
+        l.tris
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| i as usize);
+                let u1 = [uv[b][0] - uv[a][0], uv[b][1] - uv[a][1]];
+                let u2 = [uv[c][0] - uv[a][0], uv[c][1] - uv[a][1]];
+                let det = u1[0] * u2[1] - u1[1] * u2[0];
+                let (x1, x2) = (l.x[b] - l.x[a], l.x[c] - l.x[a]);
+                // F·e_u: solve [u1 u2]·(α, β) = (1, 0).
+                let v = (x1 * (u2[1] / det) + x2 * (-u1[1] / det)).normalize();
+                [v, v]
+            })
+            .collect(),
+    )
+}
+
+/// Lumped (one third of each adjacent triangle) node areas at `x` (mm²).
+pub fn node_areas(x: &[V3], tris: &[[u32; 3]]) -> Vec<f64> {
+    let mut a = vec![0.0; x.len()];
+    for t in tris {
+        let [i, j, k] = t.map(|v| v as usize);
+        let ar = (x[j] - x[i]).cross(&(x[k] - x[i])).norm() / 6.0;
+        a[i] += ar;
+        a[j] += ar;
+        a[k] += ar;
+    }
+    a
+}
+
+/// Coaptation metrics of a closed leaflet (heights along +z from the
+/// commissure plane, mm).
+#[derive(Debug, Clone, Copy)]
+pub struct Metrics {
+    pub contact_nodes: usize,
+    pub contact_area_mm2: f64,
+    /// Axial extent of the touching nodes (seed plane convention).
+    pub coaptation_height_mm: f64,
+    pub contact_zmin_mm: f64,
+    /// Lowest point of the free edge.
+    pub free_edge_zmin_mm: f64,
+    /// Lowest point of the whole leaflet.
+    pub lowest_mm: f64,
+    pub max_displacement_mm: f64,
+    /// Deepest node behind a contact plane (mm, ≥ 0; planes through the
+    /// axis and the two lug corners, as `contact = "planes"` builds them).
+    pub max_penetration_mm: f64,
+}
+
+/// Signed distances of `x` to the two planes through the +z axis and the
+/// lug corners of the placed leaflet `l`, positive on the leaflet's side.
+pub fn plane_distances(l: &Leaflets, x: &[V3]) -> Vec<[f64; 2]> {
+    let c = closure::corners(l);
+    let rad = |p: &V3| V3::new(p.x, p.y, 0.0);
+    let centroid = rad(&(l.x.iter().sum::<V3>() / l.x.len() as f64));
+    // Split the corners by the side of the centroid's radial line.
+    let side = |p: &V3| centroid.cross(&rad(p)).z >= 0.0;
+    let mut normals = Vec::new();
+    for s in [true, false] {
+        let pts: Vec<V3> = c
+            .iter()
+            .map(|&i| l.x[i as usize])
+            .filter(|p| side(p) == s)
+            .collect();
+        let m = rad(&(pts.iter().sum::<V3>() / pts.len().max(1) as f64));
+        let mut n = V3::z().cross(&m).normalize();
+        if n.dot(&centroid) < 0.0 {
+            n = -n;
+        }
+        normals.push(n);
+    }
+    x.iter()
+        .map(|p| [normals[0].dot(&rad(p)), normals[1].dot(&rad(p))])
+        .collect()
+}
+
+pub fn metrics(l: &Leaflets, c: &Closed) -> Metrics {
+    let area = node_areas(&c.x, &l.tris);
+    let touch: Vec<usize> = (0..c.x.len()).filter(|&i| c.contact[i] != 0).collect();
+    let z = |i: usize| c.x[i].z;
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for &i in &touch {
+        lo = lo.min(z(i));
+        hi = hi.max(z(i));
+    }
+    Metrics {
+        contact_nodes: touch.len(),
+        contact_area_mm2: touch.iter().map(|&i| area[i]).sum(),
+        coaptation_height_mm: if touch.is_empty() { 0.0 } else { hi - lo },
+        contact_zmin_mm: if touch.is_empty() { f64::NAN } else { lo },
+        free_edge_zmin_mm: (0..c.x.len())
+            .filter(|&i| l.boundary[i] == 2)
+            .map(z)
+            .fold(f64::INFINITY, f64::min),
+        lowest_mm: (0..c.x.len()).map(z).fold(f64::INFINITY, f64::min),
+        max_displacement_mm: c
+            .x
+            .iter()
+            .zip(&l.x)
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0, f64::max),
+        max_penetration_mm: plane_distances(l, &c.x)
+            .iter()
+            .map(|d| (-d[0]).max(-d[1]))
+            .fold(0.0, f64::max),
+    }
+}
+
+/// `close.toml` of the peer case for a model and solver.
+pub fn config_text(model: &str, solver: &str, time_limit_s: f64) -> String {
+    let material = match model {
+        "svk" => "model = \"svk\"\nyoung = \"1 MPa\"\npoisson = 0\n",
+        "neo-hookean" => "model = \"neo-hookean\"\nyoung = \"1 MPa\"\n",
+        // Seed 001's stiffer GOH set with circumferential fibres.
+        _ => "model = \"goh\"\nyoung = \"1 MPa\"\nk1 = \"1100 kPa\"\nk2 = 1000\nkappa = 0.2\n",
+    };
+    format!(
+        "{material}thickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\nsolver = \"{solver}\"\ntime_limit = \"{time_limit_s} s\"\n"
+    )
+}
+
+/// One benchmark row.
+#[derive(Debug, Clone)]
+pub struct Row {
+    pub h: f64,
+    pub nodes: usize,
+    pub triangles: usize,
+    pub converged: bool,
+    pub iterations: usize,
+    pub residual_n: f64,
+    pub initial_residual_n: f64,
+    pub wall_s: f64,
+    pub reason: String,
+    pub metrics: Option<Metrics>,
+}
+
+pub fn run_one(h: f64, model: &str, solver: &str, time_limit_s: f64) -> Result<Row> {
+    let fail = |e: String| Error::failed("bench close", e);
+    let cfg = config::parse(&config_text(model, solver, time_limit_s)).map_err(fail)?;
+    let (mut l, axis) = ozaki_cylinder(h).map_err(fail)?;
+    if model == "goh" {
+        l.fibers = circumferential_fibres(&l);
+    }
+    let t0 = Instant::now();
+    let res = closure::close(&l, &cfg, Some(axis));
+    let wall_s = t0.elapsed().as_secs_f64();
+    Ok(match res {
+        Ok(c) => Row {
+            h,
+            nodes: l.x.len(),
+            triangles: l.tris.len(),
+            converged: c.outcome.converged,
+            iterations: c.outcome.iterations,
+            residual_n: c.outcome.residual_n,
+            initial_residual_n: c.outcome.initial_residual_n,
+            wall_s,
+            reason: c.outcome.reason.clone(),
+            metrics: Some(metrics(&l, &c)),
+        },
+        Err(e) => Row {
+            h,
+            nodes: l.x.len(),
+            triangles: l.tris.len(),
+            converged: false,
+            iterations: 0,
+            residual_n: f64::NAN,
+            initial_residual_n: f64::NAN,
+            wall_s,
+            reason: format!("error: {e}"),
+            metrics: None,
+        },
+    })
+}
+
+const HEADER: &str = "h_mm,nodes,triangles,converged,iterations,residual_n,initial_residual_n,wall_s,contact_nodes,contact_area_mm2,coaptation_height_mm,contact_zmin_mm,free_edge_zmin_mm,lowest_mm,max_displacement_mm,max_penetration_mm,reason";
+
+fn csv_line(r: &Row) -> String {
+    let m = r.metrics;
+    let f = |g: fn(&Metrics) -> f64| m.map(|m| format!("{:.4}", g(&m))).unwrap_or_default();
+    format!(
+        "{},{},{},{},{},{:.3e},{:.3e},{:.3},{},{},{},{},{},{},{},{},\"{}\"",
+        r.h,
+        r.nodes,
+        r.triangles,
+        r.converged,
+        r.iterations,
+        r.residual_n,
+        r.initial_residual_n,
+        r.wall_s,
+        m.map(|m| m.contact_nodes.to_string()).unwrap_or_default(),
+        f(|m| m.contact_area_mm2),
+        f(|m| m.coaptation_height_mm),
+        f(|m| m.contact_zmin_mm),
+        f(|m| m.free_edge_zmin_mm),
+        f(|m| m.lowest_mm),
+        f(|m| m.max_displacement_mm),
+        f(|m| m.max_penetration_mm),
+        r.reason.replace('"', "'")
+    )
+}
+
+fn print_line(r: &Row) -> String {
+    let conv = if r.converged { "yes" } else { "NO" };
+    let mut s = format!(
+        "{:>5.2} {:>6} {:>4} {:>5} {:>10.3e} {:>9.3e} {:>8.2}",
+        r.h, r.nodes, conv, r.iterations, r.residual_n, r.initial_residual_n, r.wall_s
+    );
+    match r.metrics {
+        Some(m) => {
+            s += &format!(
+                " {:>6} {:>8.2} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>7.3}",
+                m.contact_nodes,
+                m.contact_area_mm2,
+                m.coaptation_height_mm,
+                m.free_edge_zmin_mm,
+                m.lowest_mm,
+                m.max_displacement_mm,
+                m.max_penetration_mm
+            )
+        }
+        None => {
+            s += &format!(
+                " {:>6} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7}",
+                "-", "-", "-", "-", "-", "-", "-"
+            )
+        }
+    }
+    if !r.converged {
+        s += &format!("  [{}]", r.reason);
+    }
+    s
+}
+
+pub fn command() -> Command {
+    Command::new("close")
+        .about("Closure benchmark: the Ozaki-on-cylinder peer case (in process, one line per mesh)")
+        .arg(
+            Arg::new("case")
+                .long("case")
+                .value_name("NAME")
+                .default_value("ozaki-cylinder")
+                .value_parser(["ozaki-cylinder"]),
+        )
+        .arg(
+            Arg::new("h")
+                .long("h")
+                .value_name("MM")
+                .value_parser(clap::value_parser!(f64))
+                .help("one mesh size (default: 1.0, 0.7, 0.5, 0.35)"),
+        )
+        .arg(
+            Arg::new("model")
+                .long("model")
+                .default_value("svk")
+                .value_parser(["svk", "neo-hookean", "goh"]),
+        )
+        .arg(
+            Arg::new("solver")
+                .long("solver")
+                .default_value("newton")
+                .value_parser(["newton", "relax", "combined"]),
+        )
+        .arg(
+            Arg::new("time-limit")
+                .long("time-limit")
+                .value_name("S")
+                .default_value("600")
+                .value_parser(clap::value_parser!(f64))
+                .help("solver time limit per mesh (s)"),
+        )
+        .arg(
+            Arg::new("csv")
+                .long("csv")
+                .value_name("FILE")
+                .value_parser(clap::value_parser!(PathBuf)),
+        )
+}
+
+/// `coapt bench close …` (the rayon pool is already sized by `--threads`).
+pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
+    let hs: Vec<f64> = match m.get_one::<f64>("h") {
+        Some(&h) if h > 0.0 && h.is_finite() => vec![h],
+        Some(h) => return Err(Error::usage(format!("--h {h}: must be positive"))),
+        None => MESHES.to_vec(),
+    };
+    let model = m.get_one::<String>("model").expect("default");
+    let solver = m.get_one::<String>("solver").expect("default");
+    let limit = *m.get_one::<f64>("time-limit").expect("default");
+    if limit.is_nan() || limit <= 0.0 {
+        return Err(Error::usage("--time-limit must be positive"));
+    }
+    println!(
+        "ozaki-cylinder: template D {} H {} Hf {} Lf {} mm on R {R} mm (Hc {HC}, Hb {HB}, gaps {GAP} mm), {model}, {solver}, planes, {threads} thread(s)",
+        TEMPLATE[0], TEMPLATE[1], TEMPLATE[2], TEMPLATE[3]
+    );
+    if let Template::Ozaki(t) = template() {
+        println!(
+            "suture path {:.2} mm vs template attachment edge {:.2} mm (free edge {:.2} mm); the placed leaflet is the stress-free reference",
+            Path3::new(suture_path()).length(),
+            t.sutured_length(),
+            t.free_length()
+        );
+    }
+    println!(
+        "{:>5} {:>6} {:>4} {:>5} {:>10} {:>9} {:>8} {:>6} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7}",
+        "h_mm",
+        "nodes",
+        "conv",
+        "iter",
+        "resid_N",
+        "resid0_N",
+        "wall_s",
+        "touch",
+        "area_mm2",
+        "coapt_h",
+        "free_lo",
+        "lowest",
+        "max_u",
+        "pen_mm"
+    );
+    let mut rows = Vec::new();
+    for &h in &hs {
+        let r = run_one(h, model, solver, limit)?;
+        println!("{}", print_line(&r));
+        let _ = std::io::stdout().flush();
+        rows.push(r);
+    }
+    if let Some(path) = m.get_one::<PathBuf>("csv") {
+        let mut text = String::from(HEADER) + "\n";
+        for r in &rows {
+            text += &csv_line(r);
+            text.push('\n');
+        }
+        std::fs::write(path, text).map_err(|e| Error::write(path, e))?;
+    }
+    Ok(())
+}
+
+/// Flat-mesh edge length of one label (edges between two boundary nodes
+/// whose labels are `edge` or a lug corner next to it).
+#[cfg(test)]
+fn flat_edge_length(l: &Leaflets, code: u8) -> f64 {
+    let uv = l.ref_uv.as_ref().unwrap();
+    let mut count = std::collections::HashMap::new();
+    for t in &l.tris {
+        for k in 0..3 {
+            let (a, b) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
+            *count.entry((a, b)).or_insert(0) += 1;
+        }
+    }
+    count
+        .iter()
+        .filter(|&(_, &c)| c == 1)
+        .filter(|&(&(a, b), _)| {
+            let (la, lb) = (l.boundary[a as usize], l.boundary[b as usize]);
+            // Sutured: both ends sutured. Free: at least one free end (the
+            // segments from the lug corners count as free edge).
+            if code == 1 {
+                la == 1 && lb == 1
+            } else {
+                la == 2 || lb == 2
+            }
+        })
+        .map(|(&(a, b), _)| {
+            let (p, q) = (uv[a as usize], uv[b as usize]);
+            (p[0] - q[0]).hypot(p[1] - q[1])
+        })
+        .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ozaki() -> OzakiTemplate {
+        let [d, h, hf, lf] = TEMPLATE;
+        OzakiTemplate::new(d, h, hf, lf).unwrap()
+    }
+
+    #[test]
+    fn bench_close_case_geometry() {
+        let t = ozaki();
+        assert!((t.sutured_length() - 52.4).abs() < 0.05);
+        assert!((t.free_length() - 24.33).abs() < 0.01);
+        let mut counts = Vec::new();
+        for h in [1.0, 0.5] {
+            let (l, axis) = ozaki_cylinder(h).unwrap();
+            assert_eq!(axis.dir, V3::z());
+            assert!(l.leaflet.iter().all(|&k| k == 0));
+            assert!(l.boundary.iter().any(|&b| b == 1) && l.boundary.iter().any(|&b| b == 2));
+            for (p, &b) in l.x.iter().zip(&l.boundary) {
+                let r = p.x.hypot(p.y);
+                assert!(r <= R * (1.0 + 1e-12), "node outside the root: r = {r}");
+                if b == 1 {
+                    assert!(
+                        (r - R).abs() < 1e-9 * R,
+                        "sutured node off the cylinder: {r}"
+                    );
+                    assert!(p.z <= 1e-9 && p.z >= -HC - HB - 1e-9, "sutured z {}", p.z);
+                }
+            }
+            // The two lug corners sit at the commissure height.
+            let c = closure::corners(&l);
+            assert!(c.len() >= 2);
+            let top =
+                l.x.iter()
+                    .zip(&l.boundary)
+                    .filter(|(_, b)| **b == 1)
+                    .map(|(p, _)| p.z)
+                    .fold(f64::NEG_INFINITY, f64::max);
+            assert!(top.abs() < 1e-9, "highest sutured node at z = {top}");
+            let sut = flat_edge_length(&l, 1);
+            let free = flat_edge_length(&l, 2);
+            assert!(
+                (sut / t.sutured_length() - 1.0).abs() < 0.02,
+                "sutured {sut} vs {}",
+                t.sutured_length()
+            );
+            assert!(
+                (free / t.free_length() - 1.0).abs() < 0.02,
+                "free {free} vs {}",
+                t.free_length()
+            );
+            counts.push(l.x.len() as f64);
+        }
+        // Nodes grow like 1/h²: halving h gives about four times as many.
+        let ratio = counts[1] / counts[0];
+        assert!(
+            (3.0..5.0).contains(&ratio),
+            "node ratio {ratio} ({counts:?})"
+        );
+    }
+
+    #[test]
+    fn bench_close_runs_on_h1() {
+        let cfg = config::parse(&config_text("svk", "newton", 120.0)).unwrap();
+        let (l, axis) = ozaki_cylinder(1.0).unwrap();
+        let c = closure::close(&l, &cfg, Some(axis)).unwrap();
+        assert!(c.x.iter().all(|p| p.iter().all(|v| v.is_finite())));
+        for i in 0..l.x.len() {
+            if l.boundary[i] == 1 {
+                assert!((c.x[i] - l.x[i]).norm() == 0.0, "sutured node {i} moved");
+            }
+        }
+        let m = metrics(&l, &c);
+        assert!(m.contact_area_mm2.is_finite() && m.lowest_mm.is_finite());
+        eprintln!(
+            "h 1.0: converged {} after {} iterations, residual {:.3e} N ({}); {:?}",
+            c.outcome.converged, c.outcome.iterations, c.outcome.residual_n, c.outcome.reason, m
+        );
+    }
+}
+
+#[cfg(test)]
+mod diag {
+    use super::*;
+
+    #[test]
+    #[ignore]
+    fn bench_close_diagnose() {
+        // COAPT_DIAG_H="0.35,0.5" picks the meshes.
+        let hs: Vec<f64> = std::env::var("COAPT_DIAG_H")
+            .map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect())
+            .unwrap_or_else(|_| vec![1.0, 0.7, 0.5]);
+        for h in hs {
+            let cfg = config::parse(&config_text("svk", "newton", 120.0)).unwrap();
+            let (l, axis) = ozaki_cylinder(h).unwrap();
+            let c = closure::close(&l, &cfg, Some(axis)).unwrap();
+            let uv = l.ref_uv.as_ref().unwrap();
+            let (i, u) =
+                c.x.iter()
+                    .zip(&l.x)
+                    .map(|(a, b)| (a - b).norm())
+                    .enumerate()
+                    .max_by(|a, b| a.1.total_cmp(&b.1))
+                    .unwrap();
+            let ang = |p: &V3| p.y.atan2(p.x).to_degrees();
+            let rr = |p: &V3| p.x.hypot(p.y);
+            eprintln!(
+                "h {h}: conv {} res {:.2e}; max u {u:.2} at node {i} uv {:?} b {} from {:?} (r {:.2} ang {:.1}) to {:?} (r {:.2} ang {:.1})",
+                c.outcome.converged,
+                c.outcome.residual_n,
+                uv[i],
+                l.boundary[i],
+                l.x[i].as_slice(),
+                rr(&l.x[i]),
+                ang(&l.x[i]),
+                c.x[i].as_slice(),
+                rr(&c.x[i]),
+                ang(&c.x[i])
+            );
+            let amin = c.area_stretch.iter().cloned().fold(f64::INFINITY, f64::min);
+            let amax = c.area_stretch.iter().cloned().fold(0.0, f64::max);
+            let smax = c.max_stretch.iter().cloned().fold(0.0, f64::max);
+            let compressed = c.max_stretch.iter().filter(|&&s| s < 1.0).count();
+            eprintln!(
+                "  J in [{amin:.3}, {amax:.3}], max stretch {smax:.3}, {compressed}/{} triangles with max stretch < 1",
+                c.max_stretch.len()
+            );
+            let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for p in &c.x {
+                lo = lo.min(ang(p));
+                hi = hi.max(ang(p));
+            }
+            let cor = closure::corners(&l);
+            let ca: Vec<f64> = cor.iter().map(|&k| ang(&l.x[k as usize])).collect();
+            let dmin = plane_distances(&l, &c.x)
+                .iter()
+                .map(|d| d[0].min(d[1]))
+                .fold(f64::INFINITY, f64::min);
+            let d0 = plane_distances(&l, &l.x)
+                .iter()
+                .map(|d| d[0].min(d[1]))
+                .fold(f64::INFINITY, f64::min);
+            eprintln!("  min plane distance placed {d0:.4} closed {dmin:.4} mm");
+            eprintln!("  closed angles [{lo:.2}, {hi:.2}] deg; corners at {ca:.2?} deg");
+            let mut fe: Vec<usize> = (0..l.x.len()).filter(|&k| l.boundary[k] == 2).collect();
+            fe.sort_by(|&a, &b| uv[a][0].total_cmp(&uv[b][0]));
+            let prof: Vec<String> = fe
+                .iter()
+                .step_by((fe.len() / 8).max(1))
+                .map(|&k| {
+                    format!(
+                        "u{:.1}:r{:.2},a{:.1},z{:.2}",
+                        uv[k][0],
+                        rr(&c.x[k]),
+                        ang(&c.x[k]),
+                        c.x[k].z
+                    )
+                })
+                .collect();
+            eprintln!("  free edge {}", prof.join(" "));
+            let prof0: Vec<String> = fe
+                .iter()
+                .step_by((fe.len() / 8).max(1))
+                .map(|&k| {
+                    format!(
+                        "u{:.1}:r{:.2},a{:.1},z{:.2}",
+                        uv[k][0],
+                        rr(&l.x[k]),
+                        ang(&l.x[k]),
+                        l.x[k].z
+                    )
+                })
+                .collect();
+            eprintln!("  free edge placed {}", prof0.join(" "));
+            let last: Vec<String> = c
+                .outcome
+                .history
+                .iter()
+                .rev()
+                .take(6)
+                .map(|r| {
+                    format!(
+                        "{}#{} {:.2e} a{:.2e} s{:.1e}",
+                        r.phase, r.iteration, r.residual_n, r.step, r.shift
+                    )
+                })
+                .collect();
+            eprintln!("  last: {}", last.join(" | "));
+            let hist = &c.outcome.history;
+            let n_cont = hist.iter().filter(|r| r.phase == "continuation").count();
+            let every: Vec<String> = hist
+                .iter()
+                .step_by((hist.len() / 25).max(1))
+                .map(|r| format!("{}:{:.1e}", r.iteration, r.residual_n))
+                .collect();
+            eprintln!(
+                "  {n_cont} continuation + {} Newton records; residual every few: {}",
+                hist.len() - n_cont,
+                every.join(" ")
+            );
+        }
+    }
+}
