@@ -391,7 +391,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 Ok(())
             }
             _ => Err(Error::usage(
-                "coapt bench: name a benchmark (phantom, segment, surface)",
+                "coapt bench: name a benchmark (phantom, segment, surface, close)",
             )),
         },
         stage => {

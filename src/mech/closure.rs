@@ -122,7 +122,7 @@ pub fn pressure_signs(l: &Leaflets, axis: &Axis, n_leaflets: usize) -> Vec<f64> 
 }
 
 /// Seed 001 contact planes for each leaflet: through the axis and each of
-/// its two commissures (lug-corner pairs), facing the leaflet.
+/// its two commissures, facing the leaflet.
 fn planes_for(
     l: &Leaflets,
     axis: &Axis,
@@ -185,7 +185,19 @@ fn planes_for(
         };
         let r = 0.5 * (rad(mine[0]).norm() + rad(mine[1]).norm());
         for corner in &mine {
-            let mut n = axis.dir.cross(&rad(*corner)).normalize();
+            // Between two leaflets the plane of symmetry runs mid-way between
+            // the facing lug corners (leaflets are sewn with gaps); a leaflet
+            // alone gets the plane through its own corner.
+            let neighbour = c
+                .iter()
+                .filter(|&&i| node_leaf[i as usize] != k)
+                .map(|&i| l.x[i as usize])
+                .min_by(|a, b| (a - corner).norm().total_cmp(&(b - corner).norm()));
+            let dir = match neighbour {
+                Some(q) => rad(*corner).normalize() + rad(q).normalize(),
+                None => rad(*corner),
+            };
+            let mut n = axis.dir.cross(&dir).normalize();
             if n.dot(&rad(centroid)) < 0.0 {
                 n = -n;
             }

@@ -177,26 +177,55 @@ fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
     };
     run("1", "closed1.vtp");
     run("2", "closed2.vtp");
-    assert_eq!(std::fs::read(d.join("closed1.vtp")).unwrap(), std::fs::read(d.join("closed2.vtp")).unwrap());
-    let log: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("closed1.vtp.json")).unwrap()).unwrap();
+    assert_eq!(
+        std::fs::read(d.join("closed1.vtp")).unwrap(),
+        std::fs::read(d.join("closed2.vtp")).unwrap()
+    );
+    let log: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("closed1.vtp.json")).unwrap()).unwrap();
     assert_eq!(log["solver"]["converged"], true);
     assert!(log["solver"]["residual_n"].as_f64().unwrap() <= 1e-7);
     let before = vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
     let after = vtp::read_mesh(&d.join("closed1.vtp")).unwrap();
-    let valve: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("valve.json")).unwrap()).unwrap();
-    let v = |j: &serde_json::Value| coapt::geom::Vector3::new(j[0].as_f64().unwrap(), j[1].as_f64().unwrap(), j[2].as_f64().unwrap());
-    let (axis, centre) = (v(&valve["valve_frame"]["axis"]), v(&valve["commissure_cylinder"]["centre_mm"]));
+    let valve: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("valve.json")).unwrap()).unwrap();
+    let v = |j: &serde_json::Value| {
+        coapt::geom::Vector3::new(
+            j[0].as_f64().unwrap(),
+            j[1].as_f64().unwrap(),
+            j[2].as_f64().unwrap(),
+        )
+    };
+    let (axis, centre) = (
+        v(&valve["valve_frame"]["axis"]),
+        v(&valve["commissure_cylinder"]["centre_mm"]),
+    );
     let radial = |p: &coapt::geom::Point3| {
         let q = p.coords - centre;
         (q - axis * q.dot(&axis)).norm()
     };
-    let bnd = before.point_data.get("boundary").unwrap().values.to_f64().unwrap();
-    let contact = after.point_data.get("contact").unwrap().values.to_f64().unwrap();
+    let bnd = before
+        .point_data
+        .get("boundary")
+        .unwrap()
+        .values
+        .to_f64()
+        .unwrap();
+    let contact = after
+        .point_data
+        .get("contact")
+        .unwrap()
+        .values
+        .to_f64()
+        .unwrap();
     let (mut free_before, mut free_after, mut n_free) = (0.0, 0.0, 0.0);
     for i in 0..before.vertices.len() {
         assert!(after.vertices[i].iter().all(|c| c.is_finite()));
         if bnd[i] == 1.0 {
-            assert_eq!(before.vertices[i], after.vertices[i], "a sutured node moved");
+            assert_eq!(
+                before.vertices[i], after.vertices[i],
+                "a sutured node moved"
+            );
         }
         if bnd[i] == 2.0 {
             free_before += radial(&before.vertices[i]);
@@ -204,7 +233,12 @@ fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
             n_free += 1.0;
         }
     }
-    assert!(free_after / n_free < 0.9 * free_before / n_free, "free edges did not move towards the axis: {} → {} mm", free_before / n_free, free_after / n_free);
+    assert!(
+        free_after / n_free < 0.9 * free_before / n_free,
+        "free edges did not move towards the axis: {} → {} mm",
+        free_before / n_free,
+        free_after / n_free
+    );
     // Diastole pushes the bellies towards the ventricle.
     let (mut down, mut n) = (0.0, 0.0);
     for i in 0..before.vertices.len() {
@@ -213,9 +247,19 @@ fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
             n += 1.0;
         }
     }
-    assert!(down / n < -0.1, "mean axial move of interior nodes {} mm", down / n);
+    assert!(
+        down / n < -0.1,
+        "mean axial move of interior nodes {} mm",
+        down / n
+    );
     // Each leaflet touches both of its planes.
-    let leaf = after.cell_data.get("leaflet").unwrap().values.to_f64().unwrap();
+    let leaf = after
+        .cell_data
+        .get("leaflet")
+        .unwrap()
+        .values
+        .to_f64()
+        .unwrap();
     for k in 1..=3 {
         let mut bits = 0u8;
         for (t, tri) in after.triangles.iter().enumerate() {
