@@ -1,13 +1,16 @@
-//! `coapt close`: refusals, and the record a run that does not converge leaves.
+//! `coapt close`: refusals, the record a run that does not converge leaves,
+//! and a converged, thread-independent closure of the sample valve.
+
+use std::path::Path;
 
 use crate::common::*;
 
-fn s(p: &std::path::Path) -> String {
+fn s(p: &Path) -> String {
     p.to_str().unwrap().to_string()
 }
 
 /// Valve + leaflets on the committed sample's truth surface (h = 1 mm).
-fn sample_leaflets(d: &std::path::Path) -> std::path::PathBuf {
+fn sample_leaflets(d: &Path) -> std::path::PathBuf {
     let data = repo().join("sample_data");
     let surface = data.join("truth_surface.vtp");
     let o = coapt(&[
@@ -39,6 +42,28 @@ fn sample_leaflets(d: &std::path::Path) -> std::path::PathBuf {
     surface
 }
 
+fn close(
+    leaflets: &Path,
+    surface: &Path,
+    cfg: &Path,
+    out: &Path,
+    extra: &[&str],
+) -> std::process::Output {
+    let mut a = vec![
+        "close".to_string(),
+        "--leaflets".into(),
+        s(leaflets),
+        "--surface".into(),
+        s(surface),
+        "--config".into(),
+        s(cfg),
+        "--out".into(),
+        s(out),
+    ];
+    a.extend(extra.iter().map(|x| x.to_string()));
+    coapt(&a.iter().map(String::as_str).collect::<Vec<_>>())
+}
+
 #[test]
 fn close_refuses_bad_configs_and_meshes_without_boundary_labels() {
     let d = tmpdir("close-bad");
@@ -50,48 +75,18 @@ fn close_refuses_bad_configs_and_meshes_without_boundary_labels() {
     )
     .unwrap();
     let out = d.join("closed.vtp");
-    let o = coapt(&[
-        "close",
-        "--leaflets",
-        &s(&d.join("leaflets.vtp")),
-        "--surface",
-        &s(&surface),
-        "--config",
-        &s(&cfg),
-        "--out",
-        &s(&out),
-    ]);
+    let o = close(&d.join("leaflets.vtp"), &surface, &cfg, &out, &[]);
     assert_bad_input(&o, &cfg, &["mu", "unit"]);
     std::fs::write(
         &cfg,
         "model = \"rubber\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\n",
     )
     .unwrap();
-    let o = coapt(&[
-        "close",
-        "--leaflets",
-        &s(&d.join("leaflets.vtp")),
-        "--surface",
-        &s(&surface),
-        "--config",
-        &s(&cfg),
-        "--out",
-        &s(&out),
-    ]);
+    let o = close(&d.join("leaflets.vtp"), &surface, &cfg, &out, &[]);
     assert_bad_input(&o, &cfg, &["rubber", "neo-hookean"]);
     // The wall has no boundary labels: it is not a leaflets mesh.
     std::fs::write(&cfg, "model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\n").unwrap();
-    let o = coapt(&[
-        "close",
-        "--leaflets",
-        &s(&surface),
-        "--surface",
-        &s(&surface),
-        "--config",
-        &s(&cfg),
-        "--out",
-        &s(&out),
-    ]);
+    let o = close(&surface, &surface, &cfg, &out, &[]);
     assert_eq!(o.status.code(), Some(2));
     let last = stderr(&o).lines().last().unwrap_or_default().to_string();
     assert!(
@@ -115,21 +110,13 @@ fn a_closure_that_does_not_converge_exits_1_with_its_history_and_no_mesh() {
     .unwrap();
     let out = d.join("closed.vtp");
     let log = d.join("closure.json");
-    let o = coapt(&[
-        "close",
-        "--leaflets",
-        &s(&d.join("leaflets.vtp")),
-        "--surface",
-        &s(&surface),
-        "--config",
-        &s(&cfg),
-        "--valve",
-        &s(&d.join("valve.json")),
-        "--out",
-        &s(&out),
-        "--log",
-        &s(&log),
-    ]);
+    let o = close(
+        &d.join("leaflets.vtp"),
+        &surface,
+        &cfg,
+        &out,
+        &["--valve", &s(&d.join("valve.json")), "--log", &s(&log)],
+    );
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("did not converge"), "{}", stderr(&o));
     assert!(!out.exists());
@@ -155,24 +142,21 @@ fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
     let surface = sample_leaflets(&d);
     let cfg = repo().join("pipelines/close.toml");
     let run = |threads: &str, out: &str| {
-        let o = coapt(&[
-            "close",
-            "--leaflets",
-            &s(&d.join("leaflets.vtp")),
-            "--surface",
-            &s(&surface),
-            "--config",
-            &s(&cfg),
-            "--valve",
-            &s(&d.join("valve.json")),
-            "--out",
-            &s(&d.join(out)),
-            "--log",
-            &s(&d.join(format!("{out}.json"))),
-            "--threads",
-            threads,
-            "--quiet",
-        ]);
+        let o = close(
+            &d.join("leaflets.vtp"),
+            &surface,
+            &cfg,
+            &d.join(out),
+            &[
+                "--valve",
+                &s(&d.join("valve.json")),
+                "--log",
+                &s(&d.join(format!("{out}.json"))),
+                "--threads",
+                threads,
+                "--quiet",
+            ],
+        );
         assert!(o.status.success(), "{}", stderr(&o));
     };
     run("1", "closed1.vtp");

@@ -15,15 +15,7 @@ pub fn combined(
     rounds: usize,
 ) -> Outcome {
     let t0 = Instant::now();
-    let mut all = Outcome {
-        converged: false,
-        reason: String::new(),
-        iterations: 0,
-        residual_n: f64::NAN,
-        initial_residual_n: f64::NAN,
-        seconds: 0.0,
-        history: Vec::new(),
-    };
+    let mut all = Outcome::start();
     for round in 0..rounds.max(1) {
         let r = relax(sys, x, relax_opt);
         if round == 0 {

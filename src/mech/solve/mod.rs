@@ -64,6 +64,19 @@ pub struct Outcome {
 }
 
 impl Outcome {
+    /// Nothing done yet.
+    pub(crate) fn start() -> Outcome {
+        Outcome {
+            converged: false,
+            reason: String::new(),
+            iterations: 0,
+            residual_n: f64::NAN,
+            initial_residual_n: f64::NAN,
+            seconds: 0.0,
+            history: Vec::new(),
+        }
+    }
+
     pub(crate) fn done(&self, r: f64, stop: &Stop) -> bool {
         r <= stop.abs_n || r <= stop.rel * self.initial_residual_n
     }

@@ -38,15 +38,7 @@ impl Default for NewtonOptions {
 
 pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome {
     let t0 = Instant::now();
-    let mut out = Outcome {
-        converged: false,
-        reason: String::new(),
-        iterations: 0,
-        residual_n: f64::NAN,
-        initial_residual_n: f64::NAN,
-        seconds: 0.0,
-        history: Vec::new(),
-    };
+    let mut out = Outcome::start();
     let mut pattern: Option<Pattern> = None;
     let mut shift = 0.0f64;
     let mut rejections = 0usize;

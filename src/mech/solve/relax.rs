@@ -43,15 +43,7 @@ impl Default for RelaxOptions {
 
 pub fn relax(sys: &mut System, x: &mut Vec<V3>, opt: &RelaxOptions) -> Outcome {
     let t0 = Instant::now();
-    let mut out = Outcome {
-        converged: false,
-        reason: String::new(),
-        iterations: 0,
-        residual_n: f64::NAN,
-        initial_residual_n: f64::NAN,
-        seconds: 0.0,
-        history: Vec::new(),
-    };
+    let mut out = Outcome::start();
     let mut lambda = opt.lambda0;
     let mut n_bad = 0usize;
     let mut r0 = f64::NAN;
