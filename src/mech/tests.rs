@@ -88,26 +88,6 @@ fn svk_sphere_and_cylinder_match_closed_forms() {
 }
 
 #[test]
-#[ignore]
-fn debug_history() {
-    let p = 80.0 * MMHG;
-    let t = std::time::Instant::now();
-    let r = inflate_sphere(Box::new(NeoHookean { mu: MU }), R0, H, 4, p);
-    for h in &r.outcome.history {
-        eprintln!(
-            "{} {:.3e} step {} shift {:.1e}",
-            h.iteration, h.residual_n, h.step, h.shift
-        );
-    }
-    eprintln!(
-        "{} {:?} {:.2}s",
-        r.lambda,
-        r.outcome.reason,
-        t.elapsed().as_secs_f64()
-    );
-}
-
-#[test]
 fn gent_and_goh_spheres_match_closed_forms() {
     use super::material::{Gent, Goh};
     let p = 80.0 * MMHG;

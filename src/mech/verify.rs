@@ -68,6 +68,32 @@ fn refs(x: &[V3], tris: &[[u32; 3]], thickness: f64, fibers: Option<[V3; 2]>) ->
         .collect()
 }
 
+/// One material, one pressure on every triangle, no other terms.
+fn uniform_system(
+    refs: Vec<RefTri>,
+    tris: &[[u32; 3]],
+    mat: Box<dyn Membrane>,
+    fixed: Vec<[bool; 3]>,
+    p: f64,
+    pressure_mode: PressureMode,
+    project: bool,
+) -> System {
+    System {
+        refs,
+        tris: tris.to_vec(),
+        materials: vec![mat],
+        tri_material: vec![0; tris.len()],
+        dofs: Dofs::new(&fixed),
+        fixed,
+        tri_pressure: vec![p; tris.len()],
+        pressure_scale: 1.0,
+        pressure_mode,
+        terms: Vec::new(),
+        project,
+        pressure_tangent: true,
+    }
+}
+
 fn mean_edge(x: &[V3], tris: &[[u32; 3]]) -> f64 {
     let s: f64 = tris
         .iter()
@@ -140,20 +166,15 @@ pub fn inflate_sphere(mat: Box<dyn Membrane>, r0: f64, h: f64, level: u32, p: f6
         V3::new(1.0, 0.0, 1.0).normalize(),
         V3::new(1.0, 0.0, -1.0).normalize(),
     ];
-    let mut sys = System {
-        refs: refs(&xr, &tris, h, Some(fib)),
-        tris: tris.clone(),
-        materials: vec![mat],
-        tri_material: vec![0; tris.len()],
-        dofs: Dofs::new(&fixed),
+    let mut sys = uniform_system(
+        refs(&xr, &tris, h, Some(fib)),
+        &tris,
+        mat,
         fixed,
-        tri_pressure: vec![p; tris.len()],
-        pressure_scale: 1.0,
-        pressure_mode: PressureMode::Volume { origin: [0.0; 3] },
-        terms: Vec::new(),
-        project: true,
-        pressure_tangent: true,
-    };
+        p,
+        PressureMode::Volume { origin: [0.0; 3] },
+        true,
+    );
     let mut opt = NewtonOptions::default();
     opt.stop.abs_n = 1e-10;
     opt.stop.rel = 1e-11;
@@ -190,20 +211,15 @@ pub fn inflate_cylinder(mat: Box<dyn Membrane>, r0: f64, h: f64, nt: usize, p: f
         V3::new(1.0, 1.0, 1.0).normalize(),
         V3::new(1.0, 1.0, -1.0).normalize(),
     ];
-    let mut sys = System {
-        refs: refs(&x0, &tris, h, Some(fib)),
-        tris: tris.clone(),
-        materials: vec![mat],
-        tri_material: vec![0; tris.len()],
-        dofs: Dofs::new(&fixed),
+    let mut sys = uniform_system(
+        refs(&x0, &tris, h, Some(fib)),
+        &tris,
+        mat,
         fixed,
-        tri_pressure: vec![p; tris.len()],
-        pressure_scale: 1.0,
-        pressure_mode: PressureMode::Follower,
-        terms: Vec::new(),
-        project: false,
-        pressure_tangent: true,
-    };
+        p,
+        PressureMode::Follower,
+        false,
+    );
     let mut x = x0.clone();
     let mut opt = NewtonOptions::default();
     opt.stop.abs_n = 1e-11;
@@ -226,20 +242,15 @@ pub fn inflate_cylinder(mat: Box<dyn Membrane>, r0: f64, h: f64, nt: usize, p: f
 pub fn hencky(mat: Box<dyn Membrane>, a: f64, h: f64, q: f64, mesh: f64) -> (f64, Outcome) {
     let (x0, tris, rim) = shapes::disc(a, mesh);
     let fixed: Vec<[bool; 3]> = rim.iter().map(|&r| [r; 3]).collect();
-    let mut sys = System {
-        refs: refs(&x0, &tris, h, None),
-        tris: tris.clone(),
-        materials: vec![mat],
-        tri_material: vec![0; tris.len()],
-        dofs: Dofs::new(&fixed),
+    let mut sys = uniform_system(
+        refs(&x0, &tris, h, None),
+        &tris,
+        mat,
         fixed,
-        tri_pressure: vec![q; tris.len()],
-        pressure_scale: 1.0,
-        pressure_mode: PressureMode::Volume { origin: [0.0; 3] },
-        terms: Vec::new(),
-        project: true,
-        pressure_tangent: true,
-    };
+        q,
+        PressureMode::Volume { origin: [0.0; 3] },
+        true,
+    );
     // A flat membrane has no out-of-plane stiffness: start from a small
     // paraboloid so the first tangent is not singular.
     let mut x: Vec<V3> = x0
