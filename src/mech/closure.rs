@@ -224,6 +224,103 @@ fn stretches(x: &[V3], refs: &[RefTri], tris: &[[u32; 3]]) -> (Vec<f64>, Vec<f64
     (j, m)
 }
 
+/// The follower load has no potential (the free edge moves), so Newton
+/// alternates two phases until the residual meets `stop` or the iterations
+/// run out: pseudo-transient continuation on the PSD part of the tangent
+/// (robust from the unloaded, out-of-plane-floppy state, and where the exact
+/// tangent is nearly singular) until the residual has dropped 100-fold, then
+/// Newton with the exact, non-symmetric tangent (LU), quadratic near the
+/// end; when that stalls, continuation takes over again.
+fn newton_with_continuation(
+    sys: &mut System,
+    x: &mut Vec<V3>,
+    stop: &Stop,
+    nopt: &NewtonOptions,
+) -> Outcome {
+    let mut all: Option<Outcome> = None;
+    let mut notes = Vec::new();
+    for round in 1..=5 {
+        let used = all.as_ref().map_or(0, |o| o.iterations);
+        let left = stop.max_iterations.saturating_sub(used);
+        if left == 0 {
+            break;
+        }
+        let r0 = all.as_ref().map_or(f64::NAN, |o| o.initial_residual_n);
+        let target = |o: &Outcome| {
+            if r0.is_finite() {
+                stop.rel * r0 / o.residual_n.max(1e-300)
+            } else {
+                stop.rel
+            }
+        };
+        sys.project = true;
+        sys.pressure_tangent = false;
+        let mut p1 = solve::newton(
+            sys,
+            x,
+            &NewtonOptions {
+                ptc: true,
+                stop: Stop {
+                    rel: 1e-2,
+                    max_iterations: left,
+                    ..stop.clone()
+                },
+                ..nopt.clone()
+            },
+        );
+        for r in p1.history.iter_mut() {
+            r.phase = "continuation";
+        }
+        notes.push(format!("round {round}: continuation: {}", p1.reason));
+        let mut merged = merge(all.take(), p1);
+        // Reaching the absolute tolerance in continuation is convergence too.
+        if merged.residual_n <= stop.abs_n
+            || !merged.converged && merged.iterations >= stop.max_iterations
+        {
+            merged.reason = notes.join("; ");
+            return merged;
+        }
+        if !merged.converged {
+            merged.reason = notes.join("; ");
+            return merged;
+        }
+        sys.project = false;
+        sys.pressure_tangent = true;
+        let mut exact = nopt.clone();
+        exact.stop.rel = target(&merged);
+        exact.stop.max_iterations = stop.max_iterations.saturating_sub(merged.iterations).max(1);
+        let p2 = solve::newton(sys, x, &exact);
+        notes.push(format!("Newton: {}", p2.reason));
+        let conv = p2.converged;
+        let mut m = merge(Some(merged), p2);
+        m.converged = conv;
+        m.reason = notes.join("; ");
+        if conv {
+            return m;
+        }
+        all = Some(m);
+    }
+    let mut o = all.unwrap_or_else(Outcome::start);
+    o.converged = false;
+    o.reason = notes.join("; ");
+    o
+}
+
+/// Append a phase to the record of the whole solve.
+fn merge(prev: Option<Outcome>, mut next: Outcome) -> Outcome {
+    match prev {
+        None => next,
+        Some(mut p) => {
+            p.history.append(&mut next.history);
+            p.iterations += next.iterations;
+            p.seconds += next.seconds;
+            p.residual_n = next.residual_n;
+            p.converged = next.converged;
+            p
+        }
+    }
+}
+
 /// Close the leaflets. `axis`: from valve.json when known, else estimated.
 pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Closed, String> {
     let t0 = Instant::now();
@@ -306,49 +403,7 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
         ptc: false,
     };
     let outcome = match cfg.solver {
-        SolverKind::Newton => {
-            // The follower load has no potential (the free edge moves).
-            // Phase 1: pseudo-transient continuation on the PSD part of the
-            // tangent, robust from the unloaded, out-of-plane-floppy state,
-            // until the residual has dropped 100-fold. Phase 2: Newton with
-            // the exact, non-symmetric tangent (LU), quadratic near the end.
-            sys.project = true;
-            sys.pressure_tangent = false;
-            let coarse = Stop {
-                rel: 1e-2,
-                ..stop.clone()
-            };
-            let mut p1 = solve::newton(
-                &mut sys,
-                &mut x,
-                &NewtonOptions {
-                    ptc: true,
-                    stop: coarse,
-                    ..nopt.clone()
-                },
-            );
-            for r in p1.history.iter_mut() {
-                r.phase = "continuation";
-            }
-            if !p1.converged {
-                p1
-            } else {
-                sys.project = false;
-                sys.pressure_tangent = true;
-                let mut exact = nopt.clone();
-                exact.stop.rel = stop.rel * p1.initial_residual_n / p1.residual_n.max(1e-300);
-                exact.stop.max_iterations =
-                    stop.max_iterations.saturating_sub(p1.iterations).max(1);
-                let mut p2 = solve::newton(&mut sys, &mut x, &exact);
-                p2.initial_residual_n = p1.initial_residual_n;
-                p1.history.append(&mut p2.history);
-                p2.history = p1.history;
-                p2.iterations += p1.iterations;
-                p2.seconds += p1.seconds;
-                p2.reason = format!("continuation: {}; Newton: {}", p1.reason, p2.reason);
-                p2
-            }
-        }
+        SolverKind::Newton => newton_with_continuation(&mut sys, &mut x, &stop, &nopt),
         SolverKind::Relax => {
             let ropt = RelaxOptions {
                 stop: Stop {

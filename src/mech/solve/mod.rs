@@ -65,7 +65,7 @@ pub struct Outcome {
 
 impl Outcome {
     /// Nothing done yet.
-    pub(crate) fn start() -> Outcome {
+    pub fn start() -> Outcome {
         Outcome {
             converged: false,
             reason: String::new(),
