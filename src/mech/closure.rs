@@ -128,6 +128,7 @@ fn planes_for(
     axis: &Axis,
     n_leaflets: usize,
     eta1: f64,
+    offset: f64,
 ) -> Result<Vec<(Plane, Vec<u32>)>, String> {
     let c = corners(l);
     let mut node_leaf = vec![0u16; l.x.len()];
@@ -201,7 +202,10 @@ fn planes_for(
             if n.dot(&rad(centroid)) < 0.0 {
                 n = -n;
             }
-            let p = Plane::new(axis.origin, n, eta1, 0.01 * r).ok_or("degenerate contact plane")?;
+            // With an offset the plane stands for the neighbour's face: a
+            // mid-surface stays `offset` off the plane of symmetry.
+            let p = Plane::new(axis.origin + n * offset, n, eta1, 0.01 * r)
+                .ok_or("degenerate contact plane")?;
             out.push((p, nodes.clone()));
         }
     }
@@ -368,7 +372,7 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
             )));
         }
         ContactKind::Planes => {
-            let planes = planes_for(l, &axis, n_leaflets, 1.1 * cfg.pressure)?;
+            let planes = planes_for(l, &axis, n_leaflets, 1.1 * cfg.pressure, cfg.plane_offset)?;
             terms.push(Box::new(PlaneContact::new(planes, &l.x, &l.tris)));
         }
         _ => {}

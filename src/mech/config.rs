@@ -11,7 +11,10 @@
 //! Optional: `poisson` (svk), `jm` (gent, default 2.3), `k1`, `k2`, `kappa`
 //! (goh), `msm_law` ("linear" with `young`, "seed000-isotropic",
 //! "seed000-anisotropic"), `contact_margin` (default 0.5 × thickness),
-//! `contact_alpha` (stiffness factor, default 25), `tolerance` (default
+//! `contact_alpha` (stiffness factor, default 25), `plane_offset` (contact
+//! planes moved off the plane of symmetry into each leaflet's side, e.g.
+//! half the thickness so pressed leaflets do not cross; default "0 mm", the
+//! seed's planes through the axis), `tolerance` (default
 //! "1e-7 N"), `relative_tolerance` (default 1e-7), `max_iterations`,
 //! `time_limit` (default "600 s"), `reference` ("placed": the placed leaflet
 //! is stress-free, as after the seeds' suturing; "flat": the flat template
@@ -43,6 +46,7 @@ struct Raw {
     contact: Option<String>,
     contact_margin: Option<String>,
     contact_alpha: Option<f64>,
+    plane_offset: Option<String>,
     solver: Option<String>,
     tolerance: Option<String>,
     relative_tolerance: Option<f64>,
@@ -101,6 +105,9 @@ pub struct CloseConfig {
     pub contact: ContactKind,
     pub contact_margin: f64,
     pub contact_alpha: f64,
+    /// Contact planes sit this far (mm) off the plane of symmetry, into the
+    /// leaflet's side (0: the seed's planes through the axis).
+    pub plane_offset: f64,
     pub solver: SolverKind,
     pub tolerance: f64,
     pub relative_tolerance: f64,
@@ -142,6 +149,7 @@ impl CloseConfig {
             "contact": format!("{:?}", self.contact).to_lowercase(),
             "contact_margin_mm": self.contact_margin,
             "contact_alpha": self.contact_alpha,
+            "plane_offset_mm": self.plane_offset,
             "solver": format!("{:?}", self.solver).to_lowercase(),
             "tolerance_n": self.tolerance,
             "relative_tolerance": self.relative_tolerance,
@@ -280,6 +288,10 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
         contact,
         contact_margin: positive(contact_margin, "contact_margin")?,
         contact_alpha: positive(raw.contact_alpha.unwrap_or(25.0), "contact_alpha")?,
+        plane_offset: match q(Kind::Length, &raw.plane_offset, "plane_offset")?.unwrap_or(0.0) {
+            v if v >= 0.0 => v,
+            _ => return Err("plane_offset must be ≥ 0".into()),
+        },
         solver,
         tolerance: positive(
             q(Kind::Force, &raw.tolerance, "tolerance")?.unwrap_or(1e-7),
@@ -324,5 +336,9 @@ mod tests {
         let c = parse("model = \"neo-hookean\"\nyoung = \"0.9 MPa\"\nthickness = \"0.4 mm\"\npressure = \"90 mmHg\"\ntolerance = \"0.1 mN\"\n").unwrap();
         assert_eq!(c.model, Model::NeoHookean { mu: 0.3 });
         assert!((c.tolerance - 1e-4).abs() < 1e-15);
+        assert_eq!(c.plane_offset, 0.0);
+        let c = parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\nplane_offset = \"0.25 mm\"\n").unwrap();
+        assert_eq!(c.plane_offset, 0.25);
+        assert!(parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\nplane_offset = \"-1 mm\"\n").is_err());
     }
 }

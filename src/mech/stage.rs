@@ -7,6 +7,7 @@ use super::closure::{self, Axis, Leaflets};
 use super::config;
 use super::contact::bvh::Bvh;
 use super::contact::closest_point::closest_point;
+use super::contact::tri_tri;
 use super::element::V3;
 use crate::geom::{DataArray, DataValues, Frame, Point3, TriMesh};
 use crate::io::{Transaction, atomic, vtp};
@@ -205,6 +206,10 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
     let closed = closure::close(&leaflets, &cfg, axis).map_err(|e| Error::bad_input(lpath, e))?;
     progress.set(0.95);
     let o = &closed.outcome;
+    // Interpenetration check on the final state: exact triangle–triangle
+    // tests between different leaflets (BVH broad phase).
+    let bvh = Bvh::build(&closed.x, &leaflets.tris);
+    let crossing = tri_tri::intersecting_pairs(&closed.x, &leaflets.tris, &leaflets.leaflet, &bvh);
     let log = json!({
         "frame": "LPS",
         "config": cfg.to_json(),
@@ -224,6 +229,7 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
             "history": o.history,
         },
         "nodes_in_contact": closed.contact.iter().filter(|&&m| m != 0).count(),
+        "intersecting_triangle_pairs": crossing.len(),
         "timing_s": {"setup": closed.setup_s, "solve": closed.solve_s},
     });
     let text = serde_json::to_string_pretty(&log).expect("json") + "\n";
@@ -281,6 +287,7 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         "iterations": o.iterations,
         "residual_n": o.residual_n,
         "nodes_in_contact": closed.contact.iter().filter(|&&m| m != 0).count(),
+        "intersecting_triangle_pairs": crossing.len(),
         "solve_s": closed.solve_s,
     }))
 }
