@@ -1,11 +1,14 @@
 //! Closure mechanics: membrane materials, pressure, contact and the solvers
 //! that close the valve under diastolic pressure (ALGORITHMS.md §5, §7).
 //!
-//! Everything is an element on a few nodes with an energy, a gradient and a
-//! Hessian (`element`); the total potential is their sum, so forces are
-//! exact gradients and Newton sees a symmetric tangent. Seed forces that are
-//! not gradients (suturing, the seed's area-weighted contact planes) live in
-//! the force-based relaxation path.
+//! Every piece is an element on a few nodes with an energy, a gradient and a
+//! Hessian (`element`, `material`, `contact`); `system` sums them into a
+//! residual (nodal force) and a tangent. The seed's follower pressure has no
+//! potential on a leaflet (its free edge moves), so a valve is solved on the
+//! residual (`closure`: continuation, then Newton with LU); where every load
+//! has a potential (`verify`: closed or clamped membranes) Newton uses the
+//! energy and Cholesky. `stage` is the `close` stage, `config` its
+//! `close.toml`.
 
 pub mod contact;
 pub mod element;
