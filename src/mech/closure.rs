@@ -161,12 +161,8 @@ fn planes_for(
                 .max_by(|&a, &b| (cand[a] - p).norm().total_cmp(&(cand[b] - p).norm()))
                 .unwrap()
         };
-        let (ia, ib) = (far(&cand[0]), 0);
-        let ib = if ia == ib {
-            far(&cand[ia])
-        } else {
-            far(&cand[ia])
-        };
+        let ia = far(&cand[0]);
+        let ib = far(&cand[ia]);
         let (pa, pb) = (cand[ia], cand[ib]);
         let (mut ca, mut cb, mut na, mut nb) = (V3::zeros(), V3::zeros(), 0.0, 0.0);
         for p in &cand {
@@ -409,6 +405,8 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
     let outcome = match cfg.solver {
         SolverKind::Newton => newton_with_continuation(&mut sys, &mut x, &stop, &nopt),
         SolverKind::Relax => {
+            // An explicit step costs about a hundredth of a Newton step, so
+            // `max_iterations` counts hundreds of them here.
             let ropt = RelaxOptions {
                 stop: Stop {
                     max_iterations: cfg.max_iterations.max(1000) * 100,

@@ -26,6 +26,10 @@ pub trait Term: Send + Sync {
     fn update(&mut self, _x: &[V3]) {}
     /// Its energy, or `None` when the term is a force without a potential.
     fn energy(&self, x: &[V3]) -> Option<f64>;
+    /// Whether [`Term::energy`] gives a potential (known without computing it).
+    fn has_potential(&self) -> bool {
+        true
+    }
     /// Add its force (−gradient for potentials) to `f`.
     fn add_force(&self, x: &[V3], f: &mut [V3]);
     /// Node pairs its tangent couples (for the sparsity pattern).

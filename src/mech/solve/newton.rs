@@ -119,8 +119,7 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
         let diag = pat.diagonal(&vals);
         let mean_diag = diag.iter().map(|d| d.abs()).sum::<f64>() / diag.len().max(1) as f64;
         let rhs = sys.pack(&r);
-        let symmetric =
-            opt.ptc || (sys.symmetric() && sys.terms.iter().all(|t| t.energy(x).is_some()));
+        let symmetric = opt.ptc || (sys.symmetric() && sys.terms.iter().all(|t| t.has_potential()));
         if opt.ptc && out.iterations == 1 {
             shift = 1.0;
         }
