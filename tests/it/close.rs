@@ -11,35 +11,11 @@ fn s(p: &Path) -> String {
 
 /// Valve + leaflets on the committed sample's truth surface (h = 1 mm).
 fn sample_leaflets(d: &Path) -> std::path::PathBuf {
-    let data = repo().join("sample_data");
-    let surface = data.join("truth_surface.vtp");
-    let o = coapt(&[
-        "valve",
-        "--surface",
-        &s(&surface),
-        "--landmarks",
-        &s(&data.join("landmarks.mrk.json")),
-        "--out",
-        &s(&d.join("valve.json")),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = coapt(&[
-        "leaflets",
-        "--valve",
-        &s(&d.join("valve.json")),
-        "--paths",
-        &s(&d.join("paths.vtp")),
-        "--surface",
-        &s(&surface),
-        "--template",
-        &s(&repo().join("pipelines/templates/ozaki_default.toml")),
-        "--h",
-        "1 mm",
-        "--out",
-        &s(&d.join("leaflets.vtp")),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    surface
+    sample_valve_and_leaflets(
+        d,
+        "pipelines/templates/ozaki_default.toml",
+        &["--h", "1 mm"],
+    )
 }
 
 fn close(

@@ -81,3 +81,39 @@ pub fn mean_hu_in_truth_mask(dir: &Path) -> f64 {
     }
     sum / n as f64
 }
+
+/// `coapt valve` then `coapt leaflets` on the committed sample's truth
+/// surface, writing valve.json, paths.vtp and leaflets.vtp into `d`;
+/// returns the surface used.
+pub fn sample_valve_and_leaflets(d: &Path, template: &str, extra: &[&str]) -> PathBuf {
+    let data = repo().join("sample_data");
+    let surface = data.join("truth_surface.vtp");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let o = coapt(&[
+        "valve",
+        "--surface",
+        &s(&surface),
+        "--landmarks",
+        &s(&data.join("landmarks.mrk.json")),
+        "--out",
+        &s(&d.join("valve.json")),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut args = vec![
+        "leaflets".to_string(),
+        "--valve".into(),
+        s(&d.join("valve.json")),
+        "--paths".into(),
+        s(&d.join("paths.vtp")),
+        "--surface".into(),
+        s(&surface),
+        "--template".into(),
+        s(&repo().join(template)),
+        "--out".into(),
+        s(&d.join("leaflets.vtp")),
+    ];
+    args.extend(extra.iter().map(|a| a.to_string()));
+    let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", stderr(&o));
+    surface
+}

@@ -7,7 +7,7 @@ use coapt::io::vtp;
 use coapt::valve::wall::Wall;
 use serde_json::Value;
 
-use crate::common::{coapt, repo, tmpdir};
+use crate::common::{sample_valve_and_leaflets, tmpdir};
 
 fn v3(v: &Value) -> Vector3 {
     Vector3::new(
@@ -20,33 +20,7 @@ fn v3(v: &Value) -> Vector3 {
 #[test]
 fn phantom_leaflets_stay_in_their_wedges_and_inside_the_wall() {
     let d = tmpdir("leaflets-phantom");
-    let data = repo().join("sample_data");
-    let surface = data.join("truth_surface.vtp");
-    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
-    let o = coapt(&[
-        "valve",
-        "--surface",
-        &s(&surface),
-        "--landmarks",
-        &s(&data.join("landmarks.mrk.json")),
-        "--out",
-        &s(&d.join("valve.json")),
-    ]);
-    assert!(o.status.success());
-    let o = coapt(&[
-        "leaflets",
-        "--valve",
-        &s(&d.join("valve.json")),
-        "--paths",
-        &s(&d.join("paths.vtp")),
-        "--surface",
-        &s(&surface),
-        "--template",
-        &s(&repo().join("pipelines/templates/ozaki_sizes.toml")),
-        "--out",
-        &s(&d.join("leaflets.vtp")),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let surface = sample_valve_and_leaflets(&d, "pipelines/templates/ozaki_sizes.toml", &[]);
     let valve: Value =
         serde_json::from_slice(&std::fs::read(d.join("valve.json")).unwrap()).unwrap();
     let summary: Value =
