@@ -5,9 +5,12 @@
 //! 3D Slicer); file readers convert other frames on the way in.
 
 pub mod attributes;
+pub mod bvh;
+pub mod closest_point;
 pub mod frame;
 pub mod landmarks;
 pub mod polydata;
+pub mod tri_tri;
 pub mod trimesh;
 pub mod valve_frame;
 pub mod volume;

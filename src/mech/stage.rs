@@ -5,10 +5,10 @@ use serde_json::{Value as Json, json};
 
 use super::closure::{self, Axis, Leaflets};
 use super::config;
-use super::contact::bvh::Bvh;
-use super::contact::closest_point::closest_point;
-use super::contact::tri_tri;
 use super::element::V3;
+use crate::geom::bvh::Bvh;
+use crate::geom::closest_point::closest_point;
+use crate::geom::tri_tri;
 use crate::geom::{DataArray, DataValues, Frame, Point3, TriMesh};
 use crate::io::{Transaction, atomic, vtp};
 use crate::pipeline::{ArtifactKind, Params, Port, Progress, StageIo, StageSpec};

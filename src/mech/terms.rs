@@ -2,12 +2,12 @@
 //! node-to-triangle penalty contact (ALGORITHMS.md §7.2) and the seed 001
 //! penalty planes (eq. 37) for the symmetric one-leaflet case.
 
-use super::contact::bvh::Bvh;
 use super::contact::penalty::{self, ContactParams, Pair, Sides};
 use super::contact::planes::Plane;
 use super::element::V3;
 use super::sparse::{Dofs, Pattern};
 use super::system::Term;
+use crate::geom::bvh::Bvh;
 
 /// Contact between different leaflets (bodies). The broad phase (BVH over
 /// all leaflet triangles) is refitted at every outer iteration and rebuilt

@@ -1,6 +1,7 @@
-//! Contact for membranes (ALGORITHMS.md §7): the BVH broad phase, closest
-//! points, node-to-triangle penalty contact between bodies, the seed's
-//! penalty planes and an exact triangle–triangle intersection test.
+//! Contact for membranes (ALGORITHMS.md §7): node-to-triangle penalty
+//! contact between bodies and the seed's penalty planes. The broad phase
+//! (`geom::bvh`), closest points and the exact triangle–triangle test live in
+//! `geom/`, shared with the leaflets and report stages.
 //!
 //! Typical use in a solver iteration (positions `x`, mm):
 //!
@@ -13,11 +14,8 @@
 //! let mask = penalty::contact_mask(x.len(), &pairs);   // `contact` point data
 //! ```
 
-pub mod bvh;
-pub mod closest_point;
 pub mod penalty;
 pub mod planes;
-pub mod tri_tri;
 
 #[cfg(test)]
 mod tests;

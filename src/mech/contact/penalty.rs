@@ -61,8 +61,8 @@ use std::collections::BTreeMap;
 use nalgebra::SMatrix;
 use rayon::prelude::*;
 
-use super::bvh::Bvh;
-use super::closest_point::{Feature, closest_point};
+use crate::geom::bvh::Bvh;
+use crate::geom::closest_point::{Feature, closest_point};
 use crate::mech::element::V3;
 
 /// 12×12 pair Hessian over (node, A, B, C).

@@ -1,9 +1,9 @@
 //! Cross-module tests: BVH against brute force, penalty gradients against
 //! finite differences, momentum, and two flat sheets.
 
-use super::bvh::{Aabb, Bvh};
-use super::closest_point::{Feature, closest_point};
 use super::penalty::*;
+use crate::geom::bvh::{Aabb, Bvh};
+use crate::geom::closest_point::{Feature, closest_point};
 use crate::mech::element::V3;
 use crate::rng::SplitMix64;
 

@@ -15,7 +15,7 @@
 //! Non-finite triangles (any vertex coordinate NaN or ±∞) get an empty box
 //! and are never visited.
 
-use crate::mech::element::V3;
+use super::Vector3 as V3;
 
 /// Maximum number of triangles in a leaf.
 pub const LEAF_SIZE: usize = 4;

@@ -11,8 +11,8 @@
 use rayon::prelude::*;
 use robust::{Coord, Coord3D, orient2d, orient3d};
 
+use super::Vector3 as V3;
 use super::bvh::{Aabb, Bvh};
-use crate::mech::element::V3;
 
 fn c3(v: &V3) -> Coord3D<f64> {
     Coord3D {

@@ -2,7 +2,7 @@
 //! §5.1.5): Voronoi-region tests, returning the point, its barycentric
 //! coordinates and the feature it lies on.
 
-use crate::mech::element::V3;
+use super::Vector3 as V3;
 
 /// The feature of triangle ABC (vertices 0, 1, 2) that holds the closest
 /// point.
