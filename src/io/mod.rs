@@ -1,11 +1,12 @@
 //! File formats, and nothing else: NIfTI volumes, VTK XML PolyData, STL and
-//! PLY, 3D Slicer markups. Readers validate before they allocate and return
+//! PLY, 3D Slicer markups, PNG (write only). Readers validate before they allocate and return
 //! errors that name the file and the problem; writers are atomic.
 
 pub mod atomic;
 pub mod markups;
 pub mod nifti;
 pub mod ply;
+pub mod png;
 pub mod stl;
 pub mod vtp;
 
