@@ -16,6 +16,7 @@ pub mod io;
 pub mod leaflet;
 pub mod mech;
 pub mod phantom;
+pub mod report;
 pub mod pipeline;
 pub mod rng;
 pub mod segment;
