@@ -15,3 +15,9 @@ pub mod valve;
 
 pub use figure::Figure;
 pub use valve::ClosedValve;
+pub mod clip;
+pub mod coaptation;
+pub mod metrics;
+pub mod orifice;
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,300 @@
+//! Known-answer geometry for the coaptation measures: three folded sheets
+//! whose wings lie on the 120° commissural planes, a gap g apart from the
+//! neighbour's wing from z0 up to the free edge z1, and (optionally) below z0
+//! a skirt that opens at an angle β, so the zone's lower boundary is where
+//! 2·a(z)·cos β = margin, with a(z) = g/2 + (z0 − z)·tan β the offset of a
+//! wing from its plane.
+
+use std::f64::consts::PI;
+
+use super::coaptation::{self, Options};
+use super::metrics::{self, Metrics};
+use super::orifice;
+use super::*;
+use crate::geom::{Point3, ValveFrame, Vector3};
+
+const W: f64 = 8.0; // wing width along the plane, mm
+const Z0: f64 = 6.0;
+const Z1: f64 = 10.0;
+const GAP: f64 = 0.2;
+const MARGIN: f64 = 0.9;
+
+fn frame() -> ValveFrame {
+    let c = |k: usize| {
+        let a = 2.0 * PI * k as f64 / 3.0;
+        Point3::new(W * a.cos(), W * a.sin(), Z1)
+    };
+    ValveFrame::new(Point3::origin(), Vector3::z(), [c(0), c(1), c(2)], None).unwrap()
+}
+
+/// The folded-sheet valve, meshed with spacing `h`; skirt from `zb` to Z0
+/// opening at `beta` (radians).
+fn sheets(h: f64, zb: f64, beta: f64) -> ClosedValve {
+    let ns = (2.0 * W / h).round() as usize;
+    let nz = ((Z1 - zb) / h).round() as usize;
+    let mut x = Vec::new();
+    let mut uv = Vec::new();
+    let mut boundary = Vec::new();
+    let mut tris = Vec::new();
+    let mut tri_leaflet = Vec::new();
+    for k in 0..3 {
+        let ta = 2.0 * PI * k as f64 / 3.0;
+        let tb = ta + 2.0 * PI / 3.0;
+        let (ua, ub) = (
+            Vector3::new(ta.cos(), ta.sin(), 0.0),
+            Vector3::new(tb.cos(), tb.sin(), 0.0),
+        );
+        let (na, nb) = (
+            Vector3::new(-ta.sin(), ta.cos(), 0.0),
+            Vector3::new(tb.sin(), -tb.cos(), 0.0),
+        );
+        let base = x.len() as u32;
+        for iz in 0..=nz {
+            let z = zb + (Z1 - zb) * iz as f64 / nz as f64;
+            let a = GAP / 2.0 + (Z0 - z).max(0.0) * beta.tan();
+            let apex = a / 3f64.sqrt();
+            for is in 0..=ns {
+                let s = -W + 2.0 * W * is as f64 / ns as f64;
+                let (u, n) = if s < 0.0 { (ua, na) } else { (ub, nb) };
+                let p = (apex + s.abs()) * u + a * n + z * Vector3::z();
+                x.push(Point3::from(p));
+                uv.push([s, z]);
+                boundary.push(if iz == nz {
+                    if is == 0 || is == ns { 1 } else { 2 }
+                } else if is == 0 || is == ns {
+                    // The wings' outer ends are sutured to the wall; the
+                    // bottom row is left free so the lumen outline (from
+                    // the sutures) is the wall circle.
+                    1
+                } else {
+                    0
+                });
+            }
+        }
+        let id = |iz: usize, is: usize| base + (iz * (ns + 1) + is) as u32;
+        for iz in 0..nz {
+            for is in 0..ns {
+                tris.push([id(iz, is), id(iz, is + 1), id(iz + 1, is + 1)]);
+                tris.push([id(iz, is), id(iz + 1, is + 1), id(iz + 1, is)]);
+                tri_leaflet.extend([k as u8, k as u8]);
+            }
+        }
+    }
+    ClosedValve {
+        x0: x.clone(),
+        x,
+        tris,
+        tri_leaflet,
+        boundary,
+        ref_uv: Some(uv),
+        frame: frame(),
+        leaflets: 3,
+    }
+}
+
+fn measure(v: &ClosedValve) -> (coaptation::Coaptation, Metrics) {
+    let c = coaptation::find(
+        v,
+        &Options {
+            margin_mm: MARGIN,
+            refine: 4,
+        },
+    );
+    let m = metrics::measure(v, &c, &metrics::Options::default());
+    (c, m)
+}
+
+/// Lower boundary of the zone on the skirt (closed form above).
+fn z_star(beta: f64) -> f64 {
+    Z0 - (MARGIN / (2.0 * beta.cos()) - GAP / 2.0) / beta.tan()
+}
+
+#[test]
+fn parallel_sheets_coapt_over_their_whole_height_with_a_central_zone() {
+    let v = sheets(0.5, Z0, 0.0);
+    let (c, m) = measure(&v);
+    let near = |a: Option<f64>, b: f64, tol: f64| {
+        let a = a.expect("measured");
+        assert!((a - b).abs() <= tol, "{a} vs {b}");
+    };
+    near(m.coaptation_height_mm, Z1 - Z0, 1e-9);
+    near(m.central_coaptation_height_mm, Z1 - Z0, 1e-9);
+    near(m.h_cc_mm, Z1 - Z0, 1e-9);
+    near(m.effective_height_mm, Z1, 1e-9);
+    assert!(m.closed);
+    assert_eq!(m.coaptation_above_vaj, Some(true));
+    for l in &m.leaflets {
+        // Every point touches a neighbour: the zone is the whole leaflet.
+        assert!(
+            (l.coaptation_area_mm2 - 2.0 * W * (Z1 - Z0)).abs() < 1e-9,
+            "{l:?}"
+        );
+        assert!((l.cusp_area_closed_mm2 - 2.0 * W * (Z1 - Z0)).abs() < 1e-9);
+        assert!((l.free_edge_length_mm - 2.0 * W).abs() < 1e-9);
+        assert!(l.billowing_mm.abs() < 1e-12);
+    }
+    near(m.ncca, 1.0, 1e-12);
+    near(m.h_avr_mm, Z1 - Z0, 1e-9);
+    // Vertical sheets hide nothing seen along the axis: the orifice is the
+    // whole lumen (radius W + apex offset at the sutured ends).
+    let r = W + GAP / 2.0 / 3f64.sqrt();
+    let lumen = (r * r + (GAP / 2.0).powi(2)) * PI;
+    assert!(
+        (m.lumen_area_mm2 - lumen).abs() / lumen < 0.01,
+        "{}",
+        m.lumen_area_mm2
+    );
+    assert!((m.regurgitant_orifice_area_mm2 - m.lumen_area_mm2).abs() < 0.02 * lumen);
+    assert!(c.node_mask.iter().all(|&b| b.count_ones() >= 1));
+}
+
+#[test]
+fn skirt_places_the_zone_boundary_where_the_gap_reaches_the_margin() {
+    let beta = 10f64.to_radians();
+    let zs = z_star(beta);
+    for h in [0.5, 0.25] {
+        let v = sheets(h, 2.0, beta);
+        let (_, m) = measure(&v);
+        let ch = m.coaptation_height_mm.unwrap();
+        assert!(
+            (ch - (Z1 - zs)).abs() < 0.05,
+            "h {h}: coaptation height {ch} vs {}",
+            Z1 - zs
+        );
+        let hcc = m.h_cc_mm.unwrap();
+        assert!((hcc - (Z1 - zs)).abs() < 0.05, "h {h}: h_cc {hcc}");
+        assert!((m.lowest_coaptation_mm.unwrap() - zs).abs() < 0.05);
+        for p in &m.pairs {
+            let s = p.base_to_margin_mm.expect("base and margin lines");
+            // The base line on the skirt is (Z1 − z*) below the free edge
+            // and (a* − g/2) off the vertical part.
+            let a = MARGIN / (2.0 * beta.cos());
+            let d = (Z1 - zs).hypot(a - GAP / 2.0);
+            assert!((s.max - d).abs() < 0.05, "h {h}: max {} vs {d}", s.max);
+            assert!(s.p50 <= s.p75 && s.p75 <= s.p90 && s.min <= s.p10);
+        }
+    }
+}
+
+#[test]
+fn heights_change_less_than_a_tenth_of_a_millimetre_when_h_halves() {
+    let beta = 10f64.to_radians();
+    let (_, a) = measure(&sheets(0.5, 2.0, beta));
+    let (_, b) = measure(&sheets(0.25, 2.0, beta));
+    for (x, y) in [
+        (a.coaptation_height_mm, b.coaptation_height_mm),
+        (
+            a.central_coaptation_height_mm,
+            b.central_coaptation_height_mm,
+        ),
+        (a.effective_height_mm, b.effective_height_mm),
+        (a.h_cc_mm, b.h_cc_mm),
+    ] {
+        let (x, y) = (x.unwrap(), y.unwrap());
+        assert!((x - y).abs() <= 0.1, "{x} vs {y}");
+    }
+    let (x, y) = (
+        a.leaflets[0].coaptation_area_mm2,
+        b.leaflets[0].coaptation_area_mm2,
+    );
+    assert!((x - y).abs() / y < 0.01, "area {x} vs {y}");
+}
+
+#[test]
+fn metrics_do_not_move_with_the_valve() {
+    let v = sheets(0.5, 2.0, 10f64.to_radians());
+    let (_, a) = measure(&v);
+    let rot = nalgebra::Rotation3::from_euler_angles(0.3, -1.1, 2.0);
+    let shift = Vector3::new(-20.0, 7.5, -160.0);
+    let mv = |p: &Point3| rot * p + shift;
+    let mut w = v.clone();
+    w.x = v.x.iter().map(mv).collect();
+    w.x0 = w.x.clone();
+    let f = &v.frame;
+    w.frame = ValveFrame::new(
+        mv(&f.origin_mm),
+        rot * f.axis,
+        f.commissures_mm.map(|c| mv(&c)),
+        None,
+    )
+    .unwrap();
+    let (_, b) = measure(&w);
+    let same = |x: Option<f64>, y: Option<f64>| {
+        assert!((x.unwrap() - y.unwrap()).abs() < 1e-6, "{x:?} {y:?}")
+    };
+    same(a.coaptation_height_mm, b.coaptation_height_mm);
+    same(
+        a.central_coaptation_height_mm,
+        b.central_coaptation_height_mm,
+    );
+    same(a.effective_height_mm, b.effective_height_mm);
+    same(a.h_cc_mm, b.h_cc_mm);
+    same(a.ncca, b.ncca);
+    // The orifice raster is aligned with the valve frame and moves with it;
+    // only pixel centres within rounding of an edge may flip.
+    let (x, y) = (
+        a.regurgitant_orifice_area_mm2,
+        b.regurgitant_orifice_area_mm2,
+    );
+    assert!((x - y).abs() < 1e-3 * a.lumen_area_mm2, "{x} vs {y}");
+}
+
+/// Three flat sectors at z = 0 closing a disc of radius `r`, the third one
+/// trimmed to leave a known wedge open.
+#[test]
+fn orifice_of_a_disc_with_a_missing_wedge() {
+    let r = 10.0;
+    let n = 60;
+    let mut x = Vec::new();
+    let mut tris = Vec::new();
+    let mut leaf = Vec::new();
+    let mut boundary = Vec::new();
+    // Leaflet k covers angles [120k, 120k + 120) except the last 30° of leaflet 2.
+    for k in 0..3 {
+        let a0 = (120.0 * k as f64).to_radians();
+        let span = if k == 2 { 90f64 } else { 120.0 }.to_radians();
+        let c = x.len() as u32;
+        x.push(Point3::origin());
+        boundary.push(2);
+        for i in 0..=n {
+            let a = a0 + span * i as f64 / n as f64;
+            x.push(Point3::new(r * a.cos(), r * a.sin(), 0.0));
+            boundary.push(1);
+        }
+        for i in 0..n as u32 {
+            tris.push([c, c + 1 + i, c + 2 + i]);
+            leaf.push(k as u8);
+        }
+    }
+    let v = ClosedValve {
+        x0: x.clone(),
+        x,
+        tris,
+        tri_leaflet: leaf,
+        boundary,
+        ref_uv: None,
+        frame: ValveFrame::new(
+            Point3::origin(),
+            Vector3::z(),
+            [0.0, 120.0, 240.0]
+                .map(|d: f64| Point3::new(r * d.to_radians().cos(), r * d.to_radians().sin(), 0.0)),
+            None,
+        )
+        .unwrap(),
+        leaflets: 3,
+    };
+    let o = orifice::measure(&v, 0.02);
+    // Inscribed 60-gons per sector; the open wedge is a quarter of a sector.
+    let sector = 0.5 * r * r * n as f64 * (120f64.to_radians() / n as f64).sin();
+    let wedge = sector / 4.0;
+    assert!(
+        (o.lumen_mm2 - PI * r * r).abs() / (PI * r * r) < 0.005,
+        "{}",
+        o.lumen_mm2
+    );
+    assert!(
+        (o.uncovered_mm2 - wedge - (PI * r * r - 3.0 * sector)).abs() < 0.5,
+        "{} vs {wedge}",
+        o.uncovered_mm2
+    );
+}
