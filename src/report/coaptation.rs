@@ -9,6 +9,8 @@
 //! leaflet and target: each other leaflet, any other (the coaptation zone),
 //! and all others (the central, triple zone).
 
+use rayon::prelude::*;
+
 use crate::geom::Point3;
 use crate::geom::Vector3 as V3;
 use crate::geom::bvh::Bvh;
@@ -132,7 +134,7 @@ pub fn find(v: &ClosedValve, opts: &Options) -> Coaptation {
             }
         })
         .collect();
-    let field_at = |p: &V3, own: usize| -> Field {
+    let field_at = |p: &V3, own: usize, cap: f64| -> Field {
         (0..nl)
             .map(|j| {
                 if j == own {
@@ -151,7 +153,8 @@ pub fn find(v: &ClosedValve, opts: &Options) -> Coaptation {
         }
     }
     let node_field: Vec<Option<Field>> = (0..x.len())
-        .map(|k| (node_leaflet[k] != usize::MAX).then(|| field_at(&x[k], node_leaflet[k])))
+        .into_par_iter()
+        .map(|k| (node_leaflet[k] != usize::MAX).then(|| field_at(&x[k], node_leaflet[k], cap)))
         .collect();
     let node_mask: Vec<u8> = node_field
         .iter()
@@ -168,47 +171,68 @@ pub fn find(v: &ClosedValve, opts: &Options) -> Coaptation {
     if nl >= 3 {
         targets.push(Target::All);
     }
+    let n = opts.refine.max(1);
+    let skip = |own: usize, ti: &Target| matches!(ti, Target::Leaflet(j) if *j == own);
+    // Per triangle, in parallel: (target index, piece, cut) in a fixed order;
+    // merged below in triangle order, so sums do not depend on threads.
+    type Out = (bool, Vec<(usize, Vec<Point3>, Option<[Point3; 2]>)>);
+    let per_triangle: Vec<Out> = (0..v.tris.len())
+        .into_par_iter()
+        .map(|t| {
+            let tri = &v.tris[t];
+            let own = v.tri_leaflet[t] as usize;
+            let corners = tri.map(|k| x[k as usize]);
+            let cf = tri.map(|k| node_field[k as usize].as_ref().expect("node of a triangle"));
+            let lmax = edge_max(&x, tri);
+            // The distance is 1-Lipschitz: a triangle is wholly in (out of)
+            // the zone when every corner is in (out) by more than the
+            // longest edge.
+            let decided = |ti: &Target| {
+                let g = cf.map(|f| combine(f, own, *ti));
+                g.iter().all(|&g| g + lmax <= 0.0) || g.iter().all(|&g| g - lmax > 0.0)
+            };
+            let split = targets.iter().any(|ti| !skip(own, ti) && !decided(ti));
+            let subs: Vec<([V3; 3], [Field; 3])> = if split {
+                // Within a refined triangle only the sign pattern of its
+                // sub-triangles matters: distances beyond the margin plus
+                // twice a sub-edge never change a cut.
+                let sub_cap = m + 2.0 * lmax / n as f64 + 1e-9;
+                sub_triangles(&corners, n, |p| field_at(p, own, sub_cap))
+            } else {
+                vec![(corners, cf.map(|f| f.clone()))]
+            };
+            let mut out = Vec::new();
+            for (k, ti) in targets.iter().enumerate() {
+                if skip(own, ti) {
+                    continue;
+                }
+                for (p, f) in &subs {
+                    let poly: Vec<Vertex> = (0..3)
+                        .map(|c| (Point3::from(p[c]), combine(&f[c], own, *ti)))
+                        .collect();
+                    let (piece, cut) = clip::clip_below(&poly);
+                    if !piece.is_empty() || cut.is_some() {
+                        out.push((k, piece, cut));
+                    }
+                }
+            }
+            (split, out)
+        })
+        .collect();
     // zones[i][target index]
     let mut zones: Vec<Vec<Zone>> = vec![vec![Zone::default(); targets.len()]; nl];
-    let n = opts.refine.max(1);
     let mut refined = 0;
-    for (t, tri) in v.tris.iter().enumerate() {
+    for (t, (split, out)) in per_triangle.into_iter().enumerate() {
+        refined += split as usize;
         let own = v.tri_leaflet[t] as usize;
-        let corners = tri.map(|k| x[k as usize]);
-        let cf = tri.map(|k| node_field[k as usize].as_ref().expect("node of a triangle"));
-        let lmax = edge_max(&x, tri);
-        // The distance is 1-Lipschitz: a triangle is wholly in (out of) the
-        // zone when every corner is in (out) by more than the longest edge.
-        let decided = |ti: &Target| {
-            let g = cf.map(|f| combine(f, own, *ti));
-            g.iter().all(|&g| g + lmax <= 0.0) || g.iter().all(|&g| g - lmax > 0.0)
-        };
-        let split = targets
-            .iter()
-            .any(|ti| !matches!(ti, Target::Leaflet(j) if *j == own) && !decided(ti));
-        let subs: Vec<([V3; 3], [Field; 3])> = if split {
-            refined += 1;
-            sub_triangles(&corners, n, |p| field_at(p, own))
-        } else {
-            vec![(corners, cf.map(|f| f.clone()))]
-        };
-        for (k, ti) in targets.iter().enumerate() {
-            if matches!(ti, Target::Leaflet(j) if *j == own) {
-                continue;
-            }
+        for (k, piece, cut) in out {
             let zone = &mut zones[own][k];
-            for (p, f) in &subs {
-                let poly: Vec<Vertex> = (0..3)
-                    .map(|c| (Point3::from(p[c]), combine(&f[c], own, *ti)))
-                    .collect();
-                let (piece, cut) = clip::clip_below(&poly);
-                if let Some(c) = cut {
-                    zone.boundary.push(c);
-                }
-                if !piece.is_empty() {
-                    zone.area_mm2 += clip::area(&piece);
-                    zone.pieces.push(piece);
-                }
+            if let Some(c) = cut {
+                zone.boundary.push(c);
+            }
+            if !piece.is_empty() {
+                zone.area_mm2 += clip::area(&piece);
+                zone.pieces.push(piece);
             }
         }
     }

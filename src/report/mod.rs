@@ -17,7 +17,11 @@ pub use figure::Figure;
 pub use valve::ClosedValve;
 pub mod clip;
 pub mod coaptation;
+pub mod criteria;
+pub mod document;
+pub mod load;
 pub mod metrics;
 pub mod orifice;
+pub mod symmetry;
 #[cfg(test)]
 mod tests;
