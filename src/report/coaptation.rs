@@ -112,8 +112,26 @@ fn combine(f: &Field, own: usize, target: Target) -> f64 {
     }
 }
 
+/// A plane standing in for a leaflet: the leaflet is the mirror image of
+/// another across it (seed 001's one-leaflet set-up), and the gap to it is
+/// twice the signed distance to the plane, negative behind it.
+#[derive(Debug, Clone, Copy)]
+pub struct MirrorPlane {
+    /// The leaflet the plane stands in for (0-based).
+    pub leaflet: usize,
+    pub point: Point3,
+    /// Unit normal towards the measured leaflet.
+    pub normal: V3,
+}
+
 /// Find the zones of every leaflet of `v` against every target.
 pub fn find(v: &ClosedValve, opts: &Options) -> Coaptation {
+    find_with_planes(v, opts, &[])
+}
+
+/// As [`find`], with some leaflets replaced by their mirror planes: the
+/// seed's zone (signed distance to the plane ≤ margin / 2), exactly.
+pub fn find_with_planes(v: &ClosedValve, opts: &Options, planes: &[MirrorPlane]) -> Coaptation {
     let nl = v.leaflets;
     let x: Vec<V3> = v.x.iter().map(|p| p.coords).collect();
     let m = opts.margin_mm;
@@ -121,7 +139,8 @@ pub fn find(v: &ClosedValve, opts: &Options) -> Coaptation {
     // plus the longest edge, so the Lipschitz bounds below are decided
     // exactly; farther is "far".
     let longest = v.tris.iter().map(|t| edge_max(&x, t)).fold(0.0, f64::max);
-    let cap = m + longest + 1e-9;
+    let lip = if planes.is_empty() { 1.0 } else { 2.0 };
+    let cap = m + lip * longest + 1e-9;
     let surfaces: Vec<Surface> = (0..nl)
         .map(|j| {
             let ids: Vec<u32> = (0..v.tris.len() as u32)
@@ -139,6 +158,8 @@ pub fn find(v: &ClosedValve, opts: &Options) -> Coaptation {
             .map(|j| {
                 if j == own {
                     f64::INFINITY
+                } else if let Some(pl) = planes.iter().find(|pl| pl.leaflet == j) {
+                    2.0 * (p - pl.point.coords).dot(&pl.normal) - m
                 } else {
                     surfaces[j].distance(p, cap) - m
                 }
@@ -184,19 +205,20 @@ pub fn find(v: &ClosedValve, opts: &Options) -> Coaptation {
             let corners = tri.map(|k| x[k as usize]);
             let cf = tri.map(|k| node_field[k as usize].as_ref().expect("node of a triangle"));
             let lmax = edge_max(&x, tri);
-            // The distance is 1-Lipschitz: a triangle is wholly in (out of)
-            // the zone when every corner is in (out) by more than the
-            // longest edge.
+            // The distance is 1-Lipschitz (a mirror gap 2-): a triangle is
+            // wholly in (out of) the zone when every corner is in (out) by
+            // more than that times the longest edge.
+            let reach = lip * lmax;
             let decided = |ti: &Target| {
                 let g = cf.map(|f| combine(f, own, *ti));
-                g.iter().all(|&g| g + lmax <= 0.0) || g.iter().all(|&g| g - lmax > 0.0)
+                g.iter().all(|&g| g + reach <= 0.0) || g.iter().all(|&g| g - reach > 0.0)
             };
             let split = targets.iter().any(|ti| !skip(own, ti) && !decided(ti));
             let subs: Vec<([V3; 3], [Field; 3])> = if split {
                 // Within a refined triangle only the sign pattern of its
                 // sub-triangles matters: distances beyond the margin plus
                 // twice a sub-edge never change a cut.
-                let sub_cap = m + 2.0 * lmax / n as f64 + 1e-9;
+                let sub_cap = m + 2.0 * lip * lmax / n as f64 + 1e-9;
                 sub_triangles(&corners, n, |p| field_at(p, own, sub_cap))
             } else {
                 vec![(corners, cf.map(|f| f.clone()))]

@@ -20,6 +20,10 @@ pub struct Options {
     pub hcc_radius_mm: f64,
     /// Pixel of the orifice raster, mm.
     pub pixel_mm: f64,
+    /// Leaflets whose own numbers are reported (the first ones); the others
+    /// only serve as neighbours (mirror images of a one-leaflet closure).
+    /// `None`: all.
+    pub measured: Option<usize>,
 }
 
 impl Default for Options {
@@ -28,6 +32,7 @@ impl Default for Options {
             column_mm: 0.5,
             hcc_radius_mm: 5.0,
             pixel_mm: 0.05,
+            measured: None,
         }
     }
 }
@@ -126,8 +131,10 @@ pub struct Metrics {
     pub h_cc_mm: Option<f64>,
     pub h_avr_mm: Option<f64>,
     pub ncca: Option<f64>,
-    pub regurgitant_orifice_area_mm2: f64,
-    pub lumen_area_mm2: f64,
+    /// `None` when only some leaflets are measured (the mirror images of a
+    /// one-leaflet closure do not tile the lumen).
+    pub regurgitant_orifice_area_mm2: Option<f64>,
+    pub lumen_area_mm2: Option<f64>,
     pub coaptation_above_vaj: Option<bool>,
     pub lowest_coaptation_mm: Option<f64>,
     pub lowest_free_edge_mm: f64,
@@ -214,6 +221,7 @@ fn tri_area(a: &Point3, b: &Point3, c: &Point3) -> f64 {
 /// Measure a closed valve whose zones are `c`.
 pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
     let nl = v.leaflets;
+    let nm = opts.measured.unwrap_or(nl).min(nl);
     let free = free_edges(v);
     let x = &v.x;
 
@@ -271,8 +279,8 @@ pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
         }
     };
 
-    let mut leaflets = Vec::with_capacity(nl);
-    for l in 0..nl {
+    let mut leaflets = Vec::with_capacity(nm);
+    for l in 0..nm {
         let mut depth = f64::NEG_INFINITY;
         for (k, p) in x.iter().enumerate() {
             if node_leaflet[k] == l {
@@ -324,7 +332,7 @@ pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
     // Pairs: seeds' column heights, h_C-C, SlicerHeart base-to-margin.
     let w = opts.column_mm;
     let mut pairs = Vec::new();
-    for i in 0..nl {
+    for i in 0..nm {
         for j in i + 1..nl {
             let zi = &c.pair[i][j];
             let zj = &c.pair[j][i];
@@ -375,7 +383,12 @@ pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
         .iter()
         .filter_map(|p| p.height_mm)
         .fold(None, |m: Option<f64>, h| Some(m.map_or(h, |m| m.max(h))));
-    let central = extent(c.all.iter().flat_map(|z| z.points()).map(|p| hr(v, p).0));
+    let central = extent(
+        c.all[..nm]
+            .iter()
+            .flat_map(|z| z.points())
+            .map(|p| hr(v, p).0),
+    );
     let central_height = central.map(|(lo, hi)| hi - lo);
     let closed = central.is_some();
     let hcc: Vec<f64> = pairs.iter().filter_map(|p| p.h_cc_mm).collect();
@@ -387,9 +400,14 @@ pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
     let effective = (!eff.is_empty()).then(|| eff.iter().sum::<f64>() / eff.len() as f64);
     let coapt_total: f64 = leaflets.iter().map(|l| l.coaptation_area_mm2).sum();
     let free_total: f64 = leaflets.iter().map(|l| l.free_edge_length_mm).sum();
-    let cusp_total: f64 = cusp.iter().sum();
-    let any_zone = extent(c.any.iter().flat_map(|z| z.points()).map(|p| hr(v, p).0));
-    let orifice = orifice::measure(v, opts.pixel_mm);
+    let cusp_total: f64 = cusp[..nm].iter().sum();
+    let any_zone = extent(
+        c.any[..nm]
+            .iter()
+            .flat_map(|z| z.points())
+            .map(|p| hr(v, p).0),
+    );
+    let orifice = (nm == nl).then(|| orifice::measure(v, opts.pixel_mm));
     Metrics {
         coaptation_height_mm: coaptation_height,
         central_coaptation_height_mm: central_height,
@@ -397,8 +415,8 @@ pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
         h_cc_mm: h_cc,
         h_avr_mm: (free_total > 0.0).then(|| coapt_total / free_total),
         ncca: (cusp_total > 0.0).then(|| coapt_total / cusp_total),
-        regurgitant_orifice_area_mm2: orifice.uncovered_mm2,
-        lumen_area_mm2: orifice.lumen_mm2,
+        regurgitant_orifice_area_mm2: orifice.as_ref().map(|o| o.uncovered_mm2),
+        lumen_area_mm2: orifice.as_ref().map(|o| o.lumen_mm2),
         coaptation_above_vaj: any_zone.map(|(lo, _)| lo > 0.0),
         lowest_coaptation_mm: any_zone.map(|(lo, _)| lo),
         lowest_free_edge_mm: leaflets

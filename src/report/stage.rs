@@ -1,0 +1,418 @@
+//! The `report` stage: measure the closed valve, judge the criteria, write
+//! `report.json` and a self-contained `report.html`.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde_json::{Value as Json, json};
+
+use super::coaptation::{self, Options as ZoneOptions};
+use super::criteria::{self, Thresholds};
+use super::document::{self, Context, Finding, Severity};
+use super::metrics::{self, Metrics};
+use super::{ClosedValve, Figure, figures, html, load, symmetry};
+use crate::geom::Point3;
+use crate::io::{Transaction, markups, nifti, vtp};
+use crate::pipeline::manifest::{self, Manifest};
+use crate::pipeline::{
+    ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec, provenance,
+};
+use crate::units::Kind;
+use crate::{Error, Result};
+
+const fn optional(name: &'static str, file: &'static str, kind: ArtifactKind, help: &'static str) -> Port {
+    Port {
+        name,
+        flag: name,
+        file,
+        kind,
+        required: false,
+        help,
+    }
+}
+
+pub static SPEC: StageSpec = StageSpec {
+    name: "report",
+    about: "Measure the coaptation of the closed valve, judge the surgical criteria, write report.json and report.html",
+    inputs: &[
+        Port {
+            name: "closed",
+            flag: "closed",
+            file: "closed.vtp",
+            kind: ArtifactKind::Mesh,
+            required: true,
+            help: "closed leaflets from `coapt close`",
+        },
+        Port {
+            name: "leaflets",
+            flag: "leaflets",
+            file: "leaflets.vtp",
+            kind: ArtifactKind::Mesh,
+            required: true,
+            help: "the placed leaflets the closure started from (boundary codes, ref_uv)",
+        },
+        Port {
+            name: "valve",
+            flag: "valve",
+            file: "valve.json",
+            kind: ArtifactKind::Json,
+            required: true,
+            help: "valve frame: annulus plane and axis for every height",
+        },
+        optional("log", "closure.json", ArtifactKind::Json, "closure log: thickness (margin), solver record"),
+        optional("ct", "ct.nii.gz", ArtifactKind::Volume, "CT, for the segmentation check figure"),
+        optional("mask", "mask.nii.gz", ArtifactKind::Mask, "lumen mask, drawn on the CT"),
+        optional("landmarks", "landmarks.mrk.json", ArtifactKind::Landmarks, "commissures and nadirs, drawn on the CT"),
+        optional("paths", "paths.vtp", ArtifactKind::Polylines, "suture paths, drawn on the CT"),
+    ],
+    outputs: &[
+        Port {
+            name: "report",
+            flag: "json",
+            file: "report.json",
+            kind: ArtifactKind::Json,
+            required: true,
+            help: "metrics, criteria, findings, timings, provenance (schemas/report.schema.json)",
+        },
+        Port {
+            name: "page",
+            flag: "html",
+            file: "report.html",
+            kind: ArtifactKind::Json,
+            required: true,
+            help: "one self-contained HTML page with the verdict and figures",
+        },
+    ],
+    out_dir: Some("out"),
+    params: &[
+        Param {
+            name: "margin",
+            kind: ParamKind::Quantity(Kind::Length),
+            default: None,
+            help: "contact margin (default 1.8 × the thickness in closure.json)",
+        },
+        Param {
+            name: "refine",
+            kind: ParamKind::Int { min: 1, max: 16 },
+            default: Some("4"),
+            help: "sub-triangles per edge where a triangle is partly in contact",
+        },
+        Param {
+            name: "column_width",
+            kind: ParamKind::Quantity(Kind::Length),
+            default: Some("0.5 mm"),
+            help: "radial columns across a coaptation strip for its height",
+        },
+        Param {
+            name: "hcc_radius",
+            kind: ParamKind::Quantity(Kind::Length),
+            default: Some("5 mm"),
+            help: "distance from the axis at which h_C-C is read",
+        },
+        Param {
+            name: "min_central_coaptation",
+            kind: ParamKind::Quantity(Kind::Length),
+            default: Some("4 mm"),
+            help: "criterion: central coaptation height must exceed this",
+        },
+        Param {
+            name: "min_effective_height",
+            kind: ParamKind::Quantity(Kind::Length),
+            default: Some("9 mm"),
+            help: "criterion: effective height must exceed this",
+        },
+        Param {
+            name: "run_dir",
+            kind: ParamKind::Path,
+            default: None,
+            help: "run directory: per-stage timings from its manifest.json, and optional inputs not given (closure.json, ct, mask, …) by their file names",
+        },
+    ],
+    check: check,
+    run,
+};
+
+fn check(p: &Params) -> Result<()> {
+    for name in ["column_width", "hcc_radius"] {
+        if !(p.quantity(name) > 0.0) {
+            return Err(Error::value(format!("report.{name} must be positive")));
+        }
+    }
+    if let crate::pipeline::params::Value::Quantity(m, _) = p.get("margin") {
+        if !(*m > 0.0) {
+            return Err(Error::value("report.margin must be positive"));
+        }
+    }
+    Ok(())
+}
+
+/// Thickness multiple of the contact margin (VERIFICATION.md §5).
+const MARGIN_PER_THICKNESS: f64 = 1.8;
+
+fn read_json(path: &Path) -> Result<Json> {
+    serde_json::from_slice(&std::fs::read(path).map_err(|e| Error::read(path, e))?)
+        .map_err(|e| Error::bad_input(path, format!("not JSON: {e}")))
+}
+
+/// An optional input: given, or found by its file name in the run directory.
+fn optional_input(io: &StageIo, run_dir: Option<&Path>, name: &str) -> Option<PathBuf> {
+    if let Some(p) = io.input(name) {
+        return Some(p.to_path_buf());
+    }
+    let file = SPEC.input(name)?.file;
+    let p = run_dir?.join(file);
+    p.is_file().then_some(p)
+}
+
+fn findings(v: &ClosedValve, m: &Metrics, completed: bool, log: Option<&Json>, margin_note: Option<String>) -> Vec<Finding> {
+    let mut f = Vec::new();
+    let mut say = |severity, message: String| f.push(Finding { severity, message });
+    if let Some(n) = margin_note {
+        say(Severity::Warning, n);
+    }
+    if completed {
+        say(
+            Severity::Info,
+            "One leaflet was closed between two contact planes (seed 001 §3.1): it is measured against those planes (through the axis and its lug corners; zone: signed distance ≤ half the margin, 0.01 R by default) and drawn with its mirror images as leaflets 2 and 3.".into(),
+        );
+    }
+    if m.leaflets.iter().all(|l| l.coaptation_area_mm2 == 0.0) {
+        say(
+            Severity::Error,
+            "The leaflets do not touch anywhere within the margin: no coaptation, the valve does not close.".into(),
+        );
+    } else if !m.closed {
+        say(
+            Severity::Warning,
+            "No zone where all three leaflets touch: central coaptation is absent and the valve counts as not closed.".into(),
+        );
+    }
+    match (m.regurgitant_orifice_area_mm2, m.lumen_area_mm2) {
+        (Some(o), Some(l)) if l > 0.0 && o > 0.01 * l => say(
+            Severity::Warning,
+            format!(
+                "Seen along the axis, {o:.1} mm² of the {l:.0} mm² lumen is not covered by the leaflets ({:.1} %).",
+                100.0 * o / l
+            ),
+        ),
+        (None, _) => say(
+            Severity::Info,
+            "The regurgitant orifice is not measured for a one-leaflet closure.".into(),
+        ),
+        _ => {}
+    }
+    for (i, l) in m.leaflets.iter().enumerate() {
+        if l.billowing_mm > 0.0 {
+            say(
+                Severity::Warning,
+                format!("Leaflet {} billows {:.2} mm below the plane of the three lowest sutured points.", i + 1, l.billowing_mm),
+            );
+        }
+    }
+    if v.ref_uv.is_none() {
+        say(Severity::Info, "The leaflets carry no flat-template coordinates (ref_uv): leaflet areas are those of the placed leaflets, and no coaptation maps are drawn.".into());
+    }
+    if let Some(log) = log {
+        if let Some(n) = log["intersecting_triangle_pairs"].as_u64().filter(|&n| n > 0) {
+            say(
+                Severity::Warning,
+                format!("{n} pairs of triangles of different leaflets cross each other in the closed state (closure.json); heights and areas near the crossings are uncertain."),
+            );
+        }
+        if log["solver"]["converged"] == json!(false) {
+            say(Severity::Error, format!("The closure did not converge: {}", log["solver"]["reason"].as_str().unwrap_or("no reason recorded")));
+        }
+    }
+    f
+}
+
+fn timings(run_dir: Option<&Path>) -> Json {
+    let Some(dir) = run_dir.filter(|d| d.join(manifest::FILE_NAME).is_file()) else {
+        return json!({});
+    };
+    match Manifest::load(dir) {
+        Ok(m) => Json::Object(
+            m.stages
+                .iter()
+                .filter(|s| s.stage != SPEC.name)
+                .map(|s| (s.stage.clone(), json!(s.seconds)))
+                .collect(),
+        ),
+        Err(_) => json!({}),
+    }
+}
+
+fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
+    let t0 = Instant::now();
+    let cpath = io.input("closed").expect("required");
+    let lpath = io.input("leaflets").expect("required");
+    let vpath = io.input("valve").expect("required");
+    let run_dir: Option<PathBuf> = params
+        .path("run_dir")
+        .map(PathBuf::from)
+        .or_else(|| cpath.parent().map(Path::to_path_buf));
+    let run_dir = run_dir.as_deref();
+    let frame = load::valve_frame(vpath)?;
+    let closed = vtp::read_mesh(cpath)?;
+    let placed = vtp::read_mesh(lpath)?;
+    let valve = load::closed_valve(&closed, cpath, &placed, lpath, frame)?;
+    let log_path = optional_input(io, run_dir, "log");
+    let log = match &log_path {
+        Some(p) => Some(read_json(p)?),
+        None => None,
+    };
+    let thickness = log
+        .as_ref()
+        .and_then(|l| l["config"]["thickness_mm"].as_f64())
+        .filter(|t| *t > 0.0);
+    let completed = symmetry::complete(&valve);
+    let given = match params.get("margin") {
+        crate::pipeline::params::Value::Quantity(m, _) => Some(*m),
+        _ => None,
+    };
+    let (margin, margin_note) = match (given, &completed, thickness) {
+        (Some(m), _, _) => (m, None),
+        // Seed 001 §3.1: the zone is where the signed distance to a
+        // contact plane is at most 0.01 R (R: the commissures' radius).
+        (None, Some(_), _) => {
+            let f = &valve.frame;
+            let r = f
+                .commissures_mm
+                .iter()
+                .map(|c| {
+                    let d = c - f.origin_mm;
+                    (d - f.axis * d.dot(&f.axis)).norm()
+                })
+                .sum::<f64>()
+                / 3.0;
+            (0.02 * r, None)
+        }
+        (None, None, Some(t)) => (MARGIN_PER_THICKNESS * t, None),
+        (None, None, None) => (
+            MARGIN_PER_THICKNESS * 0.5,
+            Some("No closure.json with the leaflet thickness: the contact margin assumes 0.5 mm leaflets (0.9 mm); pass --margin to set it.".to_string()),
+        ),
+    };
+    progress.set(0.1);
+    let (v, planes) = match &completed {
+        Some((w, p)) => (w, p.as_slice()),
+        None => (&valve, &[][..]),
+    };
+    let zone = ZoneOptions { margin_mm: margin, refine: params.int("refine") as usize };
+    let coapt = coaptation::find_with_planes(v, &zone, planes);
+    progress.set(0.4);
+    let mopts = metrics::Options {
+        column_mm: params.quantity("column_width"),
+        hcc_radius_mm: params.quantity("hcc_radius"),
+        measured: completed.is_some().then_some(1),
+        ..metrics::Options::default()
+    };
+    let m = metrics::measure(v, &coapt, &mopts);
+    let thresholds = Thresholds {
+        central_coaptation_mm: params.quantity("min_central_coaptation"),
+        effective_height_mm: params.quantity("min_effective_height"),
+    };
+    let crit = criteria::judge(&m, &thresholds);
+    let finds = findings(v, &m, completed.is_some(), log.as_ref(), margin_note);
+    progress.set(0.5);
+
+    // Figures.
+    let mut figs: Vec<Figure> = figures::valve_views::valve_views(v, &coapt.node_mask);
+    figs.extend(figures::coaptation_map::coaptation_maps(v, &coapt.node_mask));
+    let ct_path = optional_input(io, run_dir, "ct");
+    if let Some(ct_path) = &ct_path {
+        let ct = nifti::read_i16(ct_path)?;
+        let mask = match optional_input(io, run_dir, "mask") {
+            Some(p) => Some(nifti::read_u8(&p)?),
+            None => None,
+        };
+        let points: Vec<(String, Point3)> = match optional_input(io, run_dir, "landmarks") {
+            Some(p) => markups::read(&p)?.points,
+            None => Vec::new(),
+        };
+        let paths: Vec<Vec<Point3>> = match optional_input(io, run_dir, "paths") {
+            Some(p) => {
+                let pd = vtp::read(&p)?;
+                pd.lines.iter().map(|l| l.iter().map(|&k| pd.points[k as usize]).collect()).collect()
+            }
+            None => Vec::new(),
+        };
+        figs.push(figures::ct_check::ct_check(&ct, mask.as_ref(), &v.frame, &points, &paths));
+    }
+    if let Some(log) = &log {
+        let hist = log["solver"]["history"].as_array().cloned().unwrap_or_default();
+        let series = |key: &str| -> Vec<(usize, f64)> {
+            hist.iter()
+                .enumerate()
+                .filter_map(|(i, r)| Some((i + 1, r[key].as_f64()?)))
+                .collect()
+        };
+        if !hist.is_empty() {
+            figs.push(figures::convergence::convergence(
+                &series("residual_n"),
+                &series("max_force_n"),
+                log["config"]["tolerance_n"].as_f64(),
+            ));
+        }
+    }
+    progress.set(0.9);
+
+    let mut inputs = serde_json::Map::new();
+    let mut record = |name: &str, p: &Path| -> Result<()> {
+        let (blake3, bytes) = provenance::hash_file(p)?;
+        inputs.insert(name.into(), json!({"path": p.display().to_string(), "blake3": blake3, "bytes": bytes}));
+        Ok(())
+    };
+    record("closed", cpath)?;
+    record("leaflets", lpath)?;
+    record("valve", vpath)?;
+    for name in ["log", "ct", "mask", "landmarks", "paths"] {
+        if let Some(p) = optional_input(io, run_dir, name) {
+            record(name, &p)?;
+        }
+    }
+    let mut timing = timings(run_dir);
+    let report_s = t0.elapsed().as_secs_f64();
+    if let Json::Object(t) = &mut timing {
+        t.insert(SPEC.name.into(), json!(report_s));
+    }
+    let solver = match &log {
+        Some(l) => json!({
+            "converged": l["solver"]["converged"],
+            "iterations": l["solver"]["iterations"],
+            "residual_n": l["solver"]["residual_n"],
+            "reason": l["solver"]["reason"],
+        }),
+        None => json!({"converged": null, "iterations": null, "residual_n": null, "reason": null}),
+    };
+    let mut parameters: serde_json::Map<String, Json> =
+        params.canonical().into_iter().map(|(k, v)| (k, json!(v))).collect();
+    parameters.insert("margin_mm".into(), json!(margin));
+    if let Some(l) = &log {
+        parameters.insert("closure".into(), l["config"].clone());
+    }
+    let ctx = Context {
+        zone,
+        solver,
+        timing_s: timing,
+        inputs: Json::Object(inputs),
+        parameters: Json::Object(parameters),
+    };
+    let doc = document::build(&m, &crit, &finds, &ctx);
+    let page = html::render(&doc, &figs);
+    let text = serde_json::to_string_pretty(&doc).expect("json") + "\n";
+    let mut tx = Transaction::new();
+    tx.write_bytes(io.output("report"), text.as_bytes())?;
+    tx.write_bytes(io.output("page"), page.as_bytes())?;
+    tx.commit()?;
+    progress.set(1.0);
+    Ok(json!({
+        "closed": m.closed,
+        "meets_all_criteria": doc["verdict"]["meets_all_criteria"],
+        "coaptation_height_mm": m.coaptation_height_mm,
+        "central_coaptation_height_mm": m.central_coaptation_height_mm,
+        "effective_height_mm": m.effective_height_mm,
+        "refined_triangles": coapt.refined_triangles,
+        "figures": figs.len(),
+    }))
+}
