@@ -53,7 +53,8 @@ td.mono, span.mono { font-family: "DejaVu Sans Mono", Menlo, Consolas, monospace
 .sev-warning { color: var(--na); background: var(--na-bg); border-color: var(--na); }
 .sev-info { color: #1d4f91; background: #e3edf9; border-color: #1d4f91; }
 ul.findings { list-style: none; padding: 0; margin: 0.3em 0; }
-ul.findings li { margin: 0.3em 0; }
+ul.findings li { margin: 0.3em 0; display: flex; gap: 0.6em; align-items: baseline; }
+ul.findings .tag { flex: none; }
 .conventions { display: grid; grid-template-columns: 1fr 1fr; gap: 18px; }
 .conventions > div { border: 1px solid var(--line); border-radius: 4px; padding: 4px 12px; }
 figure { margin: 0.8em 0 1.4em; break-inside: avoid; page-break-inside: avoid; }
