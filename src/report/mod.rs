@@ -10,7 +10,9 @@
 //! - `metrics.rs`: heights, areas, effective height, orifice, billowing…
 //! - `figures/`: the software rasteriser and the figures; `html.rs`: the page.
 
+pub mod base64;
 pub mod figure;
+pub mod html;
 pub mod valve;
 
 pub use figure::Figure;
