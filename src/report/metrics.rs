@@ -218,6 +218,44 @@ fn tri_area(a: &Point3, b: &Point3, c: &Point3) -> f64 {
     0.5 * (b - a).cross(&(c - a)).norm()
 }
 
+/// The free-edge point nearest the axis (on the segments): (distance from
+/// the axis, height above the annulus plane), for positions `x`.
+pub fn central_free_edge(v: &ClosedValve, x: &[Point3], edges: &[[u32; 2]]) -> Option<(f64, f64)> {
+    let mut best: Option<(f64, f64)> = None;
+    for e in edges {
+        let (a, b) = (
+            v.frame.to_local(&x[e[0] as usize]),
+            v.frame.to_local(&x[e[1] as usize]),
+        );
+        let d = b - a;
+        let dd = d.x * d.x + d.y * d.y;
+        let t = if dd > 0.0 {
+            (-(a.x * d.x + a.y * d.y) / dd).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let q = a + d * t;
+        let r = q.x.hypot(q.y);
+        if best.is_none_or(|(br, _)| r < br) {
+            best = Some((r, q.z));
+        }
+    }
+    best
+}
+
+/// Effective height on other positions of the same leaflets (e.g. an extra
+/// closure at the seeds' 3 mmHg): mean over the measured leaflets of the
+/// height of the free-edge point nearest the axis.
+pub fn effective_height_at(v: &ClosedValve, x: &[Point3], measured: usize) -> Option<f64> {
+    let free = free_edges(v);
+    let h: Vec<f64> = free
+        .iter()
+        .take(measured)
+        .filter_map(|e| central_free_edge(v, x, e).map(|b| b.1))
+        .collect();
+    (!h.is_empty()).then(|| h.iter().sum::<f64>() / h.len() as f64)
+}
+
 /// Measure a closed valve whose zones are `c`.
 pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
     let nl = v.leaflets;
@@ -292,26 +330,7 @@ pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
             .iter()
             .map(|e| (x[e[1] as usize] - x[e[0] as usize]).norm())
             .sum();
-        // The free-edge point nearest the axis, on the segments.
-        let mut best: Option<(f64, f64)> = None;
-        for e in edges {
-            let (a, b) = (
-                v.frame.to_local(&x[e[0] as usize]),
-                v.frame.to_local(&x[e[1] as usize]),
-            );
-            let d = b - a;
-            let dd = d.x * d.x + d.y * d.y;
-            let t = if dd > 0.0 {
-                (-(a.x * d.x + a.y * d.y) / dd).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let q = a + d * t;
-            let r = q.x.hypot(q.y);
-            if best.is_none_or(|(br, _)| r < br) {
-                best = Some((r, q.z));
-            }
-        }
+        let best = central_free_edge(v, x, edges);
         let lowest_free = edges
             .iter()
             .flatten()
