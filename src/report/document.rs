@@ -37,6 +37,8 @@ impl Severity {
 /// Everything around the metrics that goes into the document.
 pub struct Context {
     pub zone: ZoneOptions,
+    /// Pressure at which `Metrics::effective_height_mm` was measured.
+    pub effective_height_pressure_mmhg: Option<f64>,
     pub solver: Json,
     pub timing_s: Json,
     pub inputs: Json,
@@ -163,6 +165,7 @@ pub fn build(m: &Metrics, criteria: &[Criterion], findings: &[Finding], ctx: &Co
                 "min": fold(f64::min, f64::INFINITY),
             },
             "effective_height_mm": m.effective_height_mm,
+            "effective_height_pressure_mmhg": ctx.effective_height_pressure_mmhg,
             "h_cc_mm": m.h_cc_mm,
             "h_avr_mm": m.h_avr_mm,
             "ncca": m.ncca,

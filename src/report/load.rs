@@ -113,3 +113,20 @@ pub fn closed_valve(
         leaflets,
     })
 }
+
+/// Point data `low_pressure_position` of `closed.vtp` (positions of an
+/// extra closure at a low pressure, written by the close stage when asked).
+pub fn low_pressure_positions(closed: &TriMesh, path: &Path) -> Result<Option<Vec<crate::geom::Point3>>> {
+    let Some(a) = closed.point_data.get("low_pressure_position") else {
+        return Ok(None);
+    };
+    let v = a
+        .values
+        .to_f64()
+        .filter(|v| a.components == 3 && v.len() == 3 * closed.vertices.len())
+        .ok_or_else(|| Error::bad_input(path, "point data 'low_pressure_position' must hold 3 numbers per point"))?;
+    if v.iter().any(|c| !c.is_finite()) {
+        return Err(Error::bad_input(path, "point data 'low_pressure_position' has non-finite numbers"));
+    }
+    Ok(Some(v.chunks(3).map(|c| crate::geom::Point3::new(c[0], c[1], c[2])).collect()))
+}

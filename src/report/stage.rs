@@ -226,6 +226,15 @@ fn findings(v: &ClosedValve, m: &Metrics, completed: bool, log: Option<&Json>, m
     f
 }
 
+/// Positions `x` of a one-leaflet valve, extended by the mirror images the
+/// completed valve `w` holds (only leaflet 1 is measured; its images only
+/// need to exist with the right count).
+fn mirror_positions(one: &ClosedValve, w: &ClosedValve, x: &[Point3]) -> Vec<Point3> {
+    let mut out = x.to_vec();
+    out.extend_from_slice(&w.x[one.x.len()..]);
+    out
+}
+
 fn timings(run_dir: Option<&Path>) -> Json {
     let Some(dir) = run_dir.filter(|d| d.join(manifest::FILE_NAME).is_file()) else {
         return json!({});
@@ -307,7 +316,18 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         measured: completed.is_some().then_some(1),
         ..metrics::Options::default()
     };
-    let m = metrics::measure(v, &coapt, &mopts);
+    let mut m = metrics::measure(v, &coapt, &mopts);
+    // An extra closure at a low pressure (the seeds measure h_E at 3 mmHg),
+    // when the close stage was asked for one, gives the effective height.
+    let mut eff_pressure = log.as_ref().and_then(|l| l["config"]["pressure_mmhg"].as_f64());
+    if let Some(low) = load::low_pressure_positions(&closed, cpath)? {
+        let mut x = low;
+        if let Some((w, _)) = &completed {
+            x = mirror_positions(&valve, w, &x);
+        }
+        m.effective_height_mm = metrics::effective_height_at(v, &x, mopts.measured.unwrap_or(v.leaflets));
+        eff_pressure = log.as_ref().and_then(|l| l["config"]["effective_height_pressure_mmhg"].as_f64());
+    }
     let thresholds = Thresholds {
         central_coaptation_mm: params.quantity("min_central_coaptation"),
         effective_height_mm: params.quantity("min_effective_height"),
@@ -393,6 +413,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     }
     let ctx = Context {
         zone,
+        effective_height_pressure_mmhg: eff_pressure,
         solver,
         timing_s: timing,
         inputs: Json::Object(inputs),
