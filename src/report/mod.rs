@@ -11,6 +11,8 @@
 //! - `figures/`: the software rasteriser and the figures; `html.rs`: the page.
 
 pub mod figure;
+
+pub mod raster;
 pub mod valve;
 
 pub use figure::Figure;
