@@ -11,7 +11,7 @@
 //! - `figures/`: the software rasteriser and the figures; `html.rs`: the page.
 
 pub mod figure;
-
+pub mod figures;
 pub mod raster;
 pub mod valve;
 
