@@ -197,7 +197,8 @@ pub struct Canvas {
     h: usize,
     ss: usize,
     px: Vec<Rgb8>,
-    depth: Vec<f64>,
+    /// f32 is plenty for millimetre depths and halves the buffer's traffic.
+    depth: Vec<f32>,
 }
 
 impl Canvas {
@@ -212,7 +213,7 @@ impl Canvas {
             h,
             ss,
             px: vec![background; w * h],
-            depth: vec![f64::INFINITY; w * h],
+            depth: vec![f32::INFINITY; w * h],
         }
     }
 
@@ -255,7 +256,7 @@ impl Canvas {
 
     /// Depth at supersampled position (sx, sy); infinite where nothing was drawn.
     pub fn sample_depth(&self, sx: usize, sy: usize) -> Option<f64> {
-        (sx < self.w && sy < self.h).then(|| self.depth[sx + sy * self.w])
+        (sx < self.w && sy < self.h).then(|| self.depth[sx + sy * self.w] as f64)
     }
 
     /// Mix `colour` into one sample with opacity `alpha` (0..=1); samples
@@ -274,7 +275,7 @@ impl Canvas {
         let p = &mut self.px[i];
         for c in 0..3 {
             let v = p[c] as f32 + (colour[c] as f32 - p[c] as f32) * a;
-            p[c] = v.round().clamp(0.0, 255.0) as u8;
+            p[c] = (v + 0.5).clamp(0.0, 255.0) as u8;
         }
     }
 
@@ -504,7 +505,7 @@ impl Canvas {
                 }
                 let i = sx + sy * self.w;
                 if let Some((da, db, tol)) = depth
-                    && da + (db - da) * t > self.depth[i] + tol
+                    && da + (db - da) * t > self.depth[i] as f64 + tol
                 {
                     continue;
                 }
@@ -514,7 +515,7 @@ impl Canvas {
     }
 
     /// Draw a mesh with the z-buffer: the nearest surface wins; at equal
-    /// depth the earlier triangle stays. Triangles with a vertex index out
+    /// depth the triangle drawn first (see `tile_order`) stays. Triangles with a vertex index out
     /// of range or a non-finite position are skipped.
     pub fn draw_mesh(&mut self, cam: &Camera, layer: &MeshLayer) {
         let n = layer.positions.len();
@@ -524,7 +525,12 @@ impl Canvas {
             _ => None,
         };
         let light = cam.light();
-        for (t, tri) in layer.triangles.iter().enumerate() {
+        // Visibility first (nearest triangle id per sample, 0 for none),
+        // shading after: each visible sample is shaded once.
+        let mut vis = vec![0u32; self.w * self.h];
+        let mut setup: Vec<Option<TriShade>> = vec![None; layer.triangles.len()];
+        for t in tile_order(&proj, layer.triangles) {
+            let tri = &layer.triangles[t];
             let idx = tri.map(|i| i as usize);
             if idx.iter().any(|&i| i >= n) {
                 continue;
@@ -549,90 +555,204 @@ impl Canvas {
                 }
                 _ => [face.map_or(1.0, |f| lambert(f.dot(&light))); 3],
             };
-            let smooth = layer.shading == Shading::Smooth;
             let corner = [0, 1, 2].map(|k| (layer.corner)(t, k));
-            self.fill_triangle(p, |b| {
-                let mut v = [0f32; 3];
-                for (c, out) in v.iter_mut().enumerate() {
-                    *out = (b[0] * corner[0][c] as f64
-                        + b[1] * corner[1][c] as f64
-                        + b[2] * corner[2][c] as f64) as f32;
-                }
-                let base = (layer.paint)(t, v);
-                let l = if smooth {
-                    lambert(b[0] * light_at[0] + b[1] * light_at[1] + b[2] * light_at[2])
-                } else {
-                    light_at[0]
-                };
-                base.map(|c| (c as f64 * l).round().clamp(0.0, 255.0) as u8)
+            let twice_area = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1])
+                - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+            setup[t] = Some(TriShade {
+                p,
+                inv_area: 1.0 / twice_area,
+                light_at,
+                corner,
             });
+            let id = t as u32 + 1;
+            self.fill_triangle(p, |i| vis[i] = id);
+        }
+        // Shade each visible sample once, whatever the overdraw.
+        let smooth = layer.shading == Shading::Smooth;
+        let inv_ss = 1.0 / self.ss as f64;
+        for (i, &id) in vis.iter().enumerate() {
+            let Some(Some(ts)) = id.checked_sub(1).map(|t| &setup[t as usize]) else {
+                continue;
+            };
+            let t = id as usize - 1;
+            let pt = [
+                ((i % self.w) as f64 + 0.5) * inv_ss,
+                ((i / self.w) as f64 + 0.5) * inv_ss,
+            ];
+            let q = &ts.p;
+            let e = |a: &[f64; 3], b: &[f64; 3]| {
+                (b[0] - a[0]) * (pt[1] - a[1]) - (b[1] - a[1]) * (pt[0] - a[0])
+            };
+            // Snapping may put a sample a hair outside: clamp the weights.
+            let b0 = (e(&q[1], &q[2]) * ts.inv_area).clamp(0.0, 1.0);
+            let b1 = (e(&q[2], &q[0]) * ts.inv_area).clamp(0.0, 1.0 - b0);
+            let b = [b0, b1, 1.0 - b0 - b1];
+            let mut v = [0f32; 3];
+            for (c, out) in v.iter_mut().enumerate() {
+                *out = (b[0] * ts.corner[0][c] as f64
+                    + b[1] * ts.corner[1][c] as f64
+                    + b[2] * ts.corner[2][c] as f64) as f32;
+            }
+            let base = (layer.paint)(t, v);
+            let l = if smooth {
+                lambert(b[0] * ts.light_at[0] + b[1] * ts.light_at[1] + b[2] * ts.light_at[2])
+            } else {
+                ts.light_at[0]
+            };
+            // Truncating +½ rounds the non-negative product without a libm call.
+            self.px[i] = base.map(|c| (c as f64 * l + 0.5).clamp(0.0, 255.0) as u8);
         }
     }
 
     /// Rasterise one projected triangle (output-pixel x, y and depth per
     /// corner) with a top-left fill rule, so that triangles sharing an edge
-    /// cover each sample exactly once. `shade` gets the barycentric weights.
-    fn fill_triangle(&mut self, p: [[f64; 3]; 3], mut shade: impl FnMut([f64; 3]) -> Rgb8) {
+    /// cover each sample exactly once. The depth buffer is updated here;
+    /// `hit` gets the index of each sample the triangle now owns.
+    ///
+    /// Corners are snapped to 1/16 of a sample and the edge functions are
+    /// evaluated in integers: exact, so the fill rule is watertight for any
+    /// mesh and the result cannot depend on evaluation order. Corners more
+    /// than 2²⁴ samples away (only absurd zooms or overflowing inputs) make
+    /// the triangle be skipped rather than wrap around.
+    fn fill_triangle(&mut self, p: [[f64; 3]; 3], mut hit: impl FnMut(usize)) {
+        const SUB: i64 = 16;
+        const LIMIT: f64 = (1i64 << 24) as f64;
         let s = self.ss as f64;
-        let q = p.map(|v| [v[0] * s, v[1] * s, v[2]]);
-        let area = edge(&q[0], &q[1], &q[2]);
-        if area.is_nan() || area.abs() <= 1e-12 {
+        let in_range = |v: f64| (v * s).abs() < LIMIT;
+        if p.iter().any(|v| !(in_range(v[0]) && in_range(v[1]))) {
             return;
         }
-        // Make the winding positive so that one fill rule serves both.
-        let q = if area < 0.0 { [q[0], q[2], q[1]] } else { q };
-        let swap = area < 0.0;
-        let area = area.abs();
-        let x0 = q.iter().map(|v| v[0]).fold(f64::INFINITY, f64::min);
-        let x1 = q.iter().map(|v| v[0]).fold(f64::NEG_INFINITY, f64::max);
-        let y0 = q.iter().map(|v| v[1]).fold(f64::INFINITY, f64::min);
-        let y1 = q.iter().map(|v| v[1]).fold(f64::NEG_INFINITY, f64::max);
-        let sx0 = (x0 - 0.5).ceil().max(0.0);
-        let sx1 = (x1 - 0.5).floor().min(self.w as f64 - 1.0);
-        let sy0 = (y0 - 0.5).ceil().max(0.0);
-        let sy1 = (y1 - 0.5).floor().min(self.h as f64 - 1.0);
+        let fix = |v: f64| (v * s * SUB as f64).round() as i64;
+        let mut q = p.map(|v| [fix(v[0]), fix(v[1])]);
+        let mut z = p.map(|v| v[2]);
+        let mut area = edge_i(&q[0], &q[1], &q[2]);
+        if area == 0 {
+            return;
+        }
+        // Make the winding positive so that one fill rule serves both; the
+        // swap is undone on the weights handed to `shade`.
+        let swap = area < 0;
+        if swap {
+            q.swap(1, 2);
+            z.swap(1, 2);
+            area = -area;
+        }
+        let inv_area = 1.0 / area as f64;
+        let min_x = q.iter().map(|v| v[0]).min().unwrap_or(0);
+        let max_x = q.iter().map(|v| v[0]).max().unwrap_or(0);
+        let min_y = q.iter().map(|v| v[1]).min().unwrap_or(0);
+        let max_y = q.iter().map(|v| v[1]).max().unwrap_or(0);
+        // Sample (sx, sy) sits at ((sx + ½)·SUB, (sy + ½)·SUB).
+        let first = |lo: i64| (lo - SUB / 2 + SUB - 1).div_euclid(SUB).max(0);
+        let last = |hi: i64, n: usize| (hi - SUB / 2).div_euclid(SUB).min(n as i64 - 1);
+        let (sx0, sx1) = (first(min_x), last(max_x, self.w));
+        let (sy0, sy1) = (first(min_y), last(max_y, self.h));
         if sx0 > sx1 || sy0 > sy1 {
             return;
         }
-        let top_left = [0, 1, 2].map(|k| is_top_left(&q[(k + 1) % 3], &q[(k + 2) % 3]));
-        for sy in sy0 as usize..=sy1 as usize {
-            let py = sy as f64 + 0.5;
-            for sx in sx0 as usize..=sx1 as usize {
-                let pt = [sx as f64 + 0.5, py];
-                let e = [
-                    edge(&q[1], &q[2], &pt),
-                    edge(&q[2], &q[0], &pt),
-                    edge(&q[0], &q[1], &pt),
-                ];
-                if (0..3).any(|k| e[k] < 0.0 || (e[k] == 0.0 && !top_left[k])) {
-                    continue;
+        // Edge k is opposite corner k: from q[k+1] to q[k+2].
+        let ends = [0, 1, 2].map(|k| (q[(k + 1) % 3], q[(k + 2) % 3]));
+        let bias = ends.map(|(a, b)| if is_top_left_i(&a, &b) { 0 } else { -1 });
+        let step_x = ends.map(|(a, b)| -(b[1] - a[1]) * SUB);
+        let slope = ends.map(|(a, b)| a[1] - b[1]);
+        let inv_slope = slope.map(|v| if v != 0 { 1.0 / v as f64 } else { 0.0 });
+        for sy in sy0..=sy1 {
+            let py = sy * SUB + SUB / 2;
+            // Narrow a wide row to where every edge function can be ≥ 0
+            // (a sample of slack each side, so truncation may stand in for
+            // floor and ceil), so that slivers seen edge-on cost their area
+            // and not their bounding box; the exact test below still decides
+            // every sample.
+            let (mut lo, mut hi) = (sx0, sx1);
+            if sx1 - sx0 > 8 {
+                for k in 0..3 {
+                    let (a, b) = &ends[k];
+                    let c = ((b[0] - a[0]) * (py - a[1])) as f64;
+                    let x_at = (a[0] as f64 - c * inv_slope[k]) * (1.0 / SUB as f64) - 0.5;
+                    if slope[k] > 0 {
+                        lo = lo.max(x_at as i64 - 1);
+                    } else if slope[k] < 0 {
+                        hi = hi.min(x_at as i64 + 1);
+                    } else if c < 0.0 {
+                        hi = lo - 1;
+                    }
                 }
-                let b = e.map(|v| v / area);
-                let z = b[0] * q[0][2] + b[1] * q[1][2] + b[2] * q[2][2];
-                let i = sx + sy * self.w;
-                if z.is_nan() || z >= self.depth[i] {
-                    continue;
+            }
+            if lo > hi {
+                continue;
+            }
+            let px = lo * SUB + SUB / 2;
+            let mut e = [0, 1, 2].map(|k| edge_i(&ends[k].0, &ends[k].1, &[px, py]));
+            let row = sy as usize * self.w;
+            for sx in lo..=hi {
+                if e[0] + bias[0] >= 0 && e[1] + bias[1] >= 0 && e[2] + bias[2] >= 0 {
+                    let b = e.map(|v| v as f64 * inv_area);
+                    let depth = (b[0] * z[0] + b[1] * z[1] + b[2] * z[2]) as f32;
+                    let i = row + sx as usize;
+                    if depth < self.depth[i] {
+                        self.depth[i] = depth;
+                        hit(i);
+                    }
                 }
-                self.depth[i] = z;
-                let b = if swap { [b[0], b[2], b[1]] } else { b };
-                self.px[i] = shade(b);
+                for k in 0..3 {
+                    e[k] += step_x[k];
+                }
             }
         }
     }
 }
 
-/// Twice the signed area of (a, b, p); positive when p is to the right of
-/// a→b in y-down image coordinates, i.e. clockwise on screen.
+/// Twice the signed area of (a, b, p) in fixed point; positive when p is to
+/// the right of a→b in y-down image coordinates, i.e. clockwise on screen.
 #[inline]
-fn edge(a: &[f64; 3], b: &[f64; 3], p: &[f64]) -> f64 {
+fn edge_i(a: &[i64; 2], b: &[i64; 2], p: &[i64; 2]) -> i64 {
     (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
 }
 
 /// Top or left edge of a positively wound triangle (y down): samples exactly
 /// on it belong to this triangle, not its neighbour.
 #[inline]
-fn is_top_left(a: &[f64; 3], b: &[f64; 3]) -> bool {
+fn is_top_left_i(a: &[i64; 2], b: &[i64; 2]) -> bool {
     (a[1] == b[1] && b[0] > a[0]) || b[1] < a[1]
+}
+
+/// What the shading pass needs of one triangle: projected corners (output
+/// pixels, depth), 1 / twice its signed area, light at its corners and its
+/// corner values.
+#[derive(Clone, Copy)]
+struct TriShade {
+    p: [[f64; 3]; 3],
+    inv_area: f64,
+    light_at: [f64; 3],
+    corner: [[f32; 3]; 3],
+}
+
+/// Triangle indices ordered by the Z-order (Morton) code of the 8-pixel
+/// tile under their first corner, ties by index: neighbouring triangles are
+/// then drawn one after another and hit the same cache lines of the
+/// buffers, whatever order the mesher left them in. Bad triangles go last
+/// (and are skipped there).
+fn tile_order(proj: &[[f64; 3]], tris: &[[u32; 3]]) -> Vec<usize> {
+    let key = |t: &[u32; 3]| -> u64 {
+        let Some(p) = proj.get(t[0] as usize) else {
+            return u64::MAX;
+        };
+        if !(p[0].is_finite() && p[1].is_finite()) {
+            return u64::MAX;
+        }
+        let tile = |v: f64| ((v / 8.0).clamp(0.0, 65535.0)) as u64;
+        let (mut x, mut y) = (tile(p[0]), tile(p[1]));
+        let mut code = 0u64;
+        for bit in 0..16 {
+            code |= ((x & 1) << (2 * bit)) | ((y & 1) << (2 * bit + 1));
+            x >>= 1;
+            y >>= 1;
+        }
+        code
+    };
+    let mut order: Vec<(u64, usize)> = tris.iter().enumerate().map(|(i, t)| (key(t), i)).collect();
+    order.sort_unstable();
+    order.into_iter().map(|(_, i)| i).collect()
 }
 
 /// Area-weighted vertex normals (unnormalised sums of face area vectors),

@@ -2,7 +2,7 @@
 //! was cut from (as seed 001, Figs. 21–24): the surgeon reads the zone in
 //! the same millimetres as the pericardium template.
 
-use super::legend::{LegendItem, Swatch, draw_legend};
+use super::legend::{LegendItem, Swatch, draw_legend, legend_size};
 use super::mesh_edges::{EdgeKind, boundary_edges, edge_kind};
 use super::notice::notice;
 use super::palette::{
@@ -17,8 +17,8 @@ use crate::report::raster::{Camera, Canvas, MeshLayer, Shading};
 use crate::report::{ClosedValve, Figure};
 
 const WIDTH: u32 = 980;
-const HEIGHT: u32 = 470;
-/// Panels live in [LEFT, RIGHT] × [TOP, BOTTOM]; the legend right of them.
+/// Panels live in [LEFT, RIGHT] × [TOP, at most BOTTOM]; the legend right
+/// of them; the image ends below whichever is lower.
 const LEFT: f64 = 56.0;
 const RIGHT: f64 = 760.0;
 const TOP: f64 = 44.0;
@@ -119,10 +119,13 @@ pub fn coaptation_maps(v: &ClosedValve, contact: &[u8]) -> Option<Figure> {
     // World (0, 0), the bottom-left of the first panel, goes where the
     // panels end up centred in their area.
     let x_start = LEFT + 0.5 * ((RIGHT - LEFT) - total_w / mm_per_px);
-    let y_bottom = BOTTOM - 0.5 * ((BOTTOM - TOP) - max_h / mm_per_px);
+    let y_bottom = TOP + max_h / mm_per_px;
+    let legend_h = legend_size(&legend_items(&panels), LEGEND_SIZE).1;
+    let notes_top = (TOP + legend_h + 16.0).max(y_bottom - 28.0);
+    let height = ((y_bottom + 44.0).max(notes_top + 44.0)).ceil() as u32;
     let centre = Point3::new(
         (0.5 * WIDTH as f64 - x_start) * mm_per_px,
-        (y_bottom - 0.5 * HEIGHT as f64) * mm_per_px,
+        (y_bottom - 0.5 * height as f64) * mm_per_px,
         0.0,
     );
     let cam = Camera::new(
@@ -131,9 +134,9 @@ pub fn coaptation_maps(v: &ClosedValve, contact: &[u8]) -> Option<Figure> {
         centre,
         mm_per_px,
         WIDTH,
-        HEIGHT,
+        height,
     )?;
-    let mut c = Canvas::new(WIDTH, HEIGHT, 2, BACKGROUND);
+    let mut c = Canvas::new(WIDTH, height, 2, BACKGROUND);
     let step = grid_step(mm_per_px);
     for (p, &off) in panels.iter().zip(&offsets) {
         draw_grid(&mut c, &cam, p, off, step, p.leaflet == panels[0].leaflet);
@@ -190,6 +193,40 @@ pub fn coaptation_maps(v: &ClosedValve, contact: &[u8]) -> Option<Figure> {
             &head,
         );
     }
+    draw_legend(
+        &mut c,
+        RIGHT + 16.0,
+        TOP,
+        &legend_items(&panels),
+        LEGEND_SIZE,
+    );
+    let note = TextStyle::new(12.0, [90; 3]).align(HAlign::Left, VAlign::Top);
+    draw_text(
+        &mut c,
+        RIGHT + 16.0,
+        notes_top,
+        &format!("grid: {step} mm"),
+        &note,
+    );
+    draw_text(
+        &mut c,
+        RIGHT + 16.0,
+        notes_top + 18.0,
+        "free edge at the top",
+        &note,
+    );
+    let caption = format!(
+        "Each leaflet on its flat template (mm, free edge at the top, grid every {step} mm), coloured where \
+         the closed leaflet touches others: pale tint, no contact; blue, touching one other leaflet \
+         (coaptation zone); red, touching both others (central coaptation). Dark line: free edge; \
+         brown: sutured edge."
+    );
+    Some(to_figure(ID, TITLE, &caption, &c))
+}
+
+const LEGEND_SIZE: f64 = 12.5;
+
+fn legend_items(panels: &[Panel]) -> Vec<LegendItem> {
     let mut items: Vec<LegendItem> = panels
         .iter()
         .map(|p| {
@@ -209,29 +246,7 @@ pub fn coaptation_maps(v: &ClosedValve, contact: &[u8]) -> Option<Figure> {
     ));
     items.push(LegendItem::new(Swatch::Line(FREE_EDGE), "free edge"));
     items.push(LegendItem::new(Swatch::Line(SUTURE), "sutured edge"));
-    draw_legend(&mut c, RIGHT + 16.0, TOP, &items, 12.5);
-    let note = TextStyle::new(12.0, [90; 3]).align(HAlign::Left, VAlign::Top);
-    draw_text(
-        &mut c,
-        RIGHT + 16.0,
-        BOTTOM - 30.0,
-        &format!("grid: {step} mm"),
-        &note,
-    );
-    draw_text(
-        &mut c,
-        RIGHT + 16.0,
-        BOTTOM - 12.0,
-        "free edge at the top",
-        &note,
-    );
-    let caption = format!(
-        "Each leaflet on its flat template (mm, free edge at the top, grid every {step} mm), coloured where \
-         the closed leaflet touches others: pale tint, no contact; blue, touching one other leaflet \
-         (coaptation zone); red, touching both others (central coaptation). Dark line: free edge; \
-         brown: sutured edge."
-    );
-    Some(to_figure(ID, TITLE, &caption, &c))
+    items
 }
 
 /// True when the free-edge nodes lie at smaller v than the sutured ones.
@@ -314,7 +329,7 @@ mod tests {
         let (v, contact) = synthetic_valve(16);
         let f = coaptation_maps(&v, &contact).unwrap();
         let img = decode(&f.png);
-        assert_eq!((img.w, img.h), (WIDTH as usize, HEIGHT as usize));
+        assert_eq!((img.w as u32, img.h as u32), (WIDTH, f.height));
         for j in 0..3 {
             assert!(count(&img, leaflet_tint(j)) > 1000, "leaflet {j}");
         }

@@ -15,11 +15,11 @@ pub fn convergence(
     let mut c = XyChart::new(
         "convergence",
         "Closure solver convergence",
-        "iteration",
+        "iteration (all solver phases)",
         "force (N, log scale)",
     );
     c.log_y = true;
-    let pts = |s: &[(usize, f64)]| s.iter().map(|&(i, v)| (i as f64, v)).collect::<Vec<_>>();
+    let pts = running;
     if !history.is_empty() {
         c.series.push(Series::new("residual", pts(history)));
     }
@@ -31,19 +31,24 @@ pub fn convergence(
     if let Some(t) = tol {
         c.hlines.push((format!("tolerance {t:.3e} N"), t));
     }
-    let last = history.iter().rev().find(|(_, r)| r.is_finite());
+    let all = running(history);
+    let last = all
+        .iter()
+        .rev()
+        .find(|(_, r)| r.is_finite())
+        .map(|&(i, r)| (i as usize, r));
     c.caption = match (last, tol) {
-        (Some(&(i, r)), Some(t)) => format!(
+        (Some((i, r)), Some(t)) => format!(
             "Residual force (N) of the closure solver per iteration, log scale; dashed red line: the tolerance \
-             ({t:.3e} N). Last residual {r:.3e} N at iteration {i}: {}.",
+             ({t:.3e} N). Last residual {r:.3e} N after {i} iterations: {}.",
             if r <= t {
                 "below the tolerance"
             } else {
                 "above the tolerance"
             }
         ),
-        (Some(&(i, r)), None) => format!(
-            "Residual force (N) of the closure solver per iteration, log scale. Last residual {r:.3e} N at iteration {i}."
+        (Some((i, r)), None) => format!(
+            "Residual force (N) of the closure solver per iteration, log scale. Last residual {r:.3e} N after {i} iterations."
         ),
         _ => "Residual force (N) of the closure solver per iteration, log scale.".to_string(),
     };
@@ -52,6 +57,25 @@ pub fn convergence(
         fig.caption = "Not drawn: the solver recorded no iterations.".to_string();
     }
     fig
+}
+
+/// Iterations counted on across solver phases: a phase whose numbering
+/// starts again (continuation steps, then Newton) continues the x axis
+/// instead of folding back over the previous one.
+fn running(s: &[(usize, f64)]) -> Vec<(f64, f64)> {
+    let mut offset = 0usize;
+    let mut prev: Option<usize> = None;
+    s.iter()
+        .map(|&(i, v)| {
+            if let Some(p) = prev
+                && i <= p
+            {
+                offset += p;
+            }
+            prev = Some(i);
+            ((offset + i) as f64, v)
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -71,6 +95,15 @@ mod tests {
         assert!(count(&img, [200, 30, 40]) > 100);
         let f2 = convergence(&h[..25], &[], Some(1e-4));
         assert!(f2.caption.contains("below the tolerance"));
+    }
+
+    #[test]
+    fn restarted_numbering_continues_the_axis() {
+        let x: Vec<f64> = running(&[(1, 1.0), (2, 1.0), (3, 1.0), (1, 1.0), (2, 1.0)])
+            .iter()
+            .map(|p| p.0)
+            .collect();
+        assert_eq!(x, vec![1.0, 2.0, 3.0, 4.0, 5.0]);
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! contour, the landmarks and the suture paths, so that a reader can see at
 //! a glance whether the lumen, the frame and the paths sit where the CT says.
 
-use super::ct_plane::{contour, nearest, trilinear, window};
+use super::ct_plane::{Sampler, contour, window};
 use super::legend::{LegendItem, Swatch, draw_legend_row};
 use super::notice::notice;
 use super::palette::{BACKGROUND, INK};
@@ -161,20 +161,23 @@ fn render_plane(
     let cam = &pl.cam;
     let mut c = Canvas::new(PANEL, PANEL, 2, OUTSIDE);
     let (w, h) = (PANEL as f64, PANEL as f64);
+    let ct = Sampler::new(ct);
     c.fill_with(0.0, 0.0, w, h, |x, y| {
-        trilinear(ct, &cam.unproject(x, y)).map(|v| [window(v, WINDOW.0, WINDOW.1); 3])
+        ct.trilinear(&cam.unproject(x, y))
+            .map(|v| [window(v, WINDOW.0, WINDOW.1); 3])
     });
     for t in &pl.traces {
         let (a, b) = (cam.project(&t[0]), cam.project(&t[1]));
         c.dashed_polyline(&[[a[0], a[1]], [b[0], b[1]]], 1.2, 6.0, 5.0, TRACE);
     }
-    if let Some(m) = mask {
+    if let Some(m) = mask.map(Sampler::new) {
         // Nearest sampling at pixel centres, then a marching-squares outline.
         let n = PANEL as usize;
         let inside: Vec<bool> = (0..n * n)
             .map(|k| {
                 let (i, j) = (k % n, k / n);
-                nearest(m, &cam.unproject(i as f64 + 0.5, j as f64 + 0.5)).is_some_and(|v| v > 0)
+                m.nearest(&cam.unproject(i as f64 + 0.5, j as f64 + 0.5))
+                    .is_some_and(|v| v > 0)
             })
             .collect();
         for s in contour(&inside, n, n) {

@@ -3,59 +3,90 @@
 
 use crate::geom::{Point3, Volume};
 
-/// Trilinear value at a world point, through the volume's affine; `None`
-/// outside the grid (more than half a voxel beyond the outer centres), for
-/// an empty volume, or a non-finite point.
-pub fn trilinear(vol: &Volume<i16>, p: &Point3) -> Option<f64> {
-    let d = vol.dims();
-    if d.contains(&0) {
-        return None;
-    }
-    let idx = vol.world_to_index(p);
-    let mut base = [0usize; 3];
-    let mut frac = [0f64; 3];
-    for a in 0..3 {
-        let n = d[a] as f64;
-        let x = idx[a];
-        if !(x >= -0.5 && x <= n - 0.5) {
-            return None;
-        }
-        let x = x.clamp(0.0, n - 1.0);
-        let i0 = (x.floor() as usize).min(d[a].saturating_sub(2));
-        base[a] = i0;
-        frac[a] = if d[a] == 1 { 0.0 } else { x - i0 as f64 };
-    }
-    let s = vol.as_slice();
-    let at = |i: usize, j: usize, k: usize| s[vol.linear_index(i, j, k)] as f64;
-    let step = |a: usize| usize::from(d[a] > 1);
-    let (i, j, k) = (base[0], base[1], base[2]);
-    let (di, dj, dk) = (step(0), step(1), step(2));
-    let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
-    let c00 = lerp(at(i, j, k), at(i + di, j, k), frac[0]);
-    let c10 = lerp(at(i, j + dj, k), at(i + di, j + dj, k), frac[0]);
-    let c01 = lerp(at(i, j, k + dk), at(i + di, j, k + dk), frac[0]);
-    let c11 = lerp(at(i, j + dj, k + dk), at(i + di, j + dj, k + dk), frac[0]);
-    Some(lerp(
-        lerp(c00, c10, frac[1]),
-        lerp(c01, c11, frac[1]),
-        frac[2],
-    ))
+/// A volume prepared for many lookups: its voxels as one slice, fetched once.
+pub struct Sampler<'a, T> {
+    vol: &'a Volume<T>,
+    data: &'a [T],
+    dims: [usize; 3],
 }
 
-/// Value of the voxel containing a world point (nearest centre); `None`
-/// outside the grid.
-pub fn nearest(vol: &Volume<u8>, p: &Point3) -> Option<u8> {
-    let d = vol.dims();
-    let idx = vol.world_to_index(p);
-    let mut ijk = [0usize; 3];
-    for a in 0..3 {
-        let r = idx[a].round();
-        if !(r >= 0.0 && r < d[a] as f64) {
+impl<'a, T: Copy> Sampler<'a, T> {
+    pub fn new(vol: &'a Volume<T>) -> Self {
+        Self {
+            vol,
+            data: vol.as_slice(),
+            dims: vol.dims(),
+        }
+    }
+}
+
+impl Sampler<'_, i16> {
+    /// Trilinear value at a world point, through the volume's affine; `None`
+    /// outside the grid (more than half a voxel beyond the outer centres),
+    /// for an empty volume, or a non-finite point.
+    pub fn trilinear(&self, p: &Point3) -> Option<f64> {
+        let d = self.dims;
+        if d.contains(&0) {
             return None;
         }
-        ijk[a] = r as usize;
+        let idx = self.vol.world_to_index(p);
+        let mut base = [0usize; 3];
+        let mut frac = [0f64; 3];
+        for a in 0..3 {
+            let n = d[a] as f64;
+            let x = idx[a];
+            if !(x >= -0.5 && x <= n - 0.5) {
+                return None;
+            }
+            let x = x.clamp(0.0, n - 1.0);
+            let i0 = (x as usize).min(d[a].saturating_sub(2));
+            base[a] = i0;
+            frac[a] = if d[a] == 1 { 0.0 } else { x - i0 as f64 };
+        }
+        let s = self.data;
+        let at = |i: usize, j: usize, k: usize| s[i + d[0] * (j + d[1] * k)] as f64;
+        let step = |a: usize| usize::from(d[a] > 1);
+        let (i, j, k) = (base[0], base[1], base[2]);
+        let (di, dj, dk) = (step(0), step(1), step(2));
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let c00 = lerp(at(i, j, k), at(i + di, j, k), frac[0]);
+        let c10 = lerp(at(i, j + dj, k), at(i + di, j + dj, k), frac[0]);
+        let c01 = lerp(at(i, j, k + dk), at(i + di, j, k + dk), frac[0]);
+        let c11 = lerp(at(i, j + dj, k + dk), at(i + di, j + dj, k + dk), frac[0]);
+        Some(lerp(
+            lerp(c00, c10, frac[1]),
+            lerp(c01, c11, frac[1]),
+            frac[2],
+        ))
     }
-    Some(vol.as_slice()[vol.linear_index(ijk[0], ijk[1], ijk[2])])
+}
+
+impl Sampler<'_, u8> {
+    /// Value of the voxel containing a world point (nearest centre); `None`
+    /// outside the grid.
+    pub fn nearest(&self, p: &Point3) -> Option<u8> {
+        let d = self.dims;
+        let idx = self.vol.world_to_index(p);
+        let mut ijk = [0usize; 3];
+        for a in 0..3 {
+            let r = (idx[a] + 0.5).floor();
+            if !(r >= 0.0 && r < d[a] as f64) {
+                return None;
+            }
+            ijk[a] = r as usize;
+        }
+        Some(self.data[ijk[0] + d[0] * (ijk[1] + d[1] * ijk[2])])
+    }
+}
+
+/// [`Sampler::trilinear`] for a single lookup.
+pub fn trilinear(vol: &Volume<i16>, p: &Point3) -> Option<f64> {
+    Sampler::new(vol).trilinear(p)
+}
+
+/// [`Sampler::nearest`] for a single lookup.
+pub fn nearest(vol: &Volume<u8>, p: &Point3) -> Option<u8> {
+    Sampler::new(vol).nearest(p)
 }
 
 /// Grey level of a value in a display window [lo, hi].

@@ -195,6 +195,17 @@ fn log_label(v: f64) -> String {
     format!("{x:.2e}")
 }
 
+/// Tick label on a linear axis: no trailing zeros ("20", not "20.0").
+fn tick_label(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".to_string()
+    } else {
+        s.to_string()
+    }
+}
+
 type Ranges = (f64, f64, f64, f64);
 
 fn draw(
@@ -215,13 +226,15 @@ fn draw(
         .y_label_area_size(72)
         .build_cartesian_2d(x0..x1, y0..y1)?;
     let log = chart.log_y;
-    let y_fmt = move |v: &f64| if log { log_label(*v) } else { format!("{v}") };
+    let y_fmt = move |v: &f64| if log { log_label(*v) } else { tick_label(*v) };
+    let x_fmt = |v: &f64| tick_label(*v);
     cc.configure_mesh()
         .x_desc(chart.x_label.as_str())
         .y_desc(chart.y_label.as_str())
         .label_style((FAMILY, 13).into_font())
         .axis_desc_style((FAMILY, 14).into_font())
         .y_label_formatter(&y_fmt)
+        .x_label_formatter(&x_fmt)
         .light_line_style(RGBColor(238, 238, 238))
         .bold_line_style(RGBColor(215, 215, 215))
         .draw()?;
@@ -344,5 +357,8 @@ mod tests {
         assert_eq!(log_label(0.0), "1");
         assert_eq!(log_label(-6.0), "1e-6");
         assert_eq!(log_label(0.5), "3.16e0");
+        assert_eq!(tick_label(20.0), "20");
+        assert_eq!(tick_label(2.5), "2.5");
+        assert_eq!(tick_label(-0.00001), "0");
     }
 }
