@@ -904,6 +904,57 @@ mod tests {
     }
 
     #[test]
+    fn jittered_mesh_covers_every_inner_sample_exactly_once() {
+        // A 7×7 grid with irregular, non-representable offsets, split into
+        // 72 triangles: the exact fill rule must neither double-cover nor
+        // leave gaps along any shared edge, whatever its slope.
+        let cam = top_camera(40, 40);
+        let n = 7;
+        let jitter = |i: usize, j: usize| ((i * 7 + j * 13) % 11) as f64 / 11.0 * 2.3 - 1.15;
+        let pos: Vec<Point3> = (0..n * n)
+            .map(|k| {
+                let (i, j) = (k % n, k / n);
+                let inner = (1..n - 1).contains(&i) && (1..n - 1).contains(&j);
+                let (dx, dy) = if inner {
+                    (jitter(i, j), jitter(j, i))
+                } else {
+                    (0.0, 0.0)
+                };
+                Point3::new(2.0 + 6.0 * i as f64 + dx, 2.0 + 6.0 * j as f64 + dy, 0.0)
+            })
+            .collect();
+        let mut tris = Vec::new();
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                let k = (i + j * n) as u32;
+                let m = n as u32;
+                if (i + j) % 2 == 0 {
+                    tris.push([k, k + 1, k + m + 1]);
+                    tris.push([k, k + m + 1, k + m]);
+                } else {
+                    tris.push([k, k + 1, k + m]);
+                    tris.push([k + 1, k + m + 1, k + m]);
+                }
+            }
+        }
+        let mut hits = vec![0u32; 40 * 40];
+        for t in 0..tris.len() {
+            let mut c = Canvas::new(40, 40, 1, WHITE);
+            c.draw_mesh(&cam, &flat(&pos, &tris[t..t + 1], &|_, _| RED));
+            for (i, p) in c.finish().px.iter().enumerate() {
+                hits[i] += (*p == RED) as u32;
+            }
+        }
+        // The grid spans world 2..38, i.e. image 2..38 as well.
+        for y in 3..37 {
+            for x in 3..37 {
+                assert_eq!(hits[x + 40 * y], 1, "sample ({x},{y})");
+            }
+        }
+        assert!(hits.iter().all(|&h| h <= 1));
+    }
+
+    #[test]
     fn z_buffer_keeps_the_nearer_triangle_in_either_order() {
         let cam = top_camera(10, 10);
         let quad = |z: f64| {

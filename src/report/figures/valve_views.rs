@@ -208,8 +208,9 @@ fn render(
         cam.mm_per_px(),
         170.0,
     );
-    let st = TextStyle::new(12.5, [90; 3]).align(HAlign::Left, VAlign::Top);
-    draw_text(&mut c, 10.0, 10.0, w.orientation, &st);
+    // Bottom left: the commissure labels crowd the top of both views.
+    let st = TextStyle::new(12.5, [90; 3]).align(HAlign::Left, VAlign::Baseline);
+    draw_text(&mut c, 10.0, HEIGHT as f64 - 10.0, w.orientation, &st);
     let caption = format!(
         "{} ({}). Pale tints: leaflet surface touching no other leaflet (one tint per leaflet); \
          blue: touching one other leaflet (coaptation); red: touching both others (central coaptation). \
