@@ -382,6 +382,16 @@ mod tests {
                 .caption
                 .starts_with("Not drawn")
         );
+        // A CT that does not reach the planes leaves them "outside", not blank.
+        let far = affine_from_parts([1.0; 3], &Matrix3::identity(), Point3::new(500.0, 0.0, 0.0));
+        let tiny = Volume::from_fortran_vec([1, 1, 1], far, vec![100i16]).unwrap();
+        let img = decode(&ct_check(&tiny, None, &frame, &[], &[]).png);
+        let panel = panel_pixels(&img, 0);
+        assert!(panel.iter().filter(|p| **p == OUTSIDE).count() > 90_000);
+        assert!(
+            !panel.iter().any(|p| p[0] == p[1] && p[1] == p[2]),
+            "no CT grey"
+        );
         let a = ct_check(&ct, None, &frame, &[], &[]);
         let b = ct_check(&ct, None, &frame, &[], &[]);
         assert_eq!(a.png, b.png);
