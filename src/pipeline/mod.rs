@@ -31,6 +31,7 @@ pub fn registry() -> &'static [&'static StageSpec] {
         &crate::valve::stage::SPEC,
         &crate::leaflet::stage::SPEC,
         &crate::mech::stage::SPEC,
+        &crate::report::stage::SPEC,
     ];
     STAGES
 }

@@ -116,7 +116,10 @@ pub fn closed_valve(
 
 /// Point data `low_pressure_position` of `closed.vtp` (positions of an
 /// extra closure at a low pressure, written by the close stage when asked).
-pub fn low_pressure_positions(closed: &TriMesh, path: &Path) -> Result<Option<Vec<crate::geom::Point3>>> {
+pub fn low_pressure_positions(
+    closed: &TriMesh,
+    path: &Path,
+) -> Result<Option<Vec<crate::geom::Point3>>> {
     let Some(a) = closed.point_data.get("low_pressure_position") else {
         return Ok(None);
     };
@@ -124,9 +127,21 @@ pub fn low_pressure_positions(closed: &TriMesh, path: &Path) -> Result<Option<Ve
         .values
         .to_f64()
         .filter(|v| a.components == 3 && v.len() == 3 * closed.vertices.len())
-        .ok_or_else(|| Error::bad_input(path, "point data 'low_pressure_position' must hold 3 numbers per point"))?;
+        .ok_or_else(|| {
+            Error::bad_input(
+                path,
+                "point data 'low_pressure_position' must hold 3 numbers per point",
+            )
+        })?;
     if v.iter().any(|c| !c.is_finite()) {
-        return Err(Error::bad_input(path, "point data 'low_pressure_position' has non-finite numbers"));
+        return Err(Error::bad_input(
+            path,
+            "point data 'low_pressure_position' has non-finite numbers",
+        ));
     }
-    Ok(Some(v.chunks(3).map(|c| crate::geom::Point3::new(c[0], c[1], c[2])).collect()))
+    Ok(Some(
+        v.chunks(3)
+            .map(|c| crate::geom::Point3::new(c[0], c[1], c[2]))
+            .collect(),
+    ))
 }

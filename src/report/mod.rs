@@ -4,26 +4,34 @@
 //!
 //! - `valve.rs`: the closed leaflets as the report sees them (positions,
 //!   placed positions, triangles, leaflet of each triangle, boundary codes,
-//!   flat-template coordinates) in the valve frame.
+//!   flat-template coordinates) in the valve frame; `load.rs` reads them.
 //! - `coaptation.rs`: which leaflets each point touches (distance below a
-//!   margin), with partially touching triangles refined.
-//! - `metrics.rs`: heights, areas, effective height, orifice, billowing…
-//! - `figures/`: the software rasteriser and the figures; `html.rs`: the page.
+//!   margin), partially touching triangles refined and cut at the margin
+//!   (`clip.rs`); `symmetry.rs` completes a one-leaflet closure.
+//! - `metrics.rs`: heights, areas, effective height, billowing; `orifice.rs`
+//!   the uncovered lumen; `criteria.rs` the surgical criteria;
+//!   `document.rs` report.json.
+//! - `raster.rs` and `figures/`: the software rasteriser and the figures;
+//!   `html.rs`: the page; `stage.rs`: the stage.
 
 pub mod base64;
-pub mod figure;
-pub mod html;
-pub mod valve;
-
-pub use figure::Figure;
-pub use valve::ClosedValve;
 pub mod clip;
 pub mod coaptation;
 pub mod criteria;
 pub mod document;
+pub mod figure;
+pub mod figures;
+pub mod html;
 pub mod load;
 pub mod metrics;
 pub mod orifice;
+pub mod raster;
+pub mod stage;
 pub mod symmetry;
+pub mod valve;
+
+pub use figure::Figure;
+pub use valve::ClosedValve;
+
 #[cfg(test)]
 mod tests;

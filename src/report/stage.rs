@@ -20,7 +20,12 @@ use crate::pipeline::{
 use crate::units::Kind;
 use crate::{Error, Result};
 
-const fn optional(name: &'static str, file: &'static str, kind: ArtifactKind, help: &'static str) -> Port {
+const fn optional(
+    name: &'static str,
+    file: &'static str,
+    kind: ArtifactKind,
+    help: &'static str,
+) -> Port {
     Port {
         name,
         flag: name,
@@ -59,11 +64,36 @@ pub static SPEC: StageSpec = StageSpec {
             required: true,
             help: "valve frame: annulus plane and axis for every height",
         },
-        optional("log", "closure.json", ArtifactKind::Json, "closure log: thickness (margin), solver record"),
-        optional("ct", "ct.nii.gz", ArtifactKind::Volume, "CT, for the segmentation check figure"),
-        optional("mask", "mask.nii.gz", ArtifactKind::Mask, "lumen mask, drawn on the CT"),
-        optional("landmarks", "landmarks.mrk.json", ArtifactKind::Landmarks, "commissures and nadirs, drawn on the CT"),
-        optional("paths", "paths.vtp", ArtifactKind::Polylines, "suture paths, drawn on the CT"),
+        optional(
+            "log",
+            "closure.json",
+            ArtifactKind::Json,
+            "closure log: thickness (margin), solver record",
+        ),
+        optional(
+            "ct",
+            "ct.nii.gz",
+            ArtifactKind::Volume,
+            "CT, for the segmentation check figure",
+        ),
+        optional(
+            "mask",
+            "mask.nii.gz",
+            ArtifactKind::Mask,
+            "lumen mask, drawn on the CT",
+        ),
+        optional(
+            "landmarks",
+            "landmarks.mrk.json",
+            ArtifactKind::Landmarks,
+            "commissures and nadirs, drawn on the CT",
+        ),
+        optional(
+            "paths",
+            "paths.vtp",
+            ArtifactKind::Polylines,
+            "suture paths, drawn on the CT",
+        ),
     ],
     outputs: &[
         Port {
@@ -164,7 +194,13 @@ fn optional_input(io: &StageIo, run_dir: Option<&Path>, name: &str) -> Option<Pa
     p.is_file().then_some(p)
 }
 
-fn findings(v: &ClosedValve, m: &Metrics, completed: bool, log: Option<&Json>, margin_note: Option<String>) -> Vec<Finding> {
+fn findings(
+    v: &ClosedValve,
+    m: &Metrics,
+    completed: bool,
+    log: Option<&Json>,
+    margin_note: Option<String>,
+) -> Vec<Finding> {
     let mut f = Vec::new();
     let mut say = |severity, message: String| f.push(Finding { severity, message });
     if let Some(n) = margin_note {
@@ -205,7 +241,11 @@ fn findings(v: &ClosedValve, m: &Metrics, completed: bool, log: Option<&Json>, m
         if l.billowing_mm > 0.0 {
             say(
                 Severity::Warning,
-                format!("Leaflet {} billows {:.2} mm below the plane of the three lowest sutured points.", i + 1, l.billowing_mm),
+                format!(
+                    "Leaflet {} billows {:.2} mm below the plane of the three lowest sutured points.",
+                    i + 1,
+                    l.billowing_mm
+                ),
             );
         }
     }
@@ -213,14 +253,27 @@ fn findings(v: &ClosedValve, m: &Metrics, completed: bool, log: Option<&Json>, m
         say(Severity::Info, "The leaflets carry no flat-template coordinates (ref_uv): leaflet areas are those of the placed leaflets, and no coaptation maps are drawn.".into());
     }
     if let Some(log) = log {
-        if let Some(n) = log["intersecting_triangle_pairs"].as_u64().filter(|&n| n > 0) {
+        if let Some(n) = log["intersecting_triangle_pairs"]
+            .as_u64()
+            .filter(|&n| n > 0)
+        {
             say(
                 Severity::Warning,
-                format!("{n} pairs of triangles of different leaflets cross each other in the closed state (closure.json); heights and areas near the crossings are uncertain."),
+                format!(
+                    "{n} pairs of triangles of different leaflets cross each other in the closed state (closure.json); heights and areas near the crossings are uncertain."
+                ),
             );
         }
         if log["solver"]["converged"] == json!(false) {
-            say(Severity::Error, format!("The closure did not converge: {}", log["solver"]["reason"].as_str().unwrap_or("no reason recorded")));
+            say(
+                Severity::Error,
+                format!(
+                    "The closure did not converge: {}",
+                    log["solver"]["reason"]
+                        .as_str()
+                        .unwrap_or("no reason recorded")
+                ),
+            );
         }
     }
     f
@@ -307,7 +360,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         Some((w, p)) => (w, p.as_slice()),
         None => (&valve, &[][..]),
     };
-    let zone = ZoneOptions { margin_mm: margin, refine: params.int("refine") as usize };
+    let zone = ZoneOptions {
+        margin_mm: margin,
+        refine: params.int("refine") as usize,
+    };
     let coapt = coaptation::find_with_planes(v, &zone, planes);
     progress.set(0.4);
     let mopts = metrics::Options {
@@ -319,14 +375,19 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let mut m = metrics::measure(v, &coapt, &mopts);
     // An extra closure at a low pressure (the seeds measure h_E at 3 mmHg),
     // when the close stage was asked for one, gives the effective height.
-    let mut eff_pressure = log.as_ref().and_then(|l| l["config"]["pressure_mmhg"].as_f64());
+    let mut eff_pressure = log
+        .as_ref()
+        .and_then(|l| l["config"]["pressure_mmhg"].as_f64());
     if let Some(low) = load::low_pressure_positions(&closed, cpath)? {
         let mut x = low;
         if let Some((w, _)) = &completed {
             x = mirror_positions(&valve, w, &x);
         }
-        m.effective_height_mm = metrics::effective_height_at(v, &x, mopts.measured.unwrap_or(v.leaflets));
-        eff_pressure = log.as_ref().and_then(|l| l["config"]["effective_height_pressure_mmhg"].as_f64());
+        m.effective_height_mm =
+            metrics::effective_height_at(v, &x, mopts.measured.unwrap_or(v.leaflets));
+        eff_pressure = log
+            .as_ref()
+            .and_then(|l| l["config"]["effective_height_pressure_mmhg"].as_f64());
     }
     let thresholds = Thresholds {
         central_coaptation_mm: params.quantity("min_central_coaptation"),
@@ -338,7 +399,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
 
     // Figures.
     let mut figs: Vec<Figure> = figures::valve_views::valve_views(v, &coapt.node_mask);
-    figs.extend(figures::coaptation_map::coaptation_maps(v, &coapt.node_mask));
+    figs.extend(figures::coaptation_map::coaptation_maps(
+        v,
+        &coapt.node_mask,
+    ));
     let ct_path = optional_input(io, run_dir, "ct");
     if let Some(ct_path) = &ct_path {
         let ct = nifti::read_i16(ct_path)?;
@@ -353,14 +417,26 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         let paths: Vec<Vec<Point3>> = match optional_input(io, run_dir, "paths") {
             Some(p) => {
                 let pd = vtp::read(&p)?;
-                pd.lines.iter().map(|l| l.iter().map(|&k| pd.points[k as usize]).collect()).collect()
+                pd.lines
+                    .iter()
+                    .map(|l| l.iter().map(|&k| pd.points[k as usize]).collect())
+                    .collect()
             }
             None => Vec::new(),
         };
-        figs.push(figures::ct_check::ct_check(&ct, mask.as_ref(), &v.frame, &points, &paths));
+        figs.push(figures::ct_check::ct_check(
+            &ct,
+            mask.as_ref(),
+            &v.frame,
+            &points,
+            &paths,
+        ));
     }
     if let Some(log) = &log {
-        let hist = log["solver"]["history"].as_array().cloned().unwrap_or_default();
+        let hist = log["solver"]["history"]
+            .as_array()
+            .cloned()
+            .unwrap_or_default();
         let series = |key: &str| -> Vec<(usize, f64)> {
             hist.iter()
                 .enumerate()
@@ -380,7 +456,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let mut inputs = serde_json::Map::new();
     let mut record = |name: &str, p: &Path| -> Result<()> {
         let (blake3, bytes) = provenance::hash_file(p)?;
-        inputs.insert(name.into(), json!({"path": p.display().to_string(), "blake3": blake3, "bytes": bytes}));
+        inputs.insert(
+            name.into(),
+            json!({"path": p.display().to_string(), "blake3": blake3, "bytes": bytes}),
+        );
         Ok(())
     };
     record("closed", cpath)?;
@@ -405,8 +484,11 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         }),
         None => json!({"converged": null, "iterations": null, "residual_n": null, "reason": null}),
     };
-    let mut parameters: serde_json::Map<String, Json> =
-        params.canonical().into_iter().map(|(k, v)| (k, json!(v))).collect();
+    let mut parameters: serde_json::Map<String, Json> = params
+        .canonical()
+        .into_iter()
+        .map(|(k, v)| (k, json!(v)))
+        .collect();
     parameters.insert("margin_mm".into(), json!(margin));
     if let Some(l) = &log {
         parameters.insert("closure".into(), l["config"].clone());

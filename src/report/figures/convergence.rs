@@ -1,0 +1,117 @@
+//! How the closure solver converged: residual and largest nodal force per
+//! iteration on a log axis, against the tolerance.
+
+use super::xy_chart::{Series, XyChart, xy_chart};
+use crate::report::Figure;
+
+/// `history`: (iteration, residual N); `max_force`: (iteration, largest
+/// nodal force N). Values ≤ 0 or not finite cannot sit on a log axis and
+/// are left out; with nothing left the figure says so.
+pub fn convergence(
+    history: &[(usize, f64)],
+    max_force: &[(usize, f64)],
+    tolerance_n: Option<f64>,
+) -> Figure {
+    let mut c = XyChart::new(
+        "convergence",
+        "Closure solver convergence",
+        "iteration (all solver phases)",
+        "force (N, log scale)",
+    );
+    c.log_y = true;
+    let pts = running;
+    if !history.is_empty() {
+        c.series.push(Series::new("residual", pts(history)));
+    }
+    if !max_force.is_empty() {
+        c.series
+            .push(Series::new("largest nodal force", pts(max_force)));
+    }
+    let tol = tolerance_n.filter(|t| t.is_finite() && *t > 0.0);
+    if let Some(t) = tol {
+        c.hlines.push((format!("tolerance {t:.3e} N"), t));
+    }
+    let all = running(history);
+    let last = all
+        .iter()
+        .rev()
+        .find(|(_, r)| r.is_finite())
+        .map(|&(i, r)| (i as usize, r));
+    c.caption = match (last, tol) {
+        (Some((i, r)), Some(t)) => format!(
+            "Residual force (N) of the closure solver per iteration, log scale; dashed red line: the tolerance \
+             ({t:.3e} N). Last residual {r:.3e} N after {i} iterations: {}.",
+            if r <= t {
+                "below the tolerance"
+            } else {
+                "above the tolerance"
+            }
+        ),
+        (Some((i, r)), None) => format!(
+            "Residual force (N) of the closure solver per iteration, log scale. Last residual {r:.3e} N after {i} iterations."
+        ),
+        _ => "Residual force (N) of the closure solver per iteration, log scale.".to_string(),
+    };
+    let mut fig = xy_chart(&c);
+    if history.is_empty() && max_force.is_empty() {
+        fig.caption = "Not drawn: the solver recorded no iterations.".to_string();
+    }
+    fig
+}
+
+/// Iterations counted on across solver phases: a phase whose numbering
+/// starts again (continuation steps, then Newton) continues the x axis
+/// instead of folding back over the previous one.
+fn running(s: &[(usize, f64)]) -> Vec<(f64, f64)> {
+    let mut offset = 0usize;
+    let mut prev: Option<usize> = None;
+    s.iter()
+        .map(|&(i, v)| {
+            if let Some(p) = prev
+                && i <= p
+            {
+                offset += p;
+            }
+            prev = Some(i);
+            ((offset + i) as f64, v)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_valve::{count, decode};
+    use super::*;
+
+    #[test]
+    fn residual_and_tolerance_are_drawn_and_captioned() {
+        let h: Vec<(usize, f64)> = (0..30).map(|i| (i, 10f64.powf(-0.2 * i as f64))).collect();
+        let m: Vec<(usize, f64)> = h.iter().map(|&(i, r)| (i, 0.3 * r)).collect();
+        let f = convergence(&h, &m, Some(1e-7));
+        assert!(f.caption.contains("above the tolerance"), "{}", f.caption);
+        let img = decode(&f.png);
+        assert!(count(&img, [0, 114, 178]) > 200);
+        assert!(count(&img, [213, 94, 0]) > 200);
+        assert!(count(&img, [200, 30, 40]) > 100);
+        let f2 = convergence(&h[..25], &[], Some(1e-4));
+        assert!(f2.caption.contains("below the tolerance"));
+    }
+
+    #[test]
+    fn restarted_numbering_continues_the_axis() {
+        let x: Vec<f64> = running(&[(1, 1.0), (2, 1.0), (3, 1.0), (1, 1.0), (2, 1.0)])
+            .iter()
+            .map(|p| p.0)
+            .collect();
+        assert_eq!(x, vec![1.0, 2.0, 3.0, 4.0, 5.0]);
+    }
+
+    #[test]
+    fn empty_and_non_positive_histories_do_not_panic() {
+        assert!(convergence(&[], &[], None).caption.starts_with("Not drawn"));
+        let f = convergence(&[(0, 0.0), (1, -1.0), (2, f64::NAN)], &[], Some(f64::NAN));
+        assert!(f.caption.starts_with("Not drawn"));
+        let f = convergence(&[(0, 1.0)], &[], Some(0.0));
+        assert!(!f.caption.starts_with("Not drawn"));
+    }
+}
