@@ -665,7 +665,7 @@ mod tests {
             let (l, axis) = ozaki_cylinder(h).unwrap();
             assert_eq!(axis.dir, V3::z());
             assert!(l.leaflet.iter().all(|&k| k == 0));
-            assert!(l.boundary.iter().any(|&b| b == 1) && l.boundary.iter().any(|&b| b == 2));
+            assert!(l.boundary.contains(&1) && l.boundary.contains(&2));
             for (p, &b) in l.x.iter().zip(&l.boundary) {
                 let r = p.x.hypot(p.y);
                 assert!(r <= R * (1.0 + 1e-12), "node outside the root: r = {r}");

@@ -124,7 +124,7 @@ pub struct CloseConfig {
 impl CloseConfig {
     pub fn membrane(&self) -> Box<dyn Membrane> {
         match &self.model {
-            Model::Msm(law) => Box::new(MassSpring { law: law.clone() }),
+            Model::Msm(law) => Box::new(MassSpring { law: *law }),
             Model::Svk { young, poisson } => Box::new(StVenantKirchhoff {
                 young: *young,
                 poisson: *poisson,

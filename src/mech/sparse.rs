@@ -108,8 +108,8 @@ impl Pattern {
                 if e == NONE {
                     continue;
                 }
-                for k in nb_off[i] as usize..nb_off[i + 1] as usize {
-                    let a = nb[k] as usize;
+                for &a in &nb[nb_off[i] as usize..nb_off[i + 1] as usize] {
+                    let a = a as usize;
                     for r in 0..3 {
                         let er = dofs.eq[3 * a + r];
                         if er != NONE {
