@@ -131,27 +131,24 @@ pub fn circumferential_fibres(l: &Leaflets) -> Option<Vec<[V3; 2]>> {
     )
 }
 
-/// Lumped (one third of each adjacent triangle) node areas at `x` (mm²).
-pub fn node_areas(x: &[V3], tris: &[[u32; 3]]) -> Vec<f64> {
-    let mut a = vec![0.0; x.len()];
-    for t in tris {
-        let [i, j, k] = t.map(|v| v as usize);
-        let ar = (x[j] - x[i]).cross(&(x[k] - x[i])).norm() / 6.0;
-        a[i] += ar;
-        a[j] += ar;
-        a[k] += ar;
-    }
-    a
-}
-
 /// Coaptation metrics of a closed leaflet (heights along +z from the
 /// commissure plane, mm).
 #[derive(Debug, Clone, Copy)]
 pub struct Metrics {
+    /// Nodes the contact term reports as touching.
     pub contact_nodes: usize,
+    /// Area of the coaptation zones: the parts of the leaflet within
+    /// [`TOUCH`] of a plane, with the distance interpolated linearly over
+    /// each triangle (mm², both planes).
     pub contact_area_mm2: f64,
-    /// Axial extent of the touching nodes (seed plane convention).
+    /// Largest axial extent of the coaptation zone on one plane, on the same
+    /// interpolated zone.
     pub coaptation_height_mm: f64,
+    /// The interpolated zone's axial extent on each plane.
+    pub plane_heights_mm: [f64; 2],
+    /// The axial extent of the touching nodes (the zone sampled at the
+    /// nodes: it moves by up to an element with the mesh).
+    pub coaptation_height_nodes_mm: f64,
     pub contact_zmin_mm: f64,
     /// Lowest point of the free edge.
     pub free_edge_zmin_mm: f64,
@@ -161,6 +158,46 @@ pub struct Metrics {
     /// Deepest node behind a contact plane (mm, ≥ 0; planes through the
     /// axis and the two lug corners, as `contact = "planes"` builds them).
     pub max_penetration_mm: f64,
+}
+
+/// The seed's coaptation distance to a plane, η₂ = 0.01 R (the threshold
+/// `contact = "planes"` uses for its contact mask).
+pub const TOUCH: f64 = 0.01 * R;
+
+/// Per plane, the part of each triangle where the linearly interpolated
+/// distance is ≤ `tau`: (lowest z, highest z, area). Empty zones give
+/// (+∞, −∞, 0).
+pub fn zones(x: &[V3], tris: &[[u32; 3]], dist: &[[f64; 2]], tau: f64) -> [(f64, f64, f64); 2] {
+    let mut out = [(f64::INFINITY, f64::NEG_INFINITY, 0.0); 2];
+    for (k, o) in out.iter_mut().enumerate() {
+        for t in tris {
+            let p = t.map(|i| x[i as usize]);
+            let v = t.map(|i| dist[i as usize][k]);
+            // Clip the triangle to v ≤ tau (Sutherland–Hodgman, one edge).
+            let mut poly: Vec<V3> = Vec::with_capacity(4);
+            for a in 0..3 {
+                let b = (a + 1) % 3;
+                if v[a] <= tau {
+                    poly.push(p[a]);
+                }
+                if (v[a] <= tau) != (v[b] <= tau) {
+                    let s = (tau - v[a]) / (v[b] - v[a]);
+                    poly.push(p[a] + (p[b] - p[a]) * s);
+                }
+            }
+            if poly.is_empty() {
+                continue;
+            }
+            for q in &poly {
+                o.0 = o.0.min(q.z);
+                o.1 = o.1.max(q.z);
+            }
+            for i in 1..poly.len().saturating_sub(1) {
+                o.2 += 0.5 * (poly[i] - poly[0]).cross(&(poly[i + 1] - poly[0])).norm();
+            }
+        }
+    }
+    out
 }
 
 /// Signed distances of `x` to the two planes through the +z axis and the
@@ -191,7 +228,9 @@ pub fn plane_distances(l: &Leaflets, x: &[V3]) -> Vec<[f64; 2]> {
 }
 
 pub fn metrics(l: &Leaflets, c: &Closed) -> Metrics {
-    let area = node_areas(&c.x, &l.tris);
+    let dist = plane_distances(l, &c.x);
+    let zone = zones(&c.x, &l.tris, &dist, TOUCH);
+    let extent = |(lo, hi, _): (f64, f64, f64)| if hi >= lo { hi - lo } else { 0.0 };
     let touch: Vec<usize> = (0..c.x.len()).filter(|&i| c.contact[i] != 0).collect();
     let z = |i: usize| c.x[i].z;
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -201,8 +240,10 @@ pub fn metrics(l: &Leaflets, c: &Closed) -> Metrics {
     }
     Metrics {
         contact_nodes: touch.len(),
-        contact_area_mm2: touch.iter().map(|&i| area[i]).sum(),
-        coaptation_height_mm: if touch.is_empty() { 0.0 } else { hi - lo },
+        contact_area_mm2: zone[0].2 + zone[1].2,
+        coaptation_height_mm: extent(zone[0]).max(extent(zone[1])),
+        plane_heights_mm: [extent(zone[0]), extent(zone[1])],
+        coaptation_height_nodes_mm: if touch.is_empty() { 0.0 } else { hi - lo },
         contact_zmin_mm: if touch.is_empty() { f64::NAN } else { lo },
         free_edge_zmin_mm: (0..c.x.len())
             .filter(|&i| l.boundary[i] == 2)
@@ -215,15 +256,17 @@ pub fn metrics(l: &Leaflets, c: &Closed) -> Metrics {
             .zip(&l.x)
             .map(|(a, b)| (a - b).norm())
             .fold(0.0, f64::max),
-        max_penetration_mm: plane_distances(l, &c.x)
-            .iter()
-            .map(|d| (-d[0]).max(-d[1]))
-            .fold(0.0, f64::max),
+        max_penetration_mm: dist.iter().map(|d| (-d[0]).max(-d[1])).fold(0.0, f64::max),
     }
 }
 
 /// `close.toml` of the peer case for a model and solver.
 pub fn config_text(model: &str, solver: &str, time_limit_s: f64) -> String {
+    config_text_with(model, solver, time_limit_s, false)
+}
+
+/// [`config_text`], with or without the leaflet's bending stiffness.
+pub fn config_text_with(model: &str, solver: &str, time_limit_s: f64, bending: bool) -> String {
     let material = match model {
         "svk" => "model = \"svk\"\nyoung = \"1 MPa\"\npoisson = 0\n",
         "neo-hookean" => "model = \"neo-hookean\"\nyoung = \"1 MPa\"\n",
@@ -231,7 +274,7 @@ pub fn config_text(model: &str, solver: &str, time_limit_s: f64) -> String {
         _ => "model = \"goh\"\nyoung = \"1 MPa\"\nk1 = \"1100 kPa\"\nk2 = 1000\nkappa = 0.2\n",
     };
     format!(
-        "{material}thickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\nsolver = \"{solver}\"\ntime_limit = \"{time_limit_s} s\"\n"
+        "{material}thickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\nsolver = \"{solver}\"\ntime_limit = \"{time_limit_s} s\"\nbending = {bending}\n"
     )
 }
 
@@ -251,8 +294,41 @@ pub struct Row {
 }
 
 pub fn run_one(h: f64, model: &str, solver: &str, time_limit_s: f64) -> Result<Row> {
+    run_one_dump(h, model, solver, time_limit_s, false, None)
+}
+
+/// Nodes of the closed leaflet as CSV (reference and closed position,
+/// boundary label, contact mask, distances to the two planes), then the
+/// triangles, for looking at a state outside the program.
+fn dump(path: &std::path::Path, l: &Leaflets, c: &Closed) -> Result<()> {
+    let d = plane_distances(l, &c.x);
+    let mut s = String::from("i,x0,y0,z0,x,y,z,boundary,contact,d0,d1\n");
+    for (i, (p, q)) in l.x.iter().zip(&c.x).enumerate() {
+        s += &format!(
+            "{i},{},{},{},{},{},{},{},{},{},{}\n",
+            p.x, p.y, p.z, q.x, q.y, q.z, l.boundary[i], c.contact[i], d[i][0], d[i][1]
+        );
+    }
+    std::fs::write(path, s).map_err(|e| Error::write(path, e))?;
+    let tp = path.with_extension("tris.csv");
+    let mut s = String::new();
+    for t in &l.tris {
+        s += &format!("{},{},{}\n", t[0], t[1], t[2]);
+    }
+    std::fs::write(&tp, s).map_err(|e| Error::write(&tp, e))
+}
+
+pub fn run_one_dump(
+    h: f64,
+    model: &str,
+    solver: &str,
+    time_limit_s: f64,
+    bending: bool,
+    dump_dir: Option<&std::path::Path>,
+) -> Result<Row> {
     let fail = |e: String| Error::failed("bench close", e);
-    let cfg = config::parse(&config_text(model, solver, time_limit_s)).map_err(fail)?;
+    let cfg =
+        config::parse(&config_text_with(model, solver, time_limit_s, bending)).map_err(fail)?;
     let (mut l, axis) = ozaki_cylinder(h).map_err(fail)?;
     if model == "goh" {
         l.fibers = circumferential_fibres(&l);
@@ -261,18 +337,23 @@ pub fn run_one(h: f64, model: &str, solver: &str, time_limit_s: f64) -> Result<R
     let res = closure::close(&l, &cfg, Some(axis));
     let wall_s = t0.elapsed().as_secs_f64();
     Ok(match res {
-        Ok(c) => Row {
-            h,
-            nodes: l.x.len(),
-            triangles: l.tris.len(),
-            converged: c.outcome.converged,
-            iterations: c.outcome.iterations,
-            residual_n: c.outcome.residual_n,
-            initial_residual_n: c.outcome.initial_residual_n,
-            wall_s,
-            reason: c.outcome.reason.clone(),
-            metrics: Some(metrics(&l, &c)),
-        },
+        Ok(c) => {
+            if let Some(dir) = dump_dir {
+                dump(&dir.join(format!("closed_h{h}.csv")), &l, &c)?;
+            }
+            Row {
+                h,
+                nodes: l.x.len(),
+                triangles: l.tris.len(),
+                converged: c.outcome.converged,
+                iterations: c.outcome.iterations,
+                residual_n: c.outcome.residual_n,
+                initial_residual_n: c.outcome.initial_residual_n,
+                wall_s,
+                reason: c.outcome.reason.clone(),
+                metrics: Some(metrics(&l, &c)),
+            }
+        }
         Err(e) => Row {
             h,
             nodes: l.x.len(),
@@ -288,13 +369,13 @@ pub fn run_one(h: f64, model: &str, solver: &str, time_limit_s: f64) -> Result<R
     })
 }
 
-const HEADER: &str = "h_mm,nodes,triangles,converged,iterations,residual_n,initial_residual_n,wall_s,contact_nodes,contact_area_mm2,coaptation_height_mm,contact_zmin_mm,free_edge_zmin_mm,lowest_mm,max_displacement_mm,max_penetration_mm,reason";
+const HEADER: &str = "h_mm,nodes,triangles,converged,iterations,residual_n,initial_residual_n,wall_s,contact_nodes,contact_area_mm2,coaptation_height_mm,coaptation_height_nodes_mm,contact_zmin_mm,free_edge_zmin_mm,lowest_mm,max_displacement_mm,max_penetration_mm,reason";
 
 fn csv_line(r: &Row) -> String {
     let m = r.metrics;
     let f = |g: fn(&Metrics) -> f64| m.map(|m| format!("{:.4}", g(&m))).unwrap_or_default();
     format!(
-        "{},{},{},{},{},{:.3e},{:.3e},{:.3},{},{},{},{},{},{},{},{},\"{}\"",
+        "{},{},{},{},{},{:.3e},{:.3e},{:.3},{},{},{},{},{},{},{},{},{},\"{}\"",
         r.h,
         r.nodes,
         r.triangles,
@@ -306,6 +387,7 @@ fn csv_line(r: &Row) -> String {
         m.map(|m| m.contact_nodes.to_string()).unwrap_or_default(),
         f(|m| m.contact_area_mm2),
         f(|m| m.coaptation_height_mm),
+        f(|m| m.coaptation_height_nodes_mm),
         f(|m| m.contact_zmin_mm),
         f(|m| m.free_edge_zmin_mm),
         f(|m| m.lowest_mm),
@@ -324,10 +406,11 @@ fn print_line(r: &Row) -> String {
     match r.metrics {
         Some(m) => {
             s += &format!(
-                " {:>6} {:>8.2} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>7.3}",
+                " {:>6} {:>8.2} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>7.3}",
                 m.contact_nodes,
                 m.contact_area_mm2,
                 m.coaptation_height_mm,
+                m.coaptation_height_nodes_mm,
                 m.free_edge_zmin_mm,
                 m.lowest_mm,
                 m.max_displacement_mm,
@@ -336,8 +419,8 @@ fn print_line(r: &Row) -> String {
         }
         None => {
             s += &format!(
-                " {:>6} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7}",
-                "-", "-", "-", "-", "-", "-", "-"
+                " {:>6} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}",
+                "-", "-", "-", "-", "-", "-", "-", "-"
             )
         }
     }
@@ -385,6 +468,19 @@ pub fn command() -> Command {
                 .help("solver time limit per mesh (s)"),
         )
         .arg(
+            Arg::new("bending")
+                .long("bending")
+                .action(clap::ArgAction::SetTrue)
+                .help("add the leaflet's bending stiffness (D = E t³/12) to the membrane"),
+        )
+        .arg(
+            Arg::new("dump")
+                .long("dump")
+                .value_name("DIR")
+                .value_parser(clap::value_parser!(PathBuf))
+                .help("write each closed leaflet's nodes and triangles as CSV into DIR"),
+        )
+        .arg(
             Arg::new("csv")
                 .long("csv")
                 .value_name("FILE")
@@ -418,7 +514,7 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
         );
     }
     println!(
-        "{:>5} {:>6} {:>4} {:>5} {:>10} {:>9} {:>8} {:>6} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7}",
+        "{:>5} {:>6} {:>4} {:>5} {:>10} {:>9} {:>8} {:>6} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}",
         "h_mm",
         "nodes",
         "conv",
@@ -429,6 +525,7 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
         "touch",
         "area_mm2",
         "coapt_h",
+        "h_nodes",
         "free_lo",
         "lowest",
         "max_u",
@@ -436,7 +533,14 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
     );
     let mut rows = Vec::new();
     for &h in &hs {
-        let r = run_one(h, model, solver, limit)?;
+        let r = run_one_dump(
+            h,
+            model,
+            solver,
+            limit,
+            m.get_flag("bending"),
+            m.get_one::<PathBuf>("dump").map(PathBuf::as_path),
+        )?;
         println!("{}", print_line(&r));
         let _ = std::io::stdout().flush();
         rows.push(r);
@@ -493,6 +597,64 @@ mod tests {
         OzakiTemplate::new(d, h, hf, lf).unwrap()
     }
 
+    /// The closed geometry must not hinge on the mesh. With bending the
+    /// interpolated coaptation height at h = 1, 0.7, 0.5, 0.35 mm was 10.60,
+    /// 10.60, 10.45, 10.51 mm (area 76–79 mm²); the pure membrane gave 9.03,
+    /// 8.20, 5.87 mm and a fold of free edge on one plane, so 0.3 mm between
+    /// h = 1 and 0.7 passes the one and fails the other. Both sides of the
+    /// symmetric case must coapt alike (the membrane's fold broke that).
+    #[test]
+    fn bench_close_with_bending_is_mesh_consistent() {
+        let mut m = Vec::new();
+        for h in [1.0, 0.7] {
+            let r = run_one_dump(h, "svk", "newton", 600.0, true, None).unwrap();
+            assert!(r.converged, "h = {h}: {}", r.reason);
+            m.push(r.metrics.unwrap());
+        }
+        let dh = (m[0].coaptation_height_mm - m[1].coaptation_height_mm).abs();
+        assert!(
+            dh <= 0.3,
+            "coaptation height {} vs {} mm",
+            m[0].coaptation_height_mm,
+            m[1].coaptation_height_mm
+        );
+        let da = (m[0].contact_area_mm2 / m[1].contact_area_mm2 - 1.0).abs();
+        assert!(
+            da <= 0.05,
+            "area {} vs {} mm²",
+            m[0].contact_area_mm2,
+            m[1].contact_area_mm2
+        );
+        for x in &m {
+            assert!(
+                (x.plane_heights_mm[0] - x.plane_heights_mm[1]).abs() <= 0.3,
+                "asymmetric closure: {:?}",
+                x.plane_heights_mm
+            );
+            assert!(x.max_penetration_mm < 0.15, "{}", x.max_penetration_mm);
+        }
+    }
+
+    #[test]
+    fn zones_interpolate_the_distance_inside_triangles() {
+        // A unit right triangle standing in the xz-plane; plane 0's distance
+        // is x, so the zone x ≤ 0.25 is a trapezoid, plane 1 never touches.
+        let x = vec![
+            V3::new(0.0, 0.0, 0.0),
+            V3::new(1.0, 0.0, 0.0),
+            V3::new(0.0, 0.0, 1.0),
+        ];
+        let dist: Vec<[f64; 2]> = x.iter().map(|p| [p.x, 5.0]).collect();
+        let z = zones(&x, &[[0, 1, 2]], &dist, 0.25);
+        assert_eq!((z[0].0, z[0].1), (0.0, 1.0));
+        assert!((z[0].2 - (0.5 - 0.5 * 0.75 * 0.75)).abs() < 1e-15);
+        assert_eq!(z[1].2, 0.0);
+        assert!(z[1].1 < z[1].0);
+        // At τ = 0 only the edge x = 0 touches: no area, its full height.
+        let z = zones(&x, &[[0, 1, 2]], &dist, 0.0);
+        assert_eq!((z[0].0, z[0].1, z[0].2), (0.0, 1.0, 0.0));
+    }
+
     #[test]
     fn bench_close_case_geometry() {
         let t = ozaki();
@@ -503,7 +665,7 @@ mod tests {
             let (l, axis) = ozaki_cylinder(h).unwrap();
             assert_eq!(axis.dir, V3::z());
             assert!(l.leaflet.iter().all(|&k| k == 0));
-            assert!(l.boundary.iter().any(|&b| b == 1) && l.boundary.iter().any(|&b| b == 2));
+            assert!(l.boundary.contains(&1) && l.boundary.contains(&2));
             for (p, &b) in l.x.iter().zip(&l.boundary) {
                 let r = p.x.hypot(p.y);
                 assert!(r <= R * (1.0 + 1e-12), "node outside the root: r = {r}");

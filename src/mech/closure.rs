@@ -3,6 +3,7 @@
 
 use std::time::Instant;
 
+use super::bending::{self, Bending};
 use super::config::{CloseConfig, ContactKind, Reference, SolverKind};
 use super::contact::penalty::ContactParams;
 use super::contact::planes::Plane;
@@ -253,7 +254,7 @@ fn newton_with_continuation(
                 stop.rel
             }
         };
-        sys.project = true;
+        set_projected(sys, true);
         sys.pressure_tangent = false;
         let mut p1 = solve::newton(
             sys,
@@ -284,7 +285,7 @@ fn newton_with_continuation(
             merged.reason = notes.join("; ");
             return merged;
         }
-        sys.project = false;
+        set_projected(sys, false);
         sys.pressure_tangent = true;
         let mut exact = nopt.clone();
         exact.stop.rel = target(&merged);
@@ -304,6 +305,13 @@ fn newton_with_continuation(
     o.converged = false;
     o.reason = notes.join("; ");
     o
+}
+
+fn set_projected(sys: &mut System, projected: bool) {
+    sys.project = projected;
+    for t in sys.terms.iter_mut() {
+        t.set_projected(projected);
+    }
 }
 
 /// Append a phase to the record of the whole solve.
@@ -372,6 +380,13 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
             terms.push(Box::new(PlaneContact::new(planes, &l.x, &l.tris)));
         }
         _ => {}
+    }
+    if cfg.bending {
+        terms.push(Box::new(Bending::new(
+            &ref_x,
+            &l.tris,
+            bending::stiffness(cfg.plane_strain_modulus(), cfg.thickness),
+        )));
     }
     let mut sys = System {
         tris: l.tris.clone(),

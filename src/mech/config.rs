@@ -18,7 +18,8 @@
 //! "1e-7 N"), `relative_tolerance` (default 1e-7), `max_iterations`,
 //! `time_limit` (default "600 s"), `reference` ("placed": the placed leaflet
 //! is stress-free, as after the seeds' suturing; "flat": the flat template
-//! is the reference, leaving the suturing stress in the leaflet).
+//! is the reference, leaving the suturing stress in the leaflet), `bending`
+//! (true: add the bending stiffness D = E't³/12 of a shell, default false).
 
 use std::path::Path;
 
@@ -53,6 +54,7 @@ struct Raw {
     max_iterations: Option<usize>,
     time_limit: Option<String>,
     reference: Option<String>,
+    bending: Option<bool>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -114,12 +116,15 @@ pub struct CloseConfig {
     pub max_iterations: usize,
     pub time_limit: f64,
     pub reference: Reference,
+    /// Add the leaflet's bending stiffness D = E't³/12 (discrete-shell
+    /// hinges) to the membrane.
+    pub bending: bool,
 }
 
 impl CloseConfig {
     pub fn membrane(&self) -> Box<dyn Membrane> {
         match &self.model {
-            Model::Msm(law) => Box::new(MassSpring { law: law.clone() }),
+            Model::Msm(law) => Box::new(MassSpring { law: *law }),
             Model::Svk { young, poisson } => Box::new(StVenantKirchhoff {
                 young: *young,
                 poisson: *poisson,
@@ -132,6 +137,19 @@ impl CloseConfig {
                 k2: *k2,
                 kappa: *kappa,
             }),
+        }
+    }
+
+    /// E/(1 − ν²) of the small-strain limit of the model (MPa): St.V-K's own
+    /// E and ν; the incompressible models 4μ (E = 3μ, ν = 1/2); the linear
+    /// spring network its E; the seed laws their small-strain slope.
+    pub fn plane_strain_modulus(&self) -> f64 {
+        match &self.model {
+            Model::Svk { young, poisson } => young / (1.0 - poisson * poisson),
+            Model::NeoHookean { mu } | Model::Gent { mu, .. } | Model::Goh { mu, .. } => 4.0 * mu,
+            Model::Msm(msm::Law::Linear { young }) => *young,
+            Model::Msm(msm::Law::ThreeStep { e, .. }) => e[0],
+            Model::Msm(msm::Law::Anisotropic { fibre, cross, .. }) => 0.5 * (fibre[0] + cross[0]),
         }
     }
 
@@ -156,6 +174,7 @@ impl CloseConfig {
             "max_iterations": self.max_iterations,
             "time_limit_s": self.time_limit,
             "reference": format!("{:?}", self.reference).to_lowercase(),
+            "bending": self.bending,
         })
     }
 }
@@ -304,6 +323,7 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
             "time_limit",
         )?,
         reference,
+        bending: raw.bending.unwrap_or(false),
     })
 }
 

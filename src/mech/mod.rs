@@ -10,6 +10,7 @@
 //! energy and Cholesky. `stage` is the `close` stage, `config` its
 //! `close.toml`.
 
+pub mod bending;
 pub mod contact;
 pub mod element;
 pub mod material;

@@ -40,6 +40,10 @@ pub trait Term: Send + Sync {
     fn stats(&self) -> Option<(&'static str, usize)> {
         None
     }
+    /// The solver wants a positive semi-definite tangent from now on (its
+    /// continuation phase) or the exact one; terms whose Hessian can be
+    /// indefinite follow it.
+    fn set_projected(&mut self, _projected: bool) {}
     /// Per node, bit b set when it touches body b (contact terms only).
     fn contact_mask(&self, _x: &[V3]) -> Option<Vec<u8>> {
         None

@@ -285,8 +285,8 @@ fn two_sheets_push_apart_with_equal_totals() {
             assert!((f0.z.abs() / expect - 1.0).abs() < 0.1);
         }
         let mask = contact_mask(x.len(), &pairs);
-        assert!(mask[..n0].iter().any(|&m| m == 0b10));
-        assert!(mask[n0..].iter().any(|&m| m == 0b01));
+        assert!(mask[..n0].contains(&0b10));
+        assert!(mask[n0..].contains(&0b01));
         assert!(mask.iter().all(|&m| m & 0b11 != 0b11));
     }
     // Beyond margin + reach: no pairs at all.

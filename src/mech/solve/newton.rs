@@ -40,6 +40,7 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
     let t0 = Instant::now();
     let mut out = Outcome::start();
     let mut pattern: Option<Pattern> = None;
+    let mut last_pairs: Vec<[u32; 2]> = Vec::new();
     let mut shift = 0.0f64;
     let mut rejections = 0usize;
     loop {
@@ -94,8 +95,11 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
             contact_pairs: contact_pairs(sys),
         };
         let pairs = sys.couplings();
+        // Terms list their couplings in a fixed order, so an unchanged list
+        // (fixed planes, bending, settled contact) needs no sorted compare.
         let rebuild = match &pattern {
             None => true,
+            Some(_) if pairs == last_pairs => false,
             Some(p) => {
                 let mut k: Vec<[u32; 2]> = pairs
                     .iter()
@@ -110,6 +114,7 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
         if rebuild {
             pattern = Some(Pattern::new(sys.n_nodes(), &sys.dofs, &pairs));
         }
+        last_pairs = pairs;
         let pat = pattern.as_mut().expect("built");
         let mut vals = vec![0.0; pat.nnz()];
         if let Err(e) = sys.tangent(x, pat, &mut vals) {
