@@ -176,6 +176,11 @@ fn check(p: &Params) -> Result<()> {
     Ok(())
 }
 
+/// Billowing worth a finding: the lowest sutured points are themselves on
+/// the plane, so the belly next to them dips by a fraction of a millimetre
+/// in any closure; a leaflet sagging a leaflet thickness below is news.
+const BILLOWING_NOTICE_MM: f64 = 0.5;
+
 /// Thickness multiple of the contact margin (VERIFICATION.md §5).
 const MARGIN_PER_THICKNESS: f64 = 1.8;
 
@@ -238,7 +243,7 @@ fn findings(
         _ => {}
     }
     for (i, l) in m.leaflets.iter().enumerate() {
-        if l.billowing_mm > 0.0 {
+        if l.billowing_mm > BILLOWING_NOTICE_MM {
             say(
                 Severity::Warning,
                 format!(
