@@ -5,6 +5,7 @@ mod close;
 mod common;
 mod leaflets;
 mod phantom;
+mod report;
 mod report_html;
 mod runner;
 mod sample_data;

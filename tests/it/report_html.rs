@@ -34,7 +34,7 @@ fn example() -> Value {
 }
 
 /// The validation errors of `instance`, as "path: message".
-fn errors(instance: &Value) -> Vec<String> {
+pub(crate) fn errors(instance: &Value) -> Vec<String> {
     let validator = jsonschema::draft202012::new(&schema()).expect("the schema compiles");
     validator
         .iter_errors(instance)
@@ -198,14 +198,14 @@ fn schema_describes_every_property_with_its_unit() {
 
 // ---------------------------------------------------------------- browser
 
-struct Browser {
+pub(crate) struct Browser {
     node_modules: PathBuf,
     chromium: PathBuf,
 }
 
 /// What the browser check needs, or `None` (after saying why) when it is
 /// missing and not required.
-fn browser() -> Option<Browser> {
+pub(crate) fn browser() -> Option<Browser> {
     let required = std::env::var("COAPT_REQUIRE_BROWSER").is_ok_and(|v| v == "1");
     let missing = |why: String| {
         if required {
@@ -254,7 +254,7 @@ fn browser() -> Option<Browser> {
 }
 
 /// Run tools/browser_check.mjs on `page`; its JSON verdict and exit code.
-fn check(b: &Browser, page: &Path) -> (Value, i32) {
+pub(crate) fn check(b: &Browser, page: &Path) -> (Value, i32) {
     let shot = page.with_extension("png");
     let out = Command::new("node")
         .arg(repo().join("tools/browser_check.mjs"))
@@ -275,7 +275,7 @@ fn check(b: &Browser, page: &Path) -> (Value, i32) {
     (v, code)
 }
 
-fn strings(v: &Value) -> Vec<String> {
+pub(crate) fn strings(v: &Value) -> Vec<String> {
     v.as_array()
         .map(|a| {
             a.iter()

@@ -1,0 +1,384 @@
+//! `coapt report` and the chain CT → report: the document meets its schema,
+//! the page opens clean in a browser, measurement failures are findings,
+//! bad inputs are refused, the metrics do not depend on the thread count,
+//! and a run re-does only what an edit touches.
+
+use std::path::{Path, PathBuf};
+
+use serde_json::Value;
+
+use crate::common::*;
+use crate::report_html::{browser, check, errors, strings};
+
+fn s(p: &Path) -> String {
+    p.to_str().unwrap().to_string()
+}
+
+fn json(p: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
+        .unwrap()
+}
+
+/// A run config like pipelines/sample.toml with every input absolute and
+/// the closure settings in `dir/close.toml` (a copy), so a test can edit them.
+fn sample_config(dir: &Path) -> PathBuf {
+    let r = repo();
+    std::fs::copy(r.join("pipelines/close.toml"), dir.join("close.toml")).unwrap();
+    let cfg = dir.join("run.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[run]\ndir = \"run\"\n[inputs]\nct = \"{}\"\nlandmarks = \"{}\"\ntemplate = \"{}\"\nconfig = \"close.toml\"\n",
+            s(&r.join("sample_data/ct.nii.gz")),
+            s(&r.join("sample_data/landmarks.mrk.json")),
+            s(&r.join("pipelines/templates/ozaki_default.toml")),
+        ),
+    )
+    .unwrap();
+    cfg
+}
+
+fn statuses(run: &Path) -> Vec<(String, String)> {
+    json(&run.join("manifest.json"))["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            (
+                r["stage"].as_str().unwrap().to_string(),
+                r["status"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect()
+}
+
+/// The report.json numbers that must not depend on anything but the inputs.
+fn measured(v: &Value) -> Value {
+    serde_json::json!({
+        "verdict": v["verdict"], "criteria": v["criteria"], "metrics": v["metrics"],
+        "leaflets": v["leaflets"], "conventions": v["conventions"], "findings": v["findings"],
+    })
+}
+
+#[test]
+fn ct_to_report_in_one_command_and_an_edit_reruns_only_what_it_touches() {
+    let d = tmpdir("report-chain");
+    let cfg = sample_config(&d);
+    let run = d.join("run");
+    let o = coapt(&["run", &s(&cfg), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let st = statuses(&run);
+    let names: Vec<&str> = st.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        ["segment", "surface", "valve", "leaflets", "close", "report"]
+    );
+    assert!(st.iter().all(|(_, s)| s == "ran"), "{st:?}");
+
+    let rep = json(&run.join("report.json"));
+    let errs = errors(&rep);
+    assert!(errs.is_empty(), "report.json breaks its schema: {errs:#?}");
+    // The sample valve closes with all three leaflets meeting.
+    assert_eq!(rep["verdict"]["closed"], true, "{}", rep["verdict"]);
+    let m = &rep["metrics"];
+    let num = |k: &str| m[k].as_f64().unwrap_or_else(|| panic!("{k}: {}", m[k]));
+    for k in [
+        "coaptation_height_mm",
+        "central_coaptation_height_mm",
+        "effective_height_mm",
+        "h_cc_mm",
+        "h_avr_mm",
+        "ncca",
+        "regurgitant_orifice_area_mm2",
+    ] {
+        assert!(num(k).is_finite() && num(k) >= 0.0, "{k} = {}", num(k));
+    }
+    // Central coaptation lies within the coaptation zone; the effective
+    // height is above both the annulus and the lowest coaptation.
+    assert!(num("central_coaptation_height_mm") <= num("coaptation_height_mm") + 1e-9);
+    assert!(num("effective_height_mm") > m["lowest_coaptation_above_annulus_mm"].as_f64().unwrap());
+    assert!(num("ncca") > 0.0 && num("ncca") < 1.0);
+    let ids: Vec<&str> = rep["criteria"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["id"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        ids,
+        [
+            "central_coaptation",
+            "effective_height",
+            "coaptation_above_vaj",
+            "no_prolapse",
+            "closed"
+        ]
+    );
+    for k in ["segment", "surface", "valve", "leaflets", "close", "report"] {
+        assert!(
+            rep["timing_s"][k].as_f64().is_some(),
+            "timing of {k}: {}",
+            rep["timing_s"]
+        );
+    }
+    assert_eq!(rep["solver"]["converged"], true);
+
+    let page = run.join("report.html");
+    let html = std::fs::read_to_string(&page).unwrap();
+    for id in [
+        "valve_top",
+        "valve_side",
+        "coaptation_map",
+        "ct_check",
+        "convergence",
+    ] {
+        assert!(
+            html.contains(&format!("id=\"fig-{id}\"")),
+            "figure {id} missing"
+        );
+    }
+    if let Some(b) = browser() {
+        let (v, code) = check(&b, &page);
+        assert!(strings(&v["console_errors"]).is_empty(), "{v}");
+        assert!(strings(&v["external_requests"]).is_empty(), "{v}");
+        assert_eq!(v["images"]["total"], v["images"]["decoded"], "{v}");
+        assert_eq!(v["screenshot"]["blank"], false, "{v}");
+        assert_eq!(code, 0, "{v}");
+    }
+
+    // Unchanged: everything is skipped.
+    let o = coapt(&["run", &s(&cfg), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        statuses(&run).iter().all(|(_, s)| s == "skipped"),
+        "{:?}",
+        statuses(&run)
+    );
+
+    // An edit of the closure settings re-runs close and report only.
+    let text = std::fs::read_to_string(d.join("close.toml")).unwrap();
+    std::fs::write(d.join("close.toml"), text.replace("80 mmHg", "90 mmHg")).unwrap();
+    let o = coapt(&["run", &s(&cfg), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let st = statuses(&run);
+    for (stage, status) in &st {
+        let want = if stage == "close" || stage == "report" {
+            "ran"
+        } else {
+            "skipped"
+        };
+        assert_eq!(status, want, "{stage}: {st:?}");
+    }
+    let again = json(&run.join("report.json"));
+    assert_eq!(again["parameters"]["closure"]["pressure_mmhg"], 90.0);
+
+    // `coapt report` by hand on the run's artifacts gives the runner's numbers.
+    let by_hand = d.join("by-hand");
+    let o = coapt(&[
+        "report",
+        "--closed",
+        &s(&run.join("closed.vtp")),
+        "--leaflets",
+        &s(&run.join("leaflets.vtp")),
+        "--valve",
+        &s(&run.join("valve.json")),
+        "--log",
+        &s(&run.join("closure.json")),
+        "--ct",
+        &s(&repo().join("sample_data/ct.nii.gz")),
+        "--mask",
+        &s(&run.join("mask.nii.gz")),
+        "--landmarks",
+        &s(&repo().join("sample_data/landmarks.mrk.json")),
+        "--paths",
+        &s(&run.join("paths.vtp")),
+        "--out",
+        &s(&by_hand),
+        "--quiet",
+        "--threads",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        measured(&json(&by_hand.join("report.json"))),
+        measured(&again)
+    );
+}
+
+/// Leaflets pushed apart: nothing touches. The report says so; no crash.
+#[test]
+fn leaflets_that_do_not_touch_are_a_finding_not_a_crash() {
+    use coapt::io::vtp;
+    let d = tmpdir("report-apart");
+    sample_valve_and_leaflets(
+        &d,
+        "pipelines/templates/ozaki_default.toml",
+        &["--h", "1 mm"],
+    );
+    let mut m = vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
+    let valve = json(&d.join("valve.json"));
+    let f: coapt::geom::ValveFrame = serde_json::from_value(valve["valve_frame"].clone()).unwrap();
+    // Each leaflet moves 4 mm away from the axis along its centroid's direction.
+    let leaflet = m.cell_data.get("leaflet").unwrap().values.to_f64().unwrap();
+    let mut node_leaflet = vec![0usize; m.vertices.len()];
+    for (t, tri) in m.triangles.iter().enumerate() {
+        for &k in tri {
+            node_leaflet[k as usize] = leaflet[t] as usize;
+        }
+    }
+    for l in 1..=3 {
+        let pts: Vec<_> = (0..m.vertices.len())
+            .filter(|&k| node_leaflet[k] == l)
+            .collect();
+        let c = pts
+            .iter()
+            .map(|&k| m.vertices[k].coords)
+            .sum::<coapt::geom::Vector3>()
+            / pts.len() as f64;
+        let r = c - f.origin_mm.coords;
+        let dir = (r - f.axis * r.dot(&f.axis)).normalize();
+        for k in pts {
+            m.vertices[k] += dir * 4.0;
+        }
+    }
+    let apart = d.join("apart.vtp");
+    vtp::write(&apart, &m.to_polydata(), &vtp::WriteOptions::default()).unwrap();
+    let out = d.join("report");
+    let o = coapt(&[
+        "report",
+        "--closed",
+        &s(&apart),
+        "--leaflets",
+        &s(&d.join("leaflets.vtp")),
+        "--valve",
+        &s(&d.join("valve.json")),
+        "--margin",
+        "0.9 mm",
+        "--out",
+        &s(&out),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rep = json(&out.join("report.json"));
+    assert!(errors(&rep).is_empty(), "{:#?}", errors(&rep));
+    assert_eq!(rep["verdict"]["closed"], false);
+    assert_eq!(rep["metrics"]["coaptation_height_mm"], Value::Null);
+    assert_eq!(rep["metrics"]["coaptation_area_mm2"]["max"], 0.0);
+    let crit = &rep["criteria"][0];
+    assert_eq!(
+        (crit["id"].as_str(), &crit["value"], &crit["pass"]),
+        (
+            Some("central_coaptation"),
+            &Value::Null,
+            &Value::Bool(false)
+        )
+    );
+    let messages: Vec<String> = rep["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["message"].as_str().unwrap().to_string())
+        .collect();
+    assert!(
+        messages.iter().any(|m| m.contains("do not touch")),
+        "{messages:?}"
+    );
+    assert!(
+        std::fs::read_to_string(out.join("report.html"))
+            .unwrap()
+            .contains("do not touch")
+    );
+}
+
+#[test]
+fn report_refuses_bad_inputs_and_writes_nothing() {
+    let d = tmpdir("report-bad");
+    let surface = sample_valve_and_leaflets(
+        &d,
+        "pipelines/templates/ozaki_default.toml",
+        &["--h", "1 mm"],
+    );
+    let out = d.join("report");
+    let leaflets = d.join("leaflets.vtp");
+    let run = |closed: &Path, valve: &Path, extra: &[&str]| {
+        let mut a = vec![
+            "report".to_string(),
+            "--closed".into(),
+            s(closed),
+            "--leaflets".into(),
+            s(&leaflets),
+            "--valve".into(),
+            s(valve),
+            "--out".into(),
+            s(&out),
+            "--quiet".into(),
+        ];
+        a.extend(extra.iter().map(|x| x.to_string()));
+        coapt(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    // The wall is not the closed leaflets: different points and triangles.
+    let o = run(&surface, &d.join("valve.json"), &[]);
+    assert_bad_input(&o, &leaflets, &["does not match"]);
+    // A valve file without a frame.
+    let bad_valve = d.join("bad-valve.json");
+    std::fs::write(&bad_valve, "{\"frame\": \"LPS\"}").unwrap();
+    let o = run(&leaflets, &bad_valve, &[]);
+    assert_bad_input(&o, &bad_valve, &["valve_frame"]);
+    // Parameters out of range.
+    let o = run(&leaflets, &d.join("valve.json"), &["--refine", "0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = run(&leaflets, &d.join("valve.json"), &["--margin", "-1 mm"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!out.join("report.json").exists() && !out.join("report.html").exists());
+}
+
+#[test]
+fn report_numbers_do_not_depend_on_the_thread_count() {
+    let d = tmpdir("report-threads");
+    sample_valve_and_leaflets(
+        &d,
+        "pipelines/templates/ozaki_default.toml",
+        &["--h", "1 mm"],
+    );
+    let o = coapt(&[
+        "close",
+        "--leaflets",
+        &s(&d.join("leaflets.vtp")),
+        "--surface",
+        &s(&repo().join("sample_data/truth_surface.vtp")),
+        "--config",
+        &s(&repo().join("pipelines/close.toml")),
+        "--valve",
+        &s(&d.join("valve.json")),
+        "--out",
+        &s(&d.join("closed.vtp")),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = |threads: &str| {
+        let out = d.join(format!("report-{threads}"));
+        let o = coapt(&[
+            "report",
+            "--closed",
+            &s(&d.join("closed.vtp")),
+            "--leaflets",
+            &s(&d.join("leaflets.vtp")),
+            "--valve",
+            &s(&d.join("valve.json")),
+            "--out",
+            &s(&out),
+            "--threads",
+            threads,
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        (
+            json(&out.join("report.json")),
+            std::fs::read(out.join("report.html")).unwrap(),
+        )
+    };
+    let (a, _) = report("1");
+    let (b, _) = report("2");
+    assert_eq!(measured(&a), measured(&b));
+    assert_eq!(a["verdict"]["closed"], true);
+}
