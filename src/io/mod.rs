@@ -3,6 +3,7 @@
 //! errors that name the file and the problem; writers are atomic.
 
 pub mod atomic;
+pub mod base64;
 pub mod markups;
 pub mod nifti;
 pub mod ply;

@@ -14,7 +14,7 @@ use std::fmt::Write as _;
 use serde_json::{Map, Value};
 
 use super::Figure;
-use super::base64;
+use crate::io::base64;
 
 /// The stages in pipeline order, for the timing table.
 const STAGE_ORDER: [&str; 6] = ["segment", "surface", "valve", "leaflets", "close", "report"];

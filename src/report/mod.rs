@@ -14,7 +14,6 @@
 //! - `raster.rs` and `figures/`: the software rasteriser and the figures;
 //!   `html.rs`: the page; `stage.rs`: the stage.
 
-pub mod base64;
 pub mod clip;
 pub mod coaptation;
 pub mod criteria;

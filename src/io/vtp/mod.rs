@@ -6,7 +6,6 @@
 //! ParaView and 3D Slicer produce. Checked against VTK's own reader by
 //! `tools/vtp_crosscheck.py`; fixtures written by VTK live in `tests/data/vtp/`.
 
-mod base64;
 mod read;
 mod write;
 

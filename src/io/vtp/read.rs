@@ -7,8 +7,8 @@ use std::borrow::Cow;
 use rayon::prelude::*;
 use roxmltree::{Document, Node};
 
-use super::base64;
 use crate::geom::{Attributes, DataArray, DataValues, Point3, PolyData};
+use crate::io::base64;
 use crate::{Error, Result};
 
 /// How binary data in this file is laid out (from the `VTKFile` attributes).
