@@ -7,60 +7,26 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::geom::{Point3, ValveFrame};
+use crate::geom::Point3;
 use crate::io::{nifti, vtp};
-use crate::report::{ClosedValve, Figure};
+use crate::report::{ClosedValve, Figure, load};
 
-fn point_f64(m: &crate::geom::TriMesh, name: &str, comps: usize) -> Option<Vec<f64>> {
-    m.point_data
-        .get(name)
-        .filter(|a| a.components == comps)
-        .and_then(|a| a.values.to_f64())
-}
-
+/// The run's closed valve (through the stage's own loader) and the
+/// solver's contact bits.
 fn load_valve(run: &Path) -> (ClosedValve, Vec<u8>) {
-    let closed = vtp::read_mesh(&run.join("closed.vtp")).expect("closed.vtp");
-    let placed = vtp::read_mesh(&run.join("leaflets.vtp")).expect("leaflets.vtp");
-    let json: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(run.join("valve.json")).expect("valve.json"))
-            .expect("json");
-    let frame: ValveFrame =
-        serde_json::from_value(json["valve_frame"].clone()).expect("valve_frame");
-    let tri_leaflet: Vec<u8> = closed
-        .cell_data
-        .get("leaflet")
+    let (cp, lp) = (run.join("closed.vtp"), run.join("leaflets.vtp"));
+    let closed = vtp::read_mesh(&cp).expect("closed.vtp");
+    let placed = vtp::read_mesh(&lp).expect("leaflets.vtp");
+    let frame = load::valve_frame(&run.join("valve.json")).expect("valve.json");
+    let v = load::closed_valve(&closed, &cp, &placed, &lp, frame).expect("a closed valve");
+    let contact = closed
+        .point_data
+        .get("contact")
         .and_then(|a| a.values.to_f64())
-        .expect("leaflet")
-        .iter()
-        .map(|&k| (k.max(1.0) - 1.0) as u8)
-        .collect();
-    let boundary = point_f64(&placed, "boundary", 1)
-        .expect("boundary")
-        .iter()
-        .map(|&b| b as u8)
-        .collect();
-    let ref_uv =
-        point_f64(&placed, "ref_uv", 2).map(|v| v.chunks(2).map(|c| [c[0], c[1]]).collect());
-    let contact = point_f64(&closed, "contact", 1)
         .expect("contact")
         .iter()
         .map(|&c| c as u8)
         .collect();
-    let leaflets = tri_leaflet
-        .iter()
-        .map(|&l| l as usize + 1)
-        .max()
-        .unwrap_or(0);
-    let v = ClosedValve {
-        x: closed.vertices.clone(),
-        x0: placed.vertices.clone(),
-        tris: closed.triangles.clone(),
-        tri_leaflet,
-        boundary,
-        ref_uv,
-        frame,
-        leaflets,
-    };
     (v, contact)
 }
 
