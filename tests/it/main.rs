@@ -10,5 +10,6 @@ mod report_html;
 mod runner;
 mod sample_data;
 mod segment;
+mod snakemake;
 mod surface;
 mod valve;

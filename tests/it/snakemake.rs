@@ -1,0 +1,125 @@
+//! The cohort workflow (`pipelines/Snakefile`): two phantoms through every
+//! stage with `snakemake --cores 2`, and the same report.json metrics as
+//! `coapt run` on the same inputs. Snakemake comes from PyPI into a venv
+//! this test makes (`~/.cache/coapt-snakemake`); without Python or network
+//! it says that it skipped, unless `COAPT_REQUIRE_SNAKEMAKE=1`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde_json::Value;
+
+use crate::common::*;
+
+const SNAKEMAKE: &str = "snakemake==9.27.1";
+
+fn skip(why: &str) -> Option<PathBuf> {
+    if std::env::var("COAPT_REQUIRE_SNAKEMAKE").is_ok_and(|v| v == "1") {
+        panic!("COAPT_REQUIRE_SNAKEMAKE=1 but {why}");
+    }
+    eprintln!("skipping the Snakemake workflow test: {why}");
+    None
+}
+
+/// The snakemake executable, installing it into a cached venv if needed.
+fn snakemake() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("COAPT_SNAKEMAKE") {
+        return Some(p.into());
+    }
+    let Some(home) = std::env::var_os("HOME") else {
+        return skip("HOME is not set");
+    };
+    let venv = Path::new(&home).join(".cache/coapt-snakemake");
+    let exe = venv.join("bin/snakemake");
+    if exe.is_file() {
+        return Some(exe);
+    }
+    let ok = |c: &mut Command| c.output().is_ok_and(|o| o.status.success());
+    if !ok(Command::new("python3").args(["-m", "venv"]).arg(&venv)) {
+        return skip("python3 -m venv failed");
+    }
+    if !ok(Command::new(venv.join("bin/pip")).args(["install", "-q", SNAKEMAKE])) {
+        let _ = std::fs::remove_dir_all(&venv);
+        return skip(&format!("pip install {SNAKEMAKE} failed (no network?)"));
+    }
+    Some(exe)
+}
+
+fn json(p: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
+        .unwrap()
+}
+
+fn metrics(v: &Value) -> Value {
+    serde_json::json!({"verdict": v["verdict"], "criteria": v["criteria"], "metrics": v["metrics"], "conventions": v["conventions"]})
+}
+
+#[test]
+fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
+    let Some(smk) = snakemake() else { return };
+    let d = tmpdir("snakemake");
+    let r = repo();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let template = s(&r.join("pipelines/templates/ozaki_default.toml"));
+    let close = s(&r.join("pipelines/close.toml"));
+    std::fs::write(
+        d.join("cohort.yaml"),
+        format!(
+            "coapt: {}\nout: cohort\ncases:\n  p1: {{phantom: {{preset: sample, seed: 1}}}}\n  p2: {{phantom: {{preset: sample, seed: 2}}}}\nvariants:\n  default: {{template: {template}, close: {close}}}\n",
+            env!("CARGO_BIN_EXE_coapt")
+        ),
+    )
+    .unwrap();
+    let o = Command::new(&smk)
+        .arg("-s")
+        .arg(r.join("pipelines/Snakefile"))
+        .arg("--configfile")
+        .arg(d.join("cohort.yaml"))
+        .arg("--directory")
+        .arg(&d)
+        .args(["--cores", "2", "--quiet"])
+        .output()
+        .expect("snakemake starts");
+    assert!(
+        o.status.success(),
+        "snakemake failed:\n{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    for case in ["p1", "p2"] {
+        let rep = json(&d.join(format!("cohort/{case}/default/report.json")));
+        assert_eq!(rep["verdict"]["closed"], true, "{case}: {}", rep["verdict"]);
+        assert!(
+            d.join(format!("cohort/{case}/default/report.html"))
+                .is_file()
+        );
+    }
+    // The same phantom through `coapt run`.
+    std::fs::write(
+        d.join("run.toml"),
+        format!("[run]\ndir = \"run\"\n[phantom]\npreset = \"sample\"\nseed = 2\n[inputs]\ntemplate = \"{template}\"\nconfig = \"{close}\"\n"),
+    )
+    .unwrap();
+    let o = coapt(&["run", &s(&d.join("run.toml")), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        metrics(&json(&d.join("cohort/p2/default/report.json"))),
+        metrics(&json(&d.join("run/report.json")))
+    );
+    // Nothing changed: a dry run has nothing to do.
+    let o = Command::new(&smk)
+        .arg("-s")
+        .arg(r.join("pipelines/Snakefile"))
+        .arg("--configfile")
+        .arg(d.join("cohort.yaml"))
+        .arg("--directory")
+        .arg(&d)
+        .args(["--cores", "2", "--dry-run"])
+        .output()
+        .expect("snakemake starts");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && out.contains("Nothing to be done"),
+        "{out}"
+    );
+}
