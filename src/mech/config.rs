@@ -55,6 +55,7 @@ struct Raw {
     time_limit: Option<String>,
     reference: Option<String>,
     bending: Option<bool>,
+    effective_height_pressure: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -119,6 +120,9 @@ pub struct CloseConfig {
     /// Add the leaflet's bending stiffness D = E't³/12 (discrete-shell
     /// hinges) to the membrane.
     pub bending: bool,
+    /// Also close at this (low) pressure, MPa, for the effective height
+    /// (the seeds measure h_E at 3 mmHg); `None`: only the closing pressure.
+    pub effective_height_pressure: Option<f64>,
 }
 
 impl CloseConfig {
@@ -173,6 +177,7 @@ impl CloseConfig {
             "relative_tolerance": self.relative_tolerance,
             "max_iterations": self.max_iterations,
             "time_limit_s": self.time_limit,
+            "effective_height_pressure_mmhg": self.effective_height_pressure.map(|p| p / units::MMHG_IN_MPA),
             "reference": format!("{:?}", self.reference).to_lowercase(),
             "bending": self.bending,
         })
@@ -324,6 +329,19 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
         )?,
         reference,
         bending: raw.bending.unwrap_or(false),
+        effective_height_pressure: match q(
+            Kind::Pressure,
+            &raw.effective_height_pressure,
+            "effective_height_pressure",
+        )? {
+            Some(p) if p > 0.0 && p <= pressure => Some(p),
+            Some(_) => {
+                return Err(
+                    "effective_height_pressure must be > 0 and at most the pressure".into(),
+                );
+            }
+            None => None,
+        },
     })
 }
 
@@ -357,6 +375,9 @@ mod tests {
         assert_eq!(c.model, Model::NeoHookean { mu: 0.3 });
         assert!((c.tolerance - 1e-4).abs() < 1e-15);
         assert_eq!(c.plane_offset, 0.0);
+        let c = parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\neffective_height_pressure = \"3 mmHg\"\n").unwrap();
+        assert!((c.effective_height_pressure.unwrap() - 3.0 * 133.322e-6).abs() < 1e-9);
+        assert!(parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\neffective_height_pressure = \"90 mmHg\"\n").is_err());
         let c = parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\nplane_offset = \"0.25 mm\"\n").unwrap();
         assert_eq!(c.plane_offset, 0.25);
         assert!(parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\nplane_offset = \"-1 mm\"\n").is_err());

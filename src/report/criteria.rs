@@ -39,7 +39,9 @@ pub struct Criterion {
     pub note: String,
 }
 
-pub fn judge(m: &Metrics, t: &Thresholds) -> Vec<Criterion> {
+/// Judge `m`; `pressure_mmhg` is the pressure the effective height was
+/// read at, when known.
+pub fn judge(m: &Metrics, t: &Thresholds, pressure_mmhg: Option<f64>) -> Vec<Criterion> {
     let above = |v: Option<f64>, th: f64| v.map(|v| v > th);
     let central = m.central_coaptation_height_mm;
     vec![
@@ -61,7 +63,12 @@ pub fn judge(m: &Metrics, t: &Thresholds) -> Vec<Criterion> {
             value: Value::Mm(m.effective_height_mm),
             threshold_mm: Some(t.effective_height_mm),
             pass: above(m.effective_height_mm, t.effective_height_mm),
-            note: "annulus plane to the central free-edge point, along the axis, at the closing pressure".into(),
+            note: match pressure_mmhg {
+                Some(p) => format!(
+                    "annulus plane to the central free-edge point, along the axis, at {p} mmHg"
+                ),
+                None => "annulus plane to the central free-edge point, along the axis".into(),
+            },
         },
         Criterion {
             id: "coaptation_above_vaj",
@@ -70,7 +77,9 @@ pub fn judge(m: &Metrics, t: &Thresholds) -> Vec<Criterion> {
             threshold_mm: None,
             pass: m.coaptation_above_vaj,
             note: match m.lowest_coaptation_mm {
-                Some(z) => format!("lowest point of the coaptation zone {z:.2} mm above the annulus plane"),
+                Some(z) => {
+                    format!("lowest point of the coaptation zone {z:.2} mm above the annulus plane")
+                }
                 None => "no coaptation zone to place".into(),
             },
         },

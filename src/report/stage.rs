@@ -398,7 +398,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         central_coaptation_mm: params.quantity("min_central_coaptation"),
         effective_height_mm: params.quantity("min_effective_height"),
     };
-    let crit = criteria::judge(&m, &thresholds);
+    let crit = criteria::judge(&m, &thresholds, eff_pressure);
     let finds = findings(v, &m, completed.is_some(), log.as_ref(), margin_note);
     progress.set(0.5);
 
