@@ -349,7 +349,7 @@ fn key_metrics(h: &mut String, m: Option<&Value>) {
         (
             "h<sub>C-C</sub>",
             mm(get("h_cc_mm")),
-            "coaptation height in the commissure–commissure plane",
+            "axial extent of a pair's zone 5 mm from the axis (mean over the pairs)",
         ),
         (
             "h<sub>avr</sub>",
