@@ -36,6 +36,7 @@ fn second_run_skips_and_a_new_seed_reruns() {
     assert!(rec.seconds > 0.0 && rec.threads >= 1);
     assert!(rec.command_line.iter().any(|a| a == "run"));
     for f in [
+        "report.html",
         "ct.nii.gz",
         "truth_mask.nii.gz",
         "landmarks.mrk.json",
@@ -64,15 +65,17 @@ fn second_run_skips_and_a_new_seed_reruns() {
 
     // A different seed re-runs the stage and says why.
     let cfg2 = d.join("phantom-seed2.toml");
-    // The copy lives elsewhere: point its relative template path back home.
+    // The copy lives elsewhere: point its relative input paths back home.
     let template = repo().join("pipelines/templates/ozaki_default.toml");
+    let close = repo().join("pipelines/close.toml");
     let text = std::fs::read_to_string(&cfg)
         .unwrap()
         .replace("seed = 1", "seed = 2")
         .replace(
             "\"templates/ozaki_default.toml\"",
             &format!("{:?}", template.to_str().unwrap()),
-        );
+        )
+        .replace("\"close.toml\"", &format!("{:?}", close.to_str().unwrap()));
     assert!(text.contains("seed = 2"));
     std::fs::write(&cfg2, text).unwrap();
     let third = run(&cfg2, &out, &[]);
