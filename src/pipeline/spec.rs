@@ -31,6 +31,8 @@ pub enum ArtifactKind {
     Dir,
     /// Closure mechanics settings (`close.toml`, explicit units).
     MechConfig,
+    /// A self-contained HTML page (the report).
+    Html,
 }
 
 impl ArtifactKind {
@@ -45,6 +47,7 @@ impl ArtifactKind {
             ArtifactKind::Template => "leaflet template (.toml)",
             ArtifactKind::Dir => "directory",
             ArtifactKind::MechConfig => "mechanics settings (.toml)",
+            ArtifactKind::Html => "HTML page",
         }
     }
 }

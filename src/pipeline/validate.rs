@@ -40,6 +40,15 @@ pub fn input(kind: ArtifactKind, path: &Path) -> Result<()> {
         ArtifactKind::MechConfig => {
             crate::mech::config::read(path)?;
         }
+        ArtifactKind::Html => {
+            let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
+            if !bytes.starts_with(b"<!DOCTYPE html") && !bytes.starts_with(b"<!doctype html") {
+                return Err(Error::bad_input(
+                    path,
+                    "not an HTML page (no <!DOCTYPE html>)",
+                ));
+            }
+        }
         ArtifactKind::Dir => {
             if !path.is_dir() {
                 return Err(Error::bad_input(path, "expected a directory"));
