@@ -158,7 +158,7 @@ pub static SPEC: StageSpec = StageSpec {
             help: "run directory (default: the folder of closed.vtp): per-stage timings from its manifest.json, and the optional inputs not given (closure.json, ct, mask, …) by their file names",
         },
     ],
-    check: check,
+    check,
     run,
 };
 
