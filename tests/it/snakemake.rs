@@ -70,16 +70,19 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
         ),
     )
     .unwrap();
-    let o = Command::new(&smk)
-        .arg("-s")
-        .arg(r.join("pipelines/Snakefile"))
-        .arg("--configfile")
-        .arg(d.join("cohort.yaml"))
-        .arg("--directory")
-        .arg(&d)
-        .args(["--cores", "2", "--quiet"])
-        .output()
-        .expect("snakemake starts");
+    let snakemake = |extra: &str| {
+        Command::new(&smk)
+            .arg("-s")
+            .arg(r.join("pipelines/Snakefile"))
+            .arg("--configfile")
+            .arg(d.join("cohort.yaml"))
+            .arg("--directory")
+            .arg(&d)
+            .args(["--cores", "2", extra])
+            .output()
+            .expect("snakemake starts")
+    };
+    let o = snakemake("--quiet");
     assert!(
         o.status.success(),
         "snakemake failed:\n{}\n{}",
@@ -107,16 +110,7 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
         metrics(&json(&d.join("run/report.json")))
     );
     // Nothing changed: a dry run has nothing to do.
-    let o = Command::new(&smk)
-        .arg("-s")
-        .arg(r.join("pipelines/Snakefile"))
-        .arg("--configfile")
-        .arg(d.join("cohort.yaml"))
-        .arg("--directory")
-        .arg(&d)
-        .args(["--cores", "2", "--dry-run"])
-        .output()
-        .expect("snakemake starts");
+    let o = snakemake("--dry-run");
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(
         o.status.success() && out.contains("Nothing to be done"),
