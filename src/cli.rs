@@ -11,7 +11,7 @@ use crate::pipeline::{
     self, ArtifactKind, LogMode, Param, ParamKind, Params, StageIo, StageSpec, params, provenance,
     runner,
 };
-use crate::{Error, Result, bench, inspect};
+use crate::{Error, Result, bench, design, inspect};
 
 /// Run the CLI with the process's arguments; returns the exit code.
 pub fn main() -> i32 {
@@ -102,6 +102,25 @@ fn command() -> Command {
                 .arg(Arg::new("until").long("until").value_name("STAGE").help("stop after this stage"))
                 .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("run every selected stage even if unchanged")),
         );
+    cmd = cmd.subcommand(
+        Command::new("design")
+            .about("Leaflet sizing: close the patient's valve with each Ozaki sizer size on the same suture paths and recommend the smallest that meets every criterion")
+            .arg(Arg::new("config").required(true).value_name("CONFIG.toml").value_parser(clap::value_parser!(PathBuf)))
+            .arg(
+                Arg::new("out")
+                    .long("out")
+                    .value_name("DIR")
+                    .value_parser(clap::value_parser!(PathBuf))
+                    .help("run directory (default: the config's [run] dir); the sweep goes to DIR/design"),
+            )
+            .arg(
+                Arg::new("sizes")
+                    .long("sizes")
+                    .value_name("LIST")
+                    .help("sizer sizes, e.g. 19,21,23 or 17-27 [default: the config's [design] sizes, else 13-35]"),
+            )
+            .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("re-run every stage even if unchanged")),
+    );
     for spec in pipeline::registry() {
         cmd = cmd.subcommand(stage_command(spec));
     }
@@ -335,6 +354,30 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
             let report = runner::run(&opts, pipeline::registry(), &inv)?;
             if !log.quiet && !log.json && !report.stages.is_empty() {
                 eprintln!("run directory: {}", report.run_dir.display());
+            }
+            Ok(())
+        }
+        "design" => {
+            let sizes = match sub.get_one::<String>("sizes") {
+                Some(t) => Some(
+                    design::settings::parse_sizes(t)
+                        .map_err(|e| Error::usage(format!("--sizes {t}: {e}")))?,
+                ),
+                None => None,
+            };
+            let opts = design::Options {
+                config: sub.get_one::<PathBuf>("config").expect("required").clone(),
+                out: sub.get_one::<PathBuf>("out").cloned(),
+                sizes,
+                force: sub.get_flag("force"),
+            };
+            let summary = design::run(&opts, pipeline::registry(), &inv)?;
+            print!("{}", design::table(&summary));
+            if !log.quiet && !log.json {
+                eprintln!(
+                    "design report: {}",
+                    summary.design_dir.join("report.html").display()
+                );
             }
             Ok(())
         }

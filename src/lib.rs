@@ -9,6 +9,7 @@
 
 pub mod bench;
 pub mod cli;
+pub mod design;
 pub mod error;
 pub mod geom;
 pub mod inspect;

@@ -28,6 +28,8 @@ pub struct RunConfig {
     pub inputs: BTreeMap<String, PathBuf>,
     /// Parsed parameters of each stage section present.
     pub sections: BTreeMap<String, BTreeMap<String, Value>>,
+    /// The `[design]` section (read by `coapt design`; `coapt run` ignores it).
+    pub design: Option<crate::design::Settings>,
 }
 
 impl RunConfig {
@@ -55,6 +57,7 @@ impl RunConfig {
             run_dir: None,
             inputs: BTreeMap::new(),
             sections: BTreeMap::new(),
+            design: None,
         };
         for (key, value) in &doc {
             match key.as_str() {
@@ -104,6 +107,12 @@ impl RunConfig {
                         cfg.inputs.insert(k.clone(), normalize(&base.join(s)));
                     }
                 }
+                "design" => {
+                    cfg.design = Some(crate::design::Settings::from_toml(
+                        path,
+                        table(path, key, value)?,
+                    )?);
+                }
                 name => {
                     let Some(spec) = registry.iter().find(|s| s.name == name) else {
                         let known: Vec<&str> = registry.iter().map(|s| s.name).collect();
@@ -111,7 +120,7 @@ impl RunConfig {
                             path,
                             format!("[{name}]"),
                             format!(
-                                "unknown section: not a stage of this coapt (stages: {}; other sections: run, inputs)",
+                                "unknown section: not a stage of this coapt (stages: {}; other sections: run, inputs, design)",
                                 known.join(", ")
                             ),
                         ));

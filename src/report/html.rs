@@ -60,6 +60,7 @@ ul.findings .tag { flex: none; }
 figure { margin: 0.8em 0 1.4em; break-inside: avoid; page-break-inside: avoid; }
 figure img { display: block; max-width: 100%; height: auto; border: 1px solid var(--line); }
 figcaption { margin-top: 0.3em; font-size: 0.92em; }
+tr.recommended { background: var(--ok-bg); font-weight: 600; }
 .missing { padding: 2em; border: 2px dashed var(--bad); color: var(--bad); }
 footer { margin-top: 2em; color: #4a4f57; font-size: 0.85em; }
 @media (max-width: 760px) { .conventions { grid-template-columns: 1fr; } }
@@ -104,19 +105,38 @@ pub fn render(report: &Value, figures: &[Figure]) -> String {
         esc(&text_or(report.get("frame"), DASH)),
         esc(&text_or(report.get("schema"), "schema not stated")),
     );
-    h.push_str(
-        "<nav><a href=\"#criteria\">Criteria</a><a href=\"#findings\">Findings</a><a href=\"#metrics\">Metrics</a>\
+    let _ = write!(
+        h,
+        "<nav><a href=\"#criteria\">Criteria</a><a href=\"#findings\">Findings</a>{}<a href=\"#metrics\">Metrics</a>\
          <a href=\"#leaflets\">Leaflets</a><a href=\"#conventions\">Conventions</a><a href=\"#figures\">Figures</a>\
          <a href=\"#solver\">Solver</a><a href=\"#timing\">Timing</a><a href=\"#provenance\">Provenance</a></nav>\n</header>\n",
+        if report.get("design").is_some() {
+            "<a href=\"#sizing\">Sizing</a>"
+        } else {
+            ""
+        }
     );
     let criteria = array(report.get("criteria"));
     verdict(&mut h, report, criteria);
     criteria_table(&mut h, criteria);
     findings(&mut h, report, criteria);
+    if let Some(d) = report.get("design") {
+        let sweep: Vec<Figure> = figures
+            .iter()
+            .filter(|f| f.id.starts_with("sizing"))
+            .cloned()
+            .collect();
+        sizing(&mut h, d, &sweep);
+    }
     key_metrics(&mut h, report.get("metrics"));
     leaflets(&mut h, report);
     conventions(&mut h, report.get("conventions"));
-    figures_section(&mut h, figures);
+    // The sweep's charts sit with its table, numbered first.
+    let (sweep, others): (Vec<Figure>, Vec<Figure>) = figures
+        .iter()
+        .cloned()
+        .partition(|f| f.id.starts_with("sizing"));
+    figures_section(&mut h, &others, sweep.len() + 1);
     solver(&mut h, report.get("solver"));
     timing(&mut h, report.get("timing_s"));
     provenance(&mut h, report);
@@ -519,45 +539,135 @@ fn conventions(h: &mut String, c: Option<&Value>) {
     h.push_str("</div>\n</div>\n</section>\n");
 }
 
-fn figures_section(h: &mut String, figures: &[Figure]) {
+fn figures_section(h: &mut String, figures: &[Figure], first_number: usize) {
     h.push_str("<section id=\"figures\">\n<h2>Figures</h2>\n");
     if figures.is_empty() {
         h.push_str("<p>No figures.</p>\n");
     }
     let mut used: Vec<String> = Vec::new();
     for (n, f) in figures.iter().enumerate() {
-        let base = format!("fig-{}", anchor(&f.id));
-        let mut id = base.clone();
-        let mut k = 1;
-        while used.contains(&id) {
-            k += 1;
-            id = format!("{base}-{k}");
+        figure(h, f, first_number + n, &mut used);
+    }
+    h.push_str("</section>\n");
+}
+
+/// One figure with a page-unique id and its number.
+fn figure(h: &mut String, f: &Figure, number: usize, used: &mut Vec<String>) {
+    let base = format!("fig-{}", anchor(&f.id));
+    let mut id = base.clone();
+    let mut k = 1;
+    while used.contains(&id) {
+        k += 1;
+        id = format!("{base}-{k}");
+    }
+    used.push(id.clone());
+    let _ = writeln!(h, "<figure id=\"{id}\">");
+    if f.png.starts_with(b"\x89PNG\r\n\x1a\n") {
+        let _ = write!(
+            h,
+            "<img src=\"data:image/png;base64,{}\" alt=\"{}\"",
+            base64::encode(&f.png),
+            esc(&f.title)
+        );
+        if f.width > 0 && f.height > 0 {
+            let _ = write!(h, " width=\"{}\" height=\"{}\"", f.width, f.height);
         }
-        used.push(id.clone());
-        let _ = writeln!(h, "<figure id=\"{id}\">");
-        if f.png.starts_with(b"\x89PNG\r\n\x1a\n") {
-            let _ = write!(
-                h,
-                "<img src=\"data:image/png;base64,{}\" alt=\"{}\"",
-                base64::encode(&f.png),
-                esc(&f.title)
-            );
-            if f.width > 0 && f.height > 0 {
-                let _ = write!(h, " width=\"{}\" height=\"{}\"", f.width, f.height);
-            }
-            h.push_str(">\n");
-        } else {
-            h.push_str(
-                "<div class=\"missing\">Image missing: the figure's data is not a PNG.</div>\n",
-            );
-        }
+        h.push_str(">\n");
+    } else {
+        h.push_str("<div class=\"missing\">Image missing: the figure's data is not a PNG.</div>\n");
+    }
+    let _ = writeln!(
+        h,
+        "<figcaption><strong>Figure {}. {}</strong> {}</figcaption>\n</figure>",
+        number,
+        esc(&f.title),
+        esc(&f.caption)
+    );
+}
+
+/// The leaflet-size sweep of `coapt design`, when the report has one: the
+/// recommendation and its reason first, then every size, then the charts.
+fn sizing(h: &mut String, d: &Value, figures: &[Figure]) {
+    h.push_str("<section id=\"sizing\">\n<h2>Leaflet sizing</h2>\n");
+    let recommended = d.get("recommended_size").and_then(Value::as_u64);
+    let shown = d.get("shown_size").and_then(Value::as_u64);
+    let _ = writeln!(
+        h,
+        "<div class=\"verdict {}\"><p><strong>{}</strong></p><p>{}</p></div>",
+        if recommended.is_some() { "ok" } else { "bad" },
+        match recommended {
+            Some(s) => format!("Recommended: Ozaki size {s} for all three leaflets."),
+            None => "No size of the sweep meets every criterion.".to_string(),
+        },
+        esc(&text_or(d.get("reason"), "")),
+    );
+    if let Some(s) = shown {
         let _ = writeln!(
             h,
-            "<figcaption><strong>Figure {}. {}</strong> {}</figcaption>\n</figure>",
-            n + 1,
-            esc(&f.title),
-            esc(&f.caption)
+            "<p>The rest of this report is the closure with size {s} leaflets; every size has its own report in <code>size-NN/report.html</code> beside this page.</p>"
         );
+    }
+    let ic = array(d.get("intercommissural_distance_mm"));
+    if ic.len() == 3 {
+        let _ = writeln!(
+            h,
+            "<p>Intercommissural distances (what the sizer measures in the opened root): C1–C2 {}, C2–C3 {}, C3–C1 {}.</p>",
+            esc(&mm(ic.first())),
+            esc(&mm(ic.get(1))),
+            esc(&mm(ic.get(2)))
+        );
+    }
+    h.push_str(
+        "<table>\n<thead><tr><th>Size</th><th>Leaflet area (mm²)</th><th>Coaptation height (mm)</th>\
+         <th>Central coaptation (mm)</th><th>Effective height (mm)</th><th>Criteria met</th><th>Result</th></tr></thead>\n<tbody>\n",
+    );
+    for s in array(d.get("sizes")) {
+        let size = s.get("size").and_then(Value::as_u64);
+        let mark = if size.is_some() && size == recommended {
+            " class=\"recommended\""
+        } else {
+            ""
+        };
+        let result = match s.get("status").and_then(Value::as_str) {
+            Some("measured") => {
+                let failures: Vec<String> = array(s.get("failures"))
+                    .iter()
+                    .filter_map(|f| f.as_str().map(esc))
+                    .collect();
+                if failures.is_empty() {
+                    result_tag(Some(true)).to_string()
+                } else {
+                    format!("{} {}", result_tag(Some(false)), failures.join("; "))
+                }
+            }
+            _ => format!(
+                "<span class=\"tag na\">NOT COMPUTED</span> {}",
+                esc(&text_or(s.get("error"), "no reason recorded"))
+            ),
+        };
+        let met = match (
+            s.get("criteria_passed").and_then(Value::as_u64),
+            s.get("criteria_judged").and_then(Value::as_u64),
+        ) {
+            (Some(p), Some(j)) => format!("{p} / {j}"),
+            _ => DASH.to_string(),
+        };
+        let _ = writeln!(
+            h,
+            "<tr{mark}><th scope=\"row\">{}</th><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td></tr>",
+            size.map_or(DASH.to_string(), |s| s.to_string()),
+            esc(&fixed(num(s.get("leaflet_area_mm2")), 0)),
+            esc(&fixed(num(s.get("coaptation_height_mm")), 2)),
+            esc(&fixed(num(s.get("central_coaptation_height_mm")), 2)),
+            esc(&fixed(num(s.get("effective_height_mm")), 2)),
+            esc(&met),
+            result,
+        );
+    }
+    h.push_str("</tbody>\n</table>\n");
+    let mut used = Vec::new();
+    for (n, f) in figures.iter().enumerate() {
+        figure(h, f, n + 1, &mut used);
     }
     h.push_str("</section>\n");
 }

@@ -94,6 +94,12 @@ pub static SPEC: StageSpec = StageSpec {
             ArtifactKind::Polylines,
             "suture paths, drawn on the CT",
         ),
+        optional(
+            "design",
+            "design.json",
+            ArtifactKind::Json,
+            "leaflet-size sweep from `coapt design`: its table and charts join the report",
+        ),
     ],
     outputs: &[
         Port {
@@ -183,6 +189,21 @@ const BILLOWING_NOTICE_MM: f64 = 0.5;
 
 /// Thickness multiple of the contact margin (VERIFICATION.md §5).
 const MARGIN_PER_THICKNESS: f64 = 1.8;
+
+/// A `coapt design` sweep; only its own schema is taken.
+fn read_design(path: &Path) -> Result<Json> {
+    let d = read_json(path)?;
+    if d["schema"] != json!(crate::design::document::SCHEMA) || !d["sizes"].is_array() {
+        return Err(Error::bad_input(
+            path,
+            format!(
+                "not a design sweep (expected schema \"{}\" with a sizes list, as `coapt design` writes)",
+                crate::design::document::SCHEMA
+            ),
+        ));
+    }
+    Ok(d)
+}
 
 fn read_json(path: &Path) -> Result<Json> {
     serde_json::from_slice(&std::fs::read(path).map_err(|e| Error::read(path, e))?)
@@ -328,6 +349,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         Some(p) => Some(read_json(p)?),
         None => None,
     };
+    let design = match io.input("design") {
+        Some(p) => Some(read_design(p)?),
+        None => None,
+    };
     let thickness = log
         .as_ref()
         .and_then(|l| l["config"]["thickness_mm"].as_f64())
@@ -456,6 +481,15 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             ));
         }
     }
+    if let Some(d) = &design {
+        figs.extend(figures::sizing::sizing(
+            d,
+            (
+                params.quantity("min_central_coaptation"),
+                params.quantity("min_effective_height"),
+            ),
+        ));
+    }
     progress.set(0.9);
 
     let mut inputs = serde_json::Map::new();
@@ -470,7 +504,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     record("closed", cpath)?;
     record("leaflets", lpath)?;
     record("valve", vpath)?;
-    for name in ["log", "ct", "mask", "landmarks", "paths"] {
+    for name in ["log", "ct", "mask", "landmarks", "paths", "design"] {
         if let Some(p) = optional_input(io, run_dir, name) {
             record(name, &p)?;
         }
@@ -506,7 +540,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         inputs: Json::Object(inputs),
         parameters: Json::Object(parameters),
     };
-    let doc = document::build(&m, &crit, &finds, &ctx);
+    let mut doc = document::build(&m, &crit, &finds, &ctx);
+    if let (Some(d), Json::Object(o)) = (design, &mut doc) {
+        o.insert("design".into(), d);
+    }
     let page = html::render(&doc, &figs);
     let text = serde_json::to_string_pretty(&doc).expect("json") + "\n";
     let mut tx = Transaction::new();

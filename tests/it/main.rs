@@ -3,6 +3,7 @@
 mod bad_input;
 mod close;
 mod common;
+mod design;
 mod leaflets;
 mod phantom;
 mod report;

@@ -20,6 +20,7 @@ pub mod mesh_edges;
 pub mod notice;
 pub mod palette;
 pub mod scale_bar;
+pub mod sizing;
 pub mod text;
 pub mod valve_views;
 pub mod xy_chart;

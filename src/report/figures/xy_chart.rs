@@ -48,6 +48,8 @@ pub struct XyChart {
     /// Named horizontal reference lines (thresholds, tolerances), dashed.
     pub hlines: Vec<(String, f64)>,
     pub log_y: bool,
+    /// Ticks on whole x values only (sizes, counts): no "13.2".
+    pub x_integer: bool,
     pub width: u32,
     pub height: u32,
 }
@@ -63,6 +65,7 @@ impl XyChart {
             series: Vec::new(),
             hlines: Vec::new(),
             log_y: false,
+            x_integer: false,
             width: 720,
             height: 420,
         }
@@ -227,8 +230,22 @@ fn draw(
         .build_cartesian_2d(x0..x1, y0..y1)?;
     let log = chart.log_y;
     let y_fmt = move |v: &f64| if log { log_label(*v) } else { tick_label(*v) };
-    let x_fmt = |v: &f64| tick_label(*v);
+    let whole = chart.x_integer;
+    let x_fmt = move |v: &f64| {
+        if whole && (v - v.round()).abs() > 1e-6 {
+            String::new()
+        } else {
+            tick_label(*v)
+        }
+    };
+    // With one label per unit at most, plotters puts its ticks on whole numbers.
+    let x_labels = if whole {
+        ((x1 - x0).floor() as usize + 1).clamp(2, 12)
+    } else {
+        10
+    };
     cc.configure_mesh()
+        .x_labels(x_labels)
         .x_desc(chart.x_label.as_str())
         .y_desc(chart.y_label.as_str())
         .label_style((FAMILY, 13).into_font())

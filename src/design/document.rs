@@ -1,0 +1,104 @@
+//! `design.json` (`coapt-design/1`): every size tried, what its closure
+//! gave, and the recommendation with its reason. No timings, so the same
+//! inputs give the same bytes.
+
+use std::collections::BTreeMap;
+
+use serde_json::{Value as Json, json};
+
+use super::recommend::{Outcome, Recommendation};
+use crate::geom::ValveFrame;
+use crate::pipeline::params::Value;
+
+pub const SCHEMA: &str = "coapt-design/1";
+
+/// Distances C1–C2, C2–C3, C3–C1 (mm): what the surgeon's Ozaki sizer
+/// measures in the opened root, shown beside the simulated answer.
+pub fn intercommissural_mm(f: &ValveFrame) -> [f64; 3] {
+    let c = &f.commissures_mm;
+    [
+        (c[0] - c[1]).norm(),
+        (c[1] - c[2]).norm(),
+        (c[2] - c[0]).norm(),
+    ]
+}
+
+fn opt(x: Option<f64>) -> Json {
+    x.filter(|v| v.is_finite()).map_or(Json::Null, |v| json!(v))
+}
+
+pub fn build(
+    outcomes: &[Outcome],
+    rec: &Recommendation,
+    intercommissural: Option<[f64; 3]>,
+    sections: &BTreeMap<String, BTreeMap<String, Value>>,
+) -> Json {
+    let sizes: Vec<Json> = outcomes
+        .iter()
+        .map(|o| {
+            let run = super::sweep::size_dir(o.size);
+            match &o.result {
+                Ok(m) => json!({
+                    "size": o.size,
+                    "run": run,
+                    "status": "measured",
+                    "error": null,
+                    "closed": m.closed,
+                    "meets_all_criteria": m.meets_all,
+                    "criteria_passed": m.passed,
+                    "criteria_judged": m.judged,
+                    "failures": m.failures,
+                    "coaptation_height_mm": opt(m.coaptation_height_mm),
+                    "central_coaptation_height_mm": opt(m.central_coaptation_height_mm),
+                    "effective_height_mm": opt(m.effective_height_mm),
+                    "coaptation_area_mm2": opt(m.coaptation_area_mm2),
+                    "leaflet_area_mm2": opt(m.leaflet_area_mm2),
+                    "free_edge_length_mm": opt(m.free_edge_length_mm),
+                }),
+                Err(e) => json!({
+                    "size": o.size,
+                    "run": run,
+                    "status": "failed",
+                    "error": e,
+                    "closed": null,
+                    "meets_all_criteria": false,
+                    "criteria_passed": null,
+                    "criteria_judged": null,
+                    "failures": [],
+                    "coaptation_height_mm": null,
+                    "central_coaptation_height_mm": null,
+                    "effective_height_mm": null,
+                    "coaptation_area_mm2": null,
+                    "leaflet_area_mm2": null,
+                    "free_edge_length_mm": null,
+                }),
+            }
+        })
+        .collect();
+    let parameters: serde_json::Map<String, Json> = super::sweep::STAGES
+        .iter()
+        .filter_map(|s| {
+            let values = sections.get(*s)?;
+            Some((
+                s.to_string(),
+                Json::Object(
+                    values
+                        .iter()
+                        .map(|(k, v)| (k.clone(), json!(v.canonical())))
+                        .collect(),
+                ),
+            ))
+        })
+        .collect();
+    json!({
+        "schema": SCHEMA,
+        "coapt_version": env!("CARGO_PKG_VERSION"),
+        "template_family": "ozaki_size",
+        "recommended_size": rec.size,
+        "shown_size": rec.shown,
+        "reason": rec.reason,
+        "intercommissural_distance_mm": intercommissural.map(|d| d.to_vec()),
+        "sizes": sizes,
+        "parameters": parameters,
+    })
+}

@@ -1,0 +1,263 @@
+//! `coapt design CONFIG`: leaflet sizing for one patient.
+//!
+//! The patient's chain runs once up to the suture paths (segmentation,
+//! surface, valve frame and paths are shared by every size, as the issue and
+//! the operation demand: the surgeon sizes leaflets for one root). Then
+//! every Ozaki sizer size of the sweep closes in its own run directory
+//! (`RUN/design/size-NN/`, leaflets → close → report), in parallel, and the
+//! smallest size that meets every criterion is recommended ([`recommend`]).
+//! The design report (`RUN/design/report.html`) is the report of the
+//! recommended size's valve with the sweep's table and charts.
+//!
+//! Sizes are independent runs, so the answer does not depend on the thread
+//! count, and a second `coapt design` skips every size whose inputs hold.
+
+pub mod document;
+pub mod recommend;
+pub mod settings;
+pub mod sweep;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+
+pub use recommend::{Outcome, Recommendation};
+pub use settings::Settings;
+
+use crate::geom::ValveFrame;
+use crate::io::write_atomic;
+use crate::pipeline::config::RunConfig;
+use crate::pipeline::execute::Invocation;
+use crate::pipeline::runner::{self, RunOptions};
+use crate::pipeline::{Params, StageIo, StageSpec};
+use crate::{Error, Result};
+
+#[derive(Debug, Clone, Default)]
+pub struct Options {
+    pub config: PathBuf,
+    /// Run directory; overrides the config's `[run] dir`.
+    pub out: Option<PathBuf>,
+    /// Overrides the config's `[design] sizes`.
+    pub sizes: Option<Vec<u32>>,
+    pub force: bool,
+}
+
+/// What a sweep found.
+#[derive(Debug, Clone)]
+pub struct Summary {
+    pub design_dir: PathBuf,
+    pub outcomes: Vec<Outcome>,
+    pub recommendation: Recommendation,
+}
+
+/// Inputs the sizes take from the patient's run but do not need: the CT
+/// and mask only feed the CT figure, drawn once on the design report.
+const FIGURE_ONLY: [&str; 2] = ["ct", "mask"];
+
+pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) -> Result<Summary> {
+    let cfg = RunConfig::load(&opts.config, registry)?;
+    let run_dir = match (&opts.out, &cfg.run_dir) {
+        (Some(d), _) | (None, Some(d)) => d.clone(),
+        (None, None) => {
+            return Err(Error::usage(format!(
+                "{}: no run directory: set [run] dir in the config or pass --out DIR",
+                opts.config.display()
+            )));
+        }
+    };
+    let sizes = match (&opts.sizes, &cfg.design) {
+        (Some(s), _) => s.clone(),
+        (None, Some(d)) => d.sizes.clone(),
+        (None, None) => Settings::default().sizes,
+    };
+    let chain = runner::plan(&cfg, registry)?;
+    let names: Vec<&str> = chain.iter().map(|s| s.name).collect();
+    let Some(first) = names.iter().position(|n| *n == sweep::STAGES[0]) else {
+        return Err(Error::config(
+            &cfg.path,
+            "inputs",
+            format!(
+                "coapt design sizes the leaflets, so the chain must reach leaflets, close and report (give template and config under [inputs]); this config's chain is: {}",
+                names.join(" → ")
+            ),
+        ));
+    };
+    if let Some(missing) = sweep::STAGES.iter().find(|s| !names.contains(s)) {
+        return Err(Error::config(
+            &cfg.path,
+            "inputs",
+            format!(
+                "coapt design needs the {missing} stage in the chain (its inputs are missing); the chain is: {}",
+                names.join(" → ")
+            ),
+        ));
+    }
+    if first > 0 {
+        runner::run(
+            &RunOptions {
+                config: opts.config.clone(),
+                out: Some(run_dir.clone()),
+                from: None,
+                until: Some(chain[first - 1].name.to_string()),
+                force: opts.force,
+            },
+            registry,
+            inv,
+        )?;
+    }
+
+    // Everything the sizes' stages take and do not make themselves.
+    let made_by_sizes: Vec<&str> = chain[first..]
+        .iter()
+        .flat_map(|s| s.outputs.iter().map(|p| p.name))
+        .collect();
+    let mut upstream: BTreeMap<String, PathBuf> = BTreeMap::new();
+    for port in chain[first..].iter().flat_map(|s| s.inputs.iter()) {
+        if port.name == "template" || made_by_sizes.contains(&port.name) {
+            continue;
+        }
+        let path = match cfg.inputs.get(port.name) {
+            Some(p) => p.clone(),
+            None => match chain[..first].iter().find_map(|s| s.output(port.name)) {
+                Some(out) => run_dir.join(out.file),
+                None => continue,
+            },
+        };
+        let abs = std::fs::canonicalize(&path).map_err(|e| Error::read(&path, e))?;
+        upstream.insert(port.name.to_string(), abs);
+    }
+    let for_sizes: BTreeMap<String, PathBuf> = upstream
+        .iter()
+        .filter(|(k, _)| !FIGURE_ONLY.contains(&k.as_str()))
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
+
+    let design_dir = run_dir.join("design");
+    std::fs::create_dir_all(&design_dir).map_err(|e| Error::write(&design_dir, e))?;
+    let mut sub = inv.clone();
+    sub.log.quiet = true; // no progress bars racing each other
+    tracing::info!(event = "design", sizes = ?sizes, "design: closing {} sizes ({})", sizes.len(), sizes.iter().map(u32::to_string).collect::<Vec<_>>().join(", "));
+    let outcomes = sizes
+        .par_iter()
+        .map(|&size| {
+            let _span = tracing::info_span!("size", message = %format!("size {size}")).entered();
+            let text = sweep::size_config(size, &for_sizes, &cfg.sections);
+            sweep::run_size(size, &design_dir, &text, registry, &sub, opts.force)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let rec = recommend::recommend(&outcomes);
+
+    let frame = upstream.get("valve").and_then(|p| valve_frame(p).ok());
+    let doc = document::build(
+        &outcomes,
+        &rec,
+        frame.as_ref().map(document::intercommissural_mm),
+        &cfg.sections,
+    );
+    let design_json = design_dir.join("design.json");
+    let text = serde_json::to_string_pretty(&doc).expect("json") + "\n";
+    write_atomic(&design_json, |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+    })?;
+
+    let Some(shown) = rec.shown else {
+        return Err(Error::failed("design", rec.reason.clone()));
+    };
+    report(
+        registry,
+        &cfg,
+        &design_dir,
+        shown,
+        &upstream,
+        &design_json,
+        inv,
+    )?;
+    Ok(Summary {
+        design_dir,
+        outcomes,
+        recommendation: rec,
+    })
+}
+
+fn valve_frame(path: &Path) -> Result<ValveFrame> {
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(path).map_err(|e| Error::read(path, e))?)
+            .map_err(|e| Error::bad_input(path, format!("not JSON: {e}")))?;
+    serde_json::from_value(v["valve_frame"].clone())
+        .map_err(|e| Error::bad_input(path, format!("no valid valve_frame: {e}")))
+}
+
+/// The design report: the report stage on the shown size's valve, with the
+/// sweep (`design.json`) as an extra input, written into the design directory.
+fn report(
+    registry: &[&'static StageSpec],
+    cfg: &RunConfig,
+    design_dir: &Path,
+    size: u32,
+    upstream: &BTreeMap<String, PathBuf>,
+    design_json: &Path,
+    inv: &Invocation,
+) -> Result<()> {
+    let spec = registry
+        .iter()
+        .copied()
+        .find(|s| s.name == "report")
+        .expect("the report stage is registered");
+    let size_dir = design_dir.join(sweep::size_dir(size));
+    let mut io = StageIo::default();
+    for port in spec.inputs {
+        let path = if port.name == "design" {
+            Some(design_json.to_path_buf())
+        } else if let Some(p) = upstream.get(port.name) {
+            Some(p.clone())
+        } else {
+            Some(size_dir.join(port.file)).filter(|p| p.is_file())
+        };
+        if let Some(p) = path {
+            io.inputs.push((port.name, p));
+        }
+    }
+    for port in spec.outputs {
+        io.outputs.push((port.name, design_dir.join(port.file)));
+    }
+    let mut given = cfg.sections.get("report").cloned().unwrap_or_default();
+    given.insert(
+        "run_dir".into(),
+        crate::pipeline::Value::Path(size_dir.to_string_lossy().into_owned()),
+    );
+    let params = Params::resolve(spec, given)?;
+    runner::run_single(spec, &io, &params, Some(design_dir), inv)
+}
+
+/// The sweep as a text table for the terminal.
+pub fn table(s: &Summary) -> String {
+    let f = |x: Option<f64>, d: usize| x.map_or("—".to_string(), |v| format!("{v:.d$}"));
+    let mut t = String::from(
+        "size  leaflet area  coaptation  central  effective  criteria\n\
+         \x20       (mm²)      height (mm)  (mm)    height (mm)\n",
+    );
+    for o in &s.outcomes {
+        match &o.result {
+            Ok(m) => t.push_str(&format!(
+                "{:>4}  {:>12}  {:>10}  {:>7}  {:>10}  {}/{}{}\n",
+                o.size,
+                f(m.leaflet_area_mm2, 0),
+                f(m.coaptation_height_mm, 2),
+                f(m.central_coaptation_height_mm, 2),
+                f(m.effective_height_mm, 2),
+                m.passed,
+                m.judged,
+                if s.recommendation.size == Some(o.size) {
+                    "  ← recommended"
+                } else {
+                    ""
+                }
+            )),
+            Err(e) => t.push_str(&format!("{:>4}  not computed: {e}\n", o.size)),
+        }
+    }
+    t.push_str(&s.recommendation.reason);
+    t.push('\n');
+    t
+}

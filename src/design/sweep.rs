@@ -1,0 +1,220 @@
+//! One closure per size: a small run config in `design/size-NN/` that takes
+//! the patient's segmentation, surface, valve frame and suture paths as
+//! inputs and runs leaflets → close → report with an Ozaki sizer template.
+//! Each size is an ordinary run directory, so `coapt run
+//! design/size-21/run.toml` re-runs (or skips) it alone.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde_json::Value as Json;
+
+use super::recommend::{Measured, Outcome};
+use crate::io::atomic::write_atomic;
+use crate::pipeline::execute::Invocation;
+use crate::pipeline::params::Value;
+use crate::pipeline::runner::{self, RunOptions};
+use crate::pipeline::spec::StageSpec;
+use crate::{Error, Result};
+
+/// The stages a size runs; everything they take that they do not make
+/// comes from the patient's run.
+pub const STAGES: [&str; 3] = ["leaflets", "close", "report"];
+
+/// Where one size's run lives, relative to the design directory.
+pub fn size_dir(size: u32) -> String {
+    format!("size-{size}")
+}
+
+fn toml_string(s: &str) -> String {
+    toml::Value::String(s.to_string()).to_string()
+}
+
+/// The run config of one size: every upstream artifact by absolute path,
+/// the sizer template beside it, and the patient config's sections of the
+/// stages it runs (canonical text, so it reads back to the same values).
+pub fn size_config(
+    size: u32,
+    inputs: &BTreeMap<String, PathBuf>,
+    sections: &BTreeMap<String, BTreeMap<String, Value>>,
+) -> String {
+    let mut t = format!(
+        "# Ozaki size {size}, written by `coapt design`; run alone with `coapt run` on this file.\n\
+         [run]\ndir = \".\"\n\n[inputs]\ntemplate = \"template.toml\"\n"
+    );
+    for (name, path) in inputs {
+        t.push_str(&format!(
+            "{name} = {}\n",
+            toml_string(&path.to_string_lossy())
+        ));
+    }
+    for stage in STAGES {
+        if let Some(values) = sections.get(stage) {
+            t.push_str(&format!("\n[{stage}]\n"));
+            for (k, v) in values {
+                t.push_str(&format!("{k} = {}\n", toml_string(&v.canonical())));
+            }
+        }
+    }
+    t
+}
+
+pub fn template(size: u32) -> String {
+    format!(
+        "# Ozaki sizer size {size} for all three leaflets (written by `coapt design`).\n\
+         [template]\nkind = \"ozaki_size\"\nsize = {size}\n"
+    )
+}
+
+/// Run one size (writing its config and template first) and measure it.
+/// A failure of the size's own chain is its outcome, not an error of the sweep.
+pub fn run_size(
+    size: u32,
+    design_dir: &Path,
+    config_text: &str,
+    registry: &[&'static StageSpec],
+    inv: &Invocation,
+    force: bool,
+) -> Result<Outcome> {
+    let dir = design_dir.join(size_dir(size));
+    std::fs::create_dir_all(&dir).map_err(|e| Error::write(&dir, e))?;
+    let config = dir.join("run.toml");
+    for (path, text) in [
+        (dir.join("template.toml"), template(size)),
+        (config.clone(), config_text.to_string()),
+    ] {
+        // Rewriting an unchanged file would be harmless, but leaving it
+        // keeps its time stamp for people watching the directory.
+        if std::fs::read_to_string(&path).ok().as_deref() != Some(text.as_str()) {
+            write_atomic(&path, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+        }
+    }
+    let opts = RunOptions {
+        config,
+        out: None,
+        from: None,
+        until: None,
+        force,
+    };
+    let result = match runner::run(&opts, registry, inv) {
+        Ok(_) => {
+            let path = dir.join("report.json");
+            let doc: Json =
+                serde_json::from_slice(&std::fs::read(&path).map_err(|e| Error::read(&path, e))?)
+                    .map_err(|e| Error::bad_input(&path, format!("not JSON: {e}")))?;
+            Ok(measured(&doc))
+        }
+        Err(e) => Err(e.to_string()),
+    };
+    Ok(Outcome { size, result })
+}
+
+fn mean(v: &Json) -> Option<f64> {
+    let a = v.as_array()?;
+    let x: Vec<f64> = a.iter().filter_map(Json::as_f64).collect();
+    (!x.is_empty() && x.len() == a.len()).then(|| x.iter().sum::<f64>() / x.len() as f64)
+}
+
+/// The numbers a size is judged and plotted by, from its `report.json`.
+pub fn measured(doc: &Json) -> Measured {
+    let criteria = doc["criteria"].as_array().cloned().unwrap_or_default();
+    let failures: Vec<String> = criteria
+        .iter()
+        .filter(|c| c["pass"] != Json::Bool(true))
+        .map(|c| {
+            let name = c["name"].as_str().unwrap_or("a criterion");
+            match (&c["pass"], c["value"].as_f64(), c["unit"].as_str()) {
+                (Json::Null, _, _) => format!("{name} not measurable"),
+                (_, Some(v), Some(u)) if !u.is_empty() => format!(
+                    "{name} {v:.2} {u} (needs {} {} {u})",
+                    c["comparison"].as_str().unwrap_or(">"),
+                    c["threshold"]
+                ),
+                _ => format!("{name}: no"),
+            }
+        })
+        .collect();
+    let m = &doc["metrics"];
+    Measured {
+        closed: m["closed"].as_bool().unwrap_or(false),
+        meets_all: doc["verdict"]["meets_all_criteria"].as_bool() == Some(true),
+        passed: criteria.len() - failures.len(),
+        judged: criteria.len(),
+        failures,
+        coaptation_height_mm: m["coaptation_height_mm"].as_f64(),
+        central_coaptation_height_mm: m["central_coaptation_height_mm"].as_f64(),
+        effective_height_mm: m["effective_height_mm"].as_f64(),
+        coaptation_area_mm2: m["coaptation_area_mm2"]["max"].as_f64(),
+        leaflet_area_mm2: mean(&m["leaflet_area_mm2"]),
+        free_edge_length_mm: mean(&m["free_edge_length_mm"]),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::config::RunConfig;
+
+    #[test]
+    fn size_config_reads_back_with_the_same_values() {
+        let registry = crate::pipeline::registry();
+        let mut sections = BTreeMap::new();
+        let mut leaflets = BTreeMap::new();
+        leaflets.insert(
+            "h".to_string(),
+            Value::Quantity(0.7, crate::units::Kind::Length),
+        );
+        sections.insert("leaflets".to_string(), leaflets);
+        let mut report = BTreeMap::new();
+        report.insert("refine".to_string(), Value::Int(3));
+        sections.insert("report".to_string(), report);
+        // A section of an upstream stage is not the size's business.
+        sections.insert("segment".to_string(), BTreeMap::new());
+        let mut inputs = BTreeMap::new();
+        inputs.insert(
+            "valve".to_string(),
+            PathBuf::from("/runs/p \"1\"/valve.json"),
+        );
+        let text = size_config(21, &inputs, &sections);
+        let cfg = RunConfig::parse(Path::new("/d/size-21/run.toml"), &text, registry).unwrap();
+        assert_eq!(cfg.inputs["valve"], Path::new("/runs/p \"1\"/valve.json"));
+        assert_eq!(
+            cfg.inputs["template"],
+            Path::new("/d/size-21/template.toml")
+        );
+        assert_eq!(cfg.sections["leaflets"], sections["leaflets"]);
+        assert_eq!(cfg.sections["report"], sections["report"]);
+        assert!(!cfg.has_section("segment"));
+        let t = crate::leaflet::template::parse_templates(&template(21)).unwrap();
+        assert!(t.iter().all(|t| t.name() == "ozaki_size 21"));
+    }
+
+    #[test]
+    fn measured_reads_failures_in_words() {
+        let doc = serde_json::json!({
+            "verdict": {"meets_all_criteria": false},
+            "criteria": [
+                {"name": "Central coaptation height", "value": 3.2, "unit": "mm", "comparison": ">", "threshold": 4.0, "pass": false},
+                {"name": "Effective height", "value": 9.5, "unit": "mm", "comparison": ">", "threshold": 9.0, "pass": true},
+                {"name": "Valve closed", "value": false, "unit": "", "comparison": "is", "threshold": true, "pass": false},
+                {"name": "No prolapse", "value": null, "unit": "", "comparison": "is", "threshold": true, "pass": null}
+            ],
+            "metrics": {"closed": false, "coaptation_height_mm": 5.0, "central_coaptation_height_mm": null,
+                        "effective_height_mm": 9.5, "coaptation_area_mm2": {"max": 40.0},
+                        "leaflet_area_mm2": [300.0, 310.0, 320.0], "free_edge_length_mm": [30.0, null, 30.0]}
+        });
+        let m = measured(&doc);
+        assert_eq!((m.passed, m.judged, m.meets_all), (1, 4, false));
+        assert_eq!(
+            m.failures,
+            [
+                "Central coaptation height 3.20 mm (needs > 4.0 mm)",
+                "Valve closed: no",
+                "No prolapse not measurable"
+            ]
+        );
+        assert_eq!(m.leaflet_area_mm2, Some(310.0));
+        assert_eq!(m.free_edge_length_mm, None);
+        assert_eq!(m.central_coaptation_height_mm, None);
+    }
+}

@@ -1,0 +1,129 @@
+//! The leaflet-size sweep of `coapt design`: heights and areas against the
+//! Ozaki sizer size, with the criteria's thresholds.
+
+use serde_json::Value as Json;
+
+use super::xy_chart::{Series, XyChart, xy_chart};
+use crate::report::Figure;
+
+fn series(design: &Json, key: &str) -> Vec<(f64, f64)> {
+    design["sizes"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|s| Some((s["size"].as_f64()?, s[key].as_f64().unwrap_or(f64::NAN))))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn recommended(design: &Json) -> String {
+    match design["recommended_size"].as_u64() {
+        Some(s) => format!("Recommended: size {s}, the smallest meeting every criterion."),
+        None => "No size of the sweep meets every criterion.".to_string(),
+    }
+}
+
+/// Two charts from `design.json`: heights (mm) and areas (mm²) per size.
+/// `thresholds`: (central coaptation, effective height) in mm.
+pub fn sizing(design: &Json, thresholds: (f64, f64)) -> Vec<Figure> {
+    let mut h = XyChart::new(
+        "sizing-heights",
+        "Coaptation and effective height against leaflet size",
+        "Ozaki sizer size",
+        "height (mm)",
+    );
+    h.x_integer = true;
+    for (name, key) in [
+        ("coaptation height", "coaptation_height_mm"),
+        ("central coaptation height", "central_coaptation_height_mm"),
+        ("effective height", "effective_height_mm"),
+    ] {
+        h.series
+            .push(Series::new(name, series(design, key)).with_markers());
+    }
+    h.hlines.push((
+        format!("central coaptation > {} mm", thresholds.0),
+        thresholds.0,
+    ));
+    h.hlines.push((
+        format!("effective height > {} mm", thresholds.1),
+        thresholds.1,
+    ));
+    h.caption = format!(
+        "Each point is one closure of the patient's root with three leaflets of that sizer size, sutured on the same paths. \
+         Dashed red lines: the criteria's thresholds. A size without a point could not be closed or has no such zone. {}",
+        recommended(design)
+    );
+    let mut a = XyChart::new(
+        "sizing-areas",
+        "Leaflet and coaptation area against leaflet size",
+        "Ozaki sizer size",
+        "area (mm²)",
+    );
+    a.x_integer = true;
+    a.series.push(
+        Series::new(
+            "leaflet area (flat template)",
+            series(design, "leaflet_area_mm2"),
+        )
+        .with_markers(),
+    );
+    a.series.push(
+        Series::new(
+            "coaptation area (largest leaflet)",
+            series(design, "coaptation_area_mm2"),
+        )
+        .with_markers(),
+    );
+    a.caption = format!(
+        "Pericardium cut per leaflet (template area) and the largest leaflet's coaptation area, per size. {}",
+        recommended(design)
+    );
+    vec![xy_chart(&h), xy_chart(&a)]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_valve::{count, decode};
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn sweep_is_drawn_with_thresholds_and_gaps() {
+        let d = json!({
+            "recommended_size": 21,
+            "sizes": [
+                {"size": 19, "coaptation_height_mm": 6.0, "central_coaptation_height_mm": 3.0, "effective_height_mm": 8.0,
+                 "leaflet_area_mm2": 300.0, "coaptation_area_mm2": 40.0},
+                {"size": 21, "coaptation_height_mm": 8.0, "central_coaptation_height_mm": 5.0, "effective_height_mm": 10.0,
+                 "leaflet_area_mm2": 350.0, "coaptation_area_mm2": 60.0},
+                {"size": 23, "coaptation_height_mm": null, "central_coaptation_height_mm": null, "effective_height_mm": null,
+                 "leaflet_area_mm2": null, "coaptation_area_mm2": null}
+            ]
+        });
+        let f = sizing(&d, (4.0, 9.0));
+        assert_eq!(f.len(), 2);
+        assert!(
+            f[0].caption.contains("Recommended: size 21"),
+            "{}",
+            f[0].caption
+        );
+        let img = decode(&f[0].png);
+        // Three series colours and the thresholds' red.
+        for c in [[0, 114, 178], [213, 94, 0], [0, 158, 115], [200, 30, 40]] {
+            assert!(count(&img, c) > 50, "colour {c:?}");
+        }
+        let none = sizing(&json!({"recommended_size": null, "sizes": []}), (4.0, 9.0));
+        assert!(
+            none[0].caption.contains("no finite data"),
+            "{}",
+            none[0].caption
+        );
+        assert!(
+            none[1].caption.contains("no finite data"),
+            "{}",
+            none[1].caption
+        );
+    }
+}

@@ -1,0 +1,197 @@
+//! `coapt design`: leaflet sizing on the committed sample. The recommended
+//! size meets every criterion and every smaller size tried does not; the
+//! design report shows the sweep; the answer holds under h → h/2 and does
+//! not depend on the thread count; a second run redoes nothing.
+
+use std::path::{Path, PathBuf};
+
+use serde_json::Value;
+
+use crate::common::*;
+use crate::report_html::{browser, check, errors, strings};
+
+fn s(p: &Path) -> String {
+    p.to_str().unwrap().to_string()
+}
+
+fn json(p: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
+        .unwrap()
+}
+
+/// The sample's run config (closure settings of pipelines/close.toml) with
+/// a [design] section and the leaflet mesh size `h`.
+fn config(dir: &Path, h: &str, sizes: &str) -> PathBuf {
+    let r = repo();
+    let cfg = dir.join("run.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[run]\ndir = \"run\"\n[inputs]\nct = \"{}\"\nlandmarks = \"{}\"\ntemplate = \"{}\"\nconfig = \"{}\"\n\
+             [leaflets]\nh = \"{h}\"\n[design]\nsizes = {sizes}\n",
+            s(&r.join("sample_data/ct.nii.gz")),
+            s(&r.join("sample_data/landmarks.mrk.json")),
+            s(&r.join("pipelines/templates/ozaki_default.toml")),
+            s(&r.join("pipelines/close.toml")),
+        ),
+    )
+    .unwrap();
+    cfg
+}
+
+fn design(cfg: &Path, extra: &[&str]) -> (Value, String) {
+    let mut args = vec!["design", cfg.to_str().unwrap(), "--quiet"];
+    args.extend_from_slice(extra);
+    let o = coapt(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let d = json(&cfg.parent().unwrap().join("run/design/design.json"));
+    (d, String::from_utf8_lossy(&o.stdout).into_owned())
+}
+
+fn recommended(d: &Value) -> u64 {
+    d["recommended_size"]
+        .as_u64()
+        .unwrap_or_else(|| panic!("no size recommended: {}", d["reason"]))
+}
+
+#[test]
+fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_halved() {
+    const SIZES: &str = "[13, 15, 17]";
+    let coarse = tmpdir("design-h1");
+    let cfg = config(&coarse, "1 mm", SIZES);
+    let (d, table) = design(&cfg, &[]);
+    assert_eq!(d["schema"], "coapt-design/1");
+    let best = recommended(&d);
+    assert!(table.contains("← recommended"), "{table}");
+
+    // Every size is an ordinary run whose report agrees with design.json;
+    // the recommended one meets every criterion, every smaller one fails one.
+    let run = coarse.join("run/design");
+    let sizes = d["sizes"].as_array().unwrap();
+    assert_eq!(sizes.len(), 3);
+    for e in sizes {
+        let size = e["size"].as_u64().unwrap();
+        let rep = json(&run.join(format!("size-{size}/report.json")));
+        let meets = rep["verdict"]["meets_all_criteria"].as_bool().unwrap();
+        assert_eq!(
+            e["meets_all_criteria"].as_bool(),
+            Some(meets),
+            "size {size}"
+        );
+        assert_eq!(
+            e["central_coaptation_height_mm"], rep["metrics"]["central_coaptation_height_mm"],
+            "size {size}"
+        );
+        assert_eq!(
+            e["effective_height_mm"],
+            rep["metrics"]["effective_height_mm"]
+        );
+        if size < best {
+            assert!(!meets, "size {size} meets all, but {best} was recommended");
+            assert!(!strings(&e["failures"]).is_empty(), "{e}");
+        }
+        if size == best {
+            assert!(meets);
+        }
+    }
+    // The reason names the failure just below, or says the sweep starts there.
+    let reason = d["reason"].as_str().unwrap();
+    assert!(
+        reason.contains(&format!("Size {best} is the smallest")),
+        "{reason}"
+    );
+    if best > 13 {
+        assert!(
+            reason.contains(&format!("size {} fails", best - 2)),
+            "{reason}"
+        );
+    } else {
+        assert!(reason.contains("widen the sweep downwards"), "{reason}");
+    }
+    // Leaflet area grows with size (same template family, same mesher).
+    let areas: Vec<f64> = sizes
+        .iter()
+        .map(|e| e["leaflet_area_mm2"].as_f64().unwrap())
+        .collect();
+    assert!(areas.windows(2).all(|w| w[1] > w[0]), "{areas:?}");
+
+    // The design report: the recommended valve with the sweep, valid and clean.
+    let rep = json(&run.join("report.json"));
+    let errs = errors(&rep);
+    assert!(
+        errs.is_empty(),
+        "design report.json breaks its schema: {errs:#?}"
+    );
+    assert_eq!(rep["design"]["recommended_size"], d["recommended_size"]);
+    let page = run.join("report.html");
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(html.contains("<section id=\"sizing\">"));
+    assert!(html.contains(&format!("Recommended: Ozaki size {best}")));
+    assert!(html.contains("id=\"fig-sizing-heights\"") && html.contains("id=\"fig-sizing-areas\""));
+    if let Some(b) = browser() {
+        let (v, code) = check(&b, &page);
+        assert!(strings(&v["console_errors"]).is_empty(), "{v}");
+        assert!(strings(&v["external_requests"]).is_empty(), "{v}");
+        assert_eq!(v["images"]["total"], v["images"]["decoded"], "{v}");
+        assert_eq!(code, 0, "{v}");
+    }
+
+    // Again: every size is skipped, the answer is the same bytes.
+    let before = std::fs::read(run.join("design.json")).unwrap();
+    design(&cfg, &[]);
+    for size in [13, 15, 17] {
+        let m = json(&run.join(format!("size-{size}/manifest.json")));
+        for st in m["stages"].as_array().unwrap() {
+            assert_eq!(st["status"], "skipped", "size {size}: {st}");
+        }
+    }
+    assert_eq!(std::fs::read(run.join("design.json")).unwrap(), before);
+
+    // One thread: the same design.json, byte for byte.
+    let one = tmpdir("design-h1-t1");
+    let cfg1 = config(&one, "1 mm", SIZES);
+    design(&cfg1, &["--threads", "1"]);
+    assert_eq!(
+        std::fs::read(one.join("run/design/design.json")).unwrap(),
+        before,
+        "design.json depends on the thread count"
+    );
+
+    // h → h/2: the same recommendation.
+    let fine = tmpdir("design-h05");
+    let cfg2 = config(&fine, "0.5 mm", SIZES);
+    let (d2, _) = design(&cfg2, &[]);
+    assert_eq!(
+        recommended(&d2),
+        best,
+        "h 1 mm: {}\nh 0.5 mm: {}",
+        d["reason"],
+        d2["reason"]
+    );
+}
+
+#[test]
+fn design_refuses_bad_sizes_and_a_chain_without_leaflets() {
+    let d = tmpdir("design-bad");
+    let cfg = config(&d, "1 mm", "[20]");
+    let o = coapt(&["design", &s(&cfg), "--quiet"]);
+    assert_bad_input(&o, &cfg, &["design.sizes", "not in the Ozaki sizer table"]);
+    let o = coapt(&["design", &s(&cfg), "--sizes", "36-40"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--sizes 36-40"), "{}", stderr(&o));
+    // A config that stops at the suture paths cannot be sized.
+    let r = repo();
+    let short = d.join("short.toml");
+    std::fs::write(
+        &short,
+        format!(
+            "[run]\ndir = \"run\"\n[inputs]\nct = \"{}\"\nlandmarks = \"{}\"\n",
+            s(&r.join("sample_data/ct.nii.gz")),
+            s(&r.join("sample_data/landmarks.mrk.json")),
+        ),
+    )
+    .unwrap();
+    let o = coapt(&["design", &s(&short), "--quiet"]);
+    assert_bad_input(&o, &short, &["leaflets, close and report", "template"]);
+    assert!(!d.join("run").exists(), "nothing may be written");
+}
