@@ -193,6 +193,16 @@ fn command() -> Command {
             )
             .subcommand(bench::close::command())
             .subcommand(
+                Command::new("stress-close")
+                    .about("The closure solver on randomised hostile variants of the peer case: counts converged / failed with a diagnosis / non-finite / hang")
+                    .arg(Arg::new("cases").long("cases").value_name("N").default_value("500").value_parser(clap::value_parser!(usize)))
+                    .arg(Arg::new("seed").long("seed").value_name("N").default_value("1").value_parser(clap::value_parser!(u64)))
+                    .arg(Arg::new("h-min").long("h-min").value_name("MM").default_value("0.25").value_parser(clap::value_parser!(f64)))
+                    .arg(Arg::new("h-max").long("h-max").value_name("MM").default_value("3").value_parser(clap::value_parser!(f64)))
+                    .arg(Arg::new("time-limit").long("time-limit").value_name("S").default_value("60").value_parser(clap::value_parser!(f64)).help("the solver's own limit per case; twice that plus 10 s counts as a hang"))
+                    .arg(Arg::new("csv").long("csv").value_name("FILE").value_parser(clap::value_parser!(PathBuf)).help("one row per case")),
+            )
+            .subcommand(
                 Command::new("segment")
                     .about("Segmentation accuracy against the phantom truth and seconds per step")
                     .arg(
@@ -427,6 +437,40 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 Ok(())
             }
             Some(("close", b)) => bench::close::dispatch(b, threads),
+            Some(("stress-close", b)) => {
+                let limit = *b.get_one::<f64>("time-limit").expect("has default");
+                if !(limit > 0.0 && limit.is_finite()) {
+                    return Err(Error::usage(
+                        "--time-limit must be a positive number of seconds",
+                    ));
+                }
+                let s = bench::stress_close::run(
+                    *b.get_one::<u64>("seed").expect("has default"),
+                    *b.get_one::<usize>("cases").expect("has default"),
+                    (
+                        *b.get_one::<f64>("h-min").expect("has default"),
+                        *b.get_one::<f64>("h-max").expect("has default"),
+                    ),
+                    limit,
+                )?;
+                if let Some(path) = b.get_one::<PathBuf>("csv") {
+                    crate::io::write_atomic(path, |w| {
+                        std::io::Write::write_all(w, s.csv().as_bytes())
+                    })?;
+                }
+                print!("{}", s.table());
+                if s.unexplained().is_empty() {
+                    Ok(())
+                } else {
+                    Err(Error::failed(
+                        "bench stress-close",
+                        format!(
+                            "{} case(s) ended without a diagnosis, with non-finite numbers or past their time limit",
+                            s.unexplained().len()
+                        ),
+                    ))
+                }
+            }
             Some(("segment", b)) => {
                 let set = b.get_one::<String>("cases").expect("has default");
                 let baseline = b.get_one::<String>("baseline").map(String::as_str);
@@ -434,7 +478,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 Ok(())
             }
             _ => Err(Error::usage(
-                "coapt bench: name a benchmark (phantom, segment, surface, close)",
+                "coapt bench: name a benchmark (phantom, segment, surface, close, stress-close)",
             )),
         },
         stage => {

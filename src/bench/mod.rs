@@ -5,6 +5,7 @@
 pub mod close;
 pub mod phantom;
 pub mod segment;
+pub mod stress_close;
 pub mod surface;
 
 use std::path::Path;

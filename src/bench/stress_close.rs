@@ -1,0 +1,418 @@
+//! `coapt bench stress-close`: the closure solver on hundreds of randomised,
+//! deliberately hostile variants of the peer case (one Ozaki leaflet on the
+//! cylindrical root, two contact planes): node positions jittered up to
+//! 0.3 h, triangles squeezed toward degeneracy, pressure 5–200 mmHg,
+//! stiffness 10 kPa–100 MPa, thickness 0.1–1 mm, mesh 0.25–3 mm, four
+//! material models, with and without bending. Every case comes from
+//! (seed, index) alone, so a run is reproducible and one case can be
+//! replayed. Each ends in one of four ways: converged; failed with a
+//! diagnosis (the solver's reason or the input error); non-finite numbers;
+//! or a hang (still running well past its own time limit). The target is no
+//! NaN, no hang, and a reason for every failure.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::close::{circumferential_fibres, ozaki_cylinder};
+use crate::mech::closure;
+use crate::mech::config;
+use crate::mech::element::V3;
+use crate::rng::SplitMix64;
+use crate::{Error, Result};
+
+/// The material laws drawn from.
+pub const MODELS: [&str; 4] = ["neo-hookean", "svk", "goh", "msm"];
+
+/// One randomised closure.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Case {
+    pub index: usize,
+    pub h_mm: f64,
+    pub model: &'static str,
+    pub pressure_mmhg: f64,
+    pub young_mpa: f64,
+    pub thickness_mm: f64,
+    pub bending: bool,
+    /// Largest node displacement of the jitter, as a fraction of h.
+    pub jitter: f64,
+    /// Fraction of triangles squeezed, and how far (1: flat).
+    pub squeezed: f64,
+    pub squeeze: f64,
+    /// Stream of the perturbations.
+    pub stream: u64,
+}
+
+fn log_uniform(r: &mut SplitMix64, lo: f64, hi: f64) -> f64 {
+    (r.range(lo.ln(), hi.ln())).exp()
+}
+
+/// The case `index` of the run `seed`; `h_range` bounds the mesh (mm).
+pub fn case(seed: u64, index: usize, h_range: (f64, f64)) -> Case {
+    let mut r = SplitMix64::new(seed ^ (index as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    // Burn one so neighbouring indices do not start from related states.
+    r.next_u64();
+    Case {
+        index,
+        h_mm: log_uniform(&mut r, h_range.0, h_range.1),
+        model: MODELS[(r.next_u64() % MODELS.len() as u64) as usize],
+        pressure_mmhg: r.range(5.0, 200.0),
+        young_mpa: log_uniform(&mut r, 0.01, 100.0),
+        thickness_mm: r.range(0.1, 1.0),
+        bending: r.uniform() < 0.5,
+        jitter: r.range(0.0, 0.3),
+        squeezed: r.range(0.0, 0.05),
+        squeeze: r.range(0.9, 0.999),
+        stream: r.next_u64(),
+    }
+}
+
+fn config_text(c: &Case, time_limit_s: f64) -> String {
+    let e = c.young_mpa;
+    let material = match c.model {
+        "svk" => format!("model = \"svk\"\nyoung = \"{e} MPa\"\npoisson = 0\n"),
+        "neo-hookean" => format!("model = \"neo-hookean\"\nyoung = \"{e} MPa\"\n"),
+        "goh" => format!(
+            "model = \"goh\"\nyoung = \"{e} MPa\"\nk1 = \"{} MPa\"\nk2 = 1000\nkappa = 0.2\n",
+            1.1 * e / 2.7
+        ),
+        _ => format!("model = \"msm\"\nmsm_law = \"linear\"\nyoung = \"{e} MPa\"\n"),
+    };
+    format!(
+        "{material}thickness = \"{} mm\"\npressure = \"{} mmHg\"\ncontact = \"planes\"\nsolver = \"newton\"\ntime_limit = \"{time_limit_s} s\"\nbending = {}\n",
+        c.thickness_mm, c.pressure_mmhg, c.bending
+    )
+}
+
+/// How a case ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Verdict {
+    Converged,
+    /// Stopped with a diagnosis (solver reason or refused input).
+    Failed(String),
+    /// A position or the residual is not finite: a bug.
+    NonFinite(String),
+    /// Still working long past its time limit: a bug.
+    Hang,
+}
+
+impl Verdict {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Verdict::Converged => "converged",
+            Verdict::Failed(_) => "failed",
+            Verdict::NonFinite(_) => "non-finite",
+            Verdict::Hang => "hang",
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct Run {
+    pub case: Case,
+    pub nodes: usize,
+    pub verdict: Verdict,
+    pub iterations: usize,
+    pub residual_n: f64,
+    pub wall_s: f64,
+}
+
+/// Jitter the free nodes, then squeeze some triangles: move a free vertex
+/// toward the opposite edge so its height shrinks to (1 − squeeze).
+fn perturb(c: &Case, x: &mut [V3], tris: &[[u32; 3]], boundary: &[u8]) {
+    let mut r = SplitMix64::new(c.stream);
+    let free = |i: usize| boundary[i] != 1;
+    for (i, p) in x.iter_mut().enumerate() {
+        // Draw for every node so the stream does not depend on the labels.
+        let v = V3::new(r.normal(), r.normal(), r.normal());
+        let len = c.jitter * c.h_mm * r.uniform().cbrt();
+        if free(i) && v.norm() > 0.0 {
+            *p += v.normalize() * len;
+        }
+    }
+    let n = (c.squeezed * tris.len() as f64).round() as usize;
+    for _ in 0..n {
+        let t = tris[(r.next_u64() % tris.len() as u64) as usize];
+        let k = (r.next_u64() % 3) as usize;
+        let (a, b, q) = (
+            t[k] as usize,
+            t[(k + 1) % 3] as usize,
+            t[(k + 2) % 3] as usize,
+        );
+        if !free(a) {
+            continue;
+        }
+        let foot = {
+            let e = x[q] - x[b];
+            let s = if e.norm_squared() > 0.0 {
+                ((x[a] - x[b]).dot(&e) / e.norm_squared()).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            x[b] + e * s
+        };
+        x[a] += (foot - x[a]) * c.squeeze;
+    }
+}
+
+/// Run one case; `time_limit_s` is the solver's own limit, and a case still
+/// running at twice that plus 10 s counts as a hang.
+pub fn run_case(c: &Case, time_limit_s: f64) -> Run {
+    let t0 = Instant::now();
+    let finish = |verdict, nodes, iterations, residual_n| Run {
+        case: c.clone(),
+        nodes,
+        verdict,
+        iterations,
+        residual_n,
+        wall_s: t0.elapsed().as_secs_f64(),
+    };
+    let cfg = match config::parse(&config_text(c, time_limit_s)) {
+        Ok(cfg) => cfg,
+        Err(e) => {
+            return finish(
+                Verdict::Failed(format!("settings refused: {e}")),
+                0,
+                0,
+                f64::NAN,
+            );
+        }
+    };
+    let (mut l, axis) = match ozaki_cylinder(c.h_mm) {
+        Ok(v) => v,
+        Err(e) => {
+            return finish(
+                Verdict::Failed(format!("mesh refused: {e}")),
+                0,
+                0,
+                f64::NAN,
+            );
+        }
+    };
+    perturb(c, &mut l.x, &l.tris, &l.boundary);
+    if c.model == "goh" {
+        l.fibers = circumferential_fibres(&l);
+    }
+    let nodes = l.x.len();
+    let res = closure::close(&l, &cfg, Some(axis));
+    let mut r = match res {
+        Ok(closed) => {
+            let o = &closed.outcome;
+            let bad = closed
+                .x
+                .iter()
+                .position(|p| !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()));
+            let verdict = match bad {
+                Some(i) => Verdict::NonFinite(format!("node {i} position")),
+                None if o.converged && !o.residual_n.is_finite() => {
+                    Verdict::NonFinite("residual".into())
+                }
+                None if o.converged => Verdict::Converged,
+                // An empty reason stays empty: `unexplained` reports it.
+                None => Verdict::Failed(o.reason.clone()),
+            };
+            finish(verdict, nodes, o.iterations, o.residual_n)
+        }
+        Err(e) => finish(Verdict::Failed(e), nodes, 0, f64::NAN),
+    };
+    if r.wall_s > 2.0 * time_limit_s + 10.0 {
+        r.verdict = Verdict::Hang;
+    }
+    r
+}
+
+/// The first words of a diagnosis, so similar failures count together.
+fn kind(reason: &str) -> String {
+    let words: Vec<&str> = reason
+        .split(|c: char| c.is_whitespace() || c == ':' || c == '(' || c == ',')
+        .filter(|w| !w.is_empty() && !w.chars().any(|c| c.is_ascii_digit()))
+        .take(6)
+        .collect();
+    if words.is_empty() {
+        "(no diagnosis)".into()
+    } else {
+        words.join(" ")
+    }
+}
+
+pub struct Summary {
+    pub results: Vec<Run>,
+}
+
+impl Summary {
+    pub fn count(&self, name: &str) -> usize {
+        self.results
+            .iter()
+            .filter(|r| r.verdict.name() == name)
+            .count()
+    }
+
+    /// Failures without a diagnosis, non-finite results and hangs: the
+    /// things the target says must not happen.
+    pub fn unexplained(&self) -> Vec<&Run> {
+        self.results
+            .iter()
+            .filter(|r| match &r.verdict {
+                Verdict::Converged => false,
+                Verdict::Failed(why) => why.trim().is_empty(),
+                _ => true,
+            })
+            .collect()
+    }
+
+    pub fn table(&self) -> String {
+        let n = self.results.len();
+        let mut t = format!(
+            "{n} cases: {} converged, {} failed with a diagnosis, {} non-finite, {} hang\n",
+            self.count("converged"),
+            self.results
+                .iter()
+                .filter(|r| matches!(&r.verdict, Verdict::Failed(w) if !w.trim().is_empty()))
+                .count(),
+            self.count("non-finite"),
+            self.count("hang"),
+        );
+        let mut kinds: BTreeMap<String, (usize, usize)> = BTreeMap::new();
+        for r in &self.results {
+            if let Verdict::Failed(why) = &r.verdict {
+                let e = kinds.entry(kind(why)).or_insert((0, r.case.index));
+                e.0 += 1;
+            }
+        }
+        if !kinds.is_empty() {
+            t.push_str("failures by diagnosis (count, first case):\n");
+            for (k, (count, first)) in &kinds {
+                t.push_str(&format!("  {count:>4}  {k}  (case {first})\n"));
+            }
+        }
+        for r in self.unexplained() {
+            t.push_str(&format!(
+                "  UNEXPLAINED case {}: {:?}\n",
+                r.case.index, r.verdict
+            ));
+        }
+        t
+    }
+
+    pub fn csv(&self) -> String {
+        let mut s = String::from(
+            "index,h_mm,nodes,model,pressure_mmhg,young_mpa,thickness_mm,bending,jitter,squeezed,squeeze,verdict,iterations,residual_n,wall_s,reason\n",
+        );
+        for r in &self.results {
+            let c = &r.case;
+            let why = match &r.verdict {
+                Verdict::Failed(w) | Verdict::NonFinite(w) => w.replace('"', "'"),
+                _ => String::new(),
+            };
+            s.push_str(&format!(
+                "{},{:.4},{},{},{:.2},{:.5},{:.3},{},{:.3},{:.4},{:.4},{},{},{:.3e},{:.3},\"{why}\"\n",
+                c.index,
+                c.h_mm,
+                r.nodes,
+                c.model,
+                c.pressure_mmhg,
+                c.young_mpa,
+                c.thickness_mm,
+                c.bending,
+                c.jitter,
+                c.squeezed,
+                c.squeeze,
+                r.verdict.name(),
+                r.iterations,
+                r.residual_n,
+                r.wall_s
+            ));
+        }
+        s
+    }
+}
+
+/// Run cases `0..n` of `seed` (in parallel; each case is independent).
+pub fn run(seed: u64, n: usize, h_range: (f64, f64), time_limit_s: f64) -> Result<Summary> {
+    if !(h_range.0 > 0.0 && h_range.0 <= h_range.1 && h_range.1.is_finite()) {
+        return Err(Error::usage(format!(
+            "mesh range {} – {} mm: must be positive and ordered",
+            h_range.0, h_range.1
+        )));
+    }
+    let results = (0..n)
+        .into_par_iter()
+        .map(|i| run_case(&case(seed, i, h_range), time_limit_s))
+        .collect();
+    Ok(Summary { results })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cases_are_reproducible_and_span_the_ranges() {
+        assert_eq!(case(7, 3, (0.25, 3.0)), case(7, 3, (0.25, 3.0)));
+        assert_ne!(case(7, 3, (0.25, 3.0)), case(7, 4, (0.25, 3.0)));
+        let cs: Vec<Case> = (0..500).map(|i| case(1, i, (0.25, 3.0))).collect();
+        let span = |f: fn(&Case) -> f64| {
+            let v: Vec<f64> = cs.iter().map(f).collect();
+            (
+                v.iter().copied().fold(f64::INFINITY, f64::min),
+                v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            )
+        };
+        let (lo, hi) = span(|c| c.h_mm);
+        assert!(lo >= 0.25 && lo < 0.3 && hi <= 3.0 && hi > 2.5, "{lo} {hi}");
+        let (lo, hi) = span(|c| c.pressure_mmhg);
+        assert!(lo >= 5.0 && lo < 10.0 && hi < 200.0 && hi > 190.0);
+        let (lo, hi) = span(|c| c.young_mpa);
+        assert!(lo >= 0.01 && lo < 0.02 && hi <= 100.0 && hi > 50.0);
+        for m in MODELS {
+            assert!(cs.iter().filter(|c| c.model == m).count() > 80, "{m}");
+        }
+    }
+
+    #[test]
+    fn squeezing_makes_nearly_flat_triangles_and_keeps_sutures() {
+        let mut c = case(3, 0, (1.0, 1.0));
+        c.squeezed = 0.05;
+        c.squeeze = 0.999;
+        c.jitter = 0.3;
+        let (l, _) = ozaki_cylinder(c.h_mm).unwrap();
+        let mut x = l.x.clone();
+        perturb(&c, &mut x, &l.tris, &l.boundary);
+        for (i, (a, b)) in l.x.iter().zip(&x).enumerate() {
+            if l.boundary[i] == 1 {
+                assert_eq!(a, b, "sutured node {i} moved");
+            }
+        }
+        let quality = |p: &[V3], t: &[u32; 3]| {
+            let (a, b, c) = (p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
+            let area2 = (b - a).cross(&(c - a)).norm();
+            let l2 = (b - a)
+                .norm_squared()
+                .max((c - b).norm_squared())
+                .max((a - c).norm_squared());
+            area2 / l2
+        };
+        let worst = l
+            .tris
+            .iter()
+            .map(|t| quality(&x, t))
+            .fold(f64::INFINITY, f64::min);
+        let before = l
+            .tris
+            .iter()
+            .map(|t| quality(&l.x, t))
+            .fold(f64::INFINITY, f64::min);
+        assert!(worst < 0.01 * before, "worst {worst} vs {before}");
+    }
+
+    /// A handful of hostile cases on coarse meshes: each converges or says
+    /// why not; none gives NaN or runs past its limit.
+    #[test]
+    fn hostile_cases_end_converged_or_explained() {
+        let s = run(11, 8, (1.0, 3.0), 20.0).unwrap();
+        assert_eq!(s.results.len(), 8);
+        assert!(s.unexplained().is_empty(), "{}", s.table());
+        assert!(s.count("converged") >= 1, "{}", s.table());
+    }
+}
