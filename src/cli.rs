@@ -173,6 +173,7 @@ fn command() -> Command {
                     ),
             )
             .subcommand(bench::close::command())
+            .subcommand(bench::pipeline::command())
             .subcommand(
                 Command::new("segment")
                     .about("Segmentation accuracy against the phantom truth and seconds per step")
@@ -384,6 +385,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 Ok(())
             }
             Some(("close", b)) => bench::close::dispatch(b, threads),
+            Some(("pipeline", b)) => bench::pipeline::dispatch(b, threads),
             Some(("segment", b)) => {
                 let set = b.get_one::<String>("cases").expect("has default");
                 let baseline = b.get_one::<String>("baseline").map(String::as_str);
@@ -391,7 +393,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 Ok(())
             }
             _ => Err(Error::usage(
-                "coapt bench: name a benchmark (phantom, segment, surface, close)",
+                "coapt bench: name a benchmark (phantom, segment, surface, close, pipeline)",
             )),
         },
         stage => {
