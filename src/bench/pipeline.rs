@@ -413,7 +413,22 @@ fn notes(rec: &StageRecord, extra: &Json) -> String {
                 v.push(format!("{n} nodes"));
             }
             if let Some(it) = s["iterations"].as_u64() {
-                v.push(format!("{it} iterations"));
+                // Continuation steps vs Newton steps: many continuation
+                // steps mean the start was far from equilibrium.
+                let mut by_phase: Vec<(String, usize)> = Vec::new();
+                for step in extra["solver"]["history"].as_array().into_iter().flatten() {
+                    let p = step["phase"].as_str().unwrap_or("?");
+                    match by_phase.iter_mut().find(|(n, _)| n == p) {
+                        Some((_, c)) => *c += 1,
+                        None => by_phase.push((p.to_string(), 1)),
+                    }
+                }
+                let split: Vec<String> = by_phase.iter().map(|(n, c)| format!("{c} {n}")).collect();
+                if split.is_empty() {
+                    v.push(format!("{it} iterations"));
+                } else {
+                    v.push(format!("{it} iterations ({})", split.join(" + ")));
+                }
             }
             match s["converged"].as_bool() {
                 Some(true) => v.push("converged".into()),
@@ -672,6 +687,24 @@ mod tests {
             [("setup".into(), 0.5), ("solve".into(), 2.0)]
         );
         assert!(phases("report", &json!({"x": 1.0}), &Json::Null).is_empty());
+    }
+
+    #[test]
+    fn close_notes_split_the_iterations_by_solver_phase() {
+        let rec: StageRecord = serde_json::from_value(json!({
+            "stage": "close", "status": "ran", "reason": "", "inputs": {}, "outputs": {},
+            "params": {}, "coapt_version": "0", "git_commit": null, "command_line": [],
+            "threads": 2, "started": "", "seconds": 1.0, "peak_rss_mb": 1.0,
+            "summary": {"iterations": 3, "converged": false},
+        }))
+        .unwrap();
+        let log = json!({"nodes": 10, "solver": {"history": [
+            {"phase": "continuation"}, {"phase": "continuation"}, {"phase": "newton"}]}});
+        assert_eq!(
+            notes(&rec, &log),
+            "10 nodes, 3 iterations (2 continuation + 1 newton), NOT converged"
+        );
+        assert_eq!(notes(&rec, &Json::Null), "3 iterations, NOT converged");
     }
 
     #[test]
