@@ -82,7 +82,8 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
     let h_text = m.get_one::<String>("h").expect("has default");
     let h_mm = units::parse(Kind::Length, h_text)
         .map_err(|e| Error::usage(format!("--h {h_text}: {e}")))?;
-    if !(h_mm > 0.0) {
+    // units::parse has refused NaN and ±∞ already.
+    if h_mm <= 0.0 {
         return Err(Error::usage(format!("--h {h_text}: must be positive")));
     }
     let (work, temporary) = match m.get_one::<PathBuf>("work") {
