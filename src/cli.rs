@@ -192,6 +192,7 @@ fn command() -> Command {
                     ),
             )
             .subcommand(bench::close::command())
+            .subcommand(bench::pipeline::command())
             .subcommand(
                 Command::new("stress-close")
                     .about("The closure solver on randomised hostile variants of the peer case: counts converged / failed with a diagnosis / non-finite / hang")
@@ -471,6 +472,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                     ))
                 }
             }
+            Some(("pipeline", b)) => bench::pipeline::dispatch(b, threads),
             Some(("segment", b)) => {
                 let set = b.get_one::<String>("cases").expect("has default");
                 let baseline = b.get_one::<String>("baseline").map(String::as_str);
@@ -478,7 +480,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 Ok(())
             }
             _ => Err(Error::usage(
-                "coapt bench: name a benchmark (phantom, segment, surface, close, stress-close)",
+                "coapt bench: name a benchmark (phantom, segment, surface, close, stress-close, pipeline)",
             )),
         },
         stage => {

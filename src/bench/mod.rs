@@ -4,6 +4,7 @@
 
 pub mod close;
 pub mod phantom;
+pub mod pipeline;
 pub mod segment;
 pub mod stress_close;
 pub mod surface;

@@ -1,6 +1,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use coapt::geom::Volume;
+
 /// A fresh, empty directory for one test.
 pub fn tmpdir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("coapt-it-{tag}-{}", std::process::id()));
@@ -116,4 +118,27 @@ pub fn sample_valve_and_leaflets(d: &Path, template: &str, extra: &[&str]) -> Pa
     let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(o.status.success(), "{}", stderr(&o));
     surface
+}
+
+/// Dice of a mask on a cropped grid against the truth on the CT grid.
+pub fn dice(mask: &Volume<u8>, truth: &Volume<u8>) -> f64 {
+    let o = truth
+        .world_to_index(&mask.index_to_world([0.0; 3]))
+        .map(|x| x.round() as usize);
+    let [mi, mj, mk] = mask.dims();
+    let (mut inter, mut m_n) = (0usize, 0usize);
+    for k in 0..mk {
+        for j in 0..mj {
+            for i in 0..mi {
+                if mask.as_slice()[mask.linear_index(i, j, k)] != 0 {
+                    m_n += 1;
+                    if truth.as_slice()[truth.linear_index(i + o[0], j + o[1], k + o[2])] != 0 {
+                        inter += 1;
+                    }
+                }
+            }
+        }
+    }
+    let t_n = truth.as_slice().iter().filter(|&&v| v != 0).count();
+    2.0 * inter as f64 / (m_n + t_n) as f64
 }

@@ -1,9 +1,11 @@
 //! Integration tests: every user-visible behaviour of the `coapt` binary.
 
 mod bad_input;
+mod bench_pipeline;
 mod close;
 mod common;
 mod design;
+mod end_to_end;
 mod leaflets;
 mod phantom;
 mod report;

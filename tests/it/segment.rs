@@ -6,29 +6,6 @@ use coapt::io::nifti;
 
 use crate::common::*;
 
-/// Dice of a mask on a cropped grid against the truth on the CT grid.
-fn dice(mask: &Volume<u8>, truth: &Volume<u8>) -> f64 {
-    let o = truth
-        .world_to_index(&mask.index_to_world([0.0; 3]))
-        .map(|x| x.round() as usize);
-    let [mi, mj, mk] = mask.dims();
-    let (mut inter, mut m_n) = (0usize, 0usize);
-    for k in 0..mk {
-        for j in 0..mj {
-            for i in 0..mi {
-                if mask.as_slice()[mask.linear_index(i, j, k)] != 0 {
-                    m_n += 1;
-                    if truth.as_slice()[truth.linear_index(i + o[0], j + o[1], k + o[2])] != 0 {
-                        inter += 1;
-                    }
-                }
-            }
-        }
-    }
-    let t_n = truth.as_slice().iter().filter(|&&v| v != 0).count();
-    2.0 * inter as f64 / (m_n + t_n) as f64
-}
-
 #[test]
 fn sample_is_segmented_with_and_without_landmarks() {
     let d = tmpdir("segment");
