@@ -100,3 +100,30 @@ fn depth_is_matched_to_the_attachment_edge() {
         assert!(m["adjusted"].as_bool().unwrap());
     }
 }
+
+/// A segmented VAJ cap on a tilted valve is a staircase that can bulge past
+/// the annulus level; a suture path at the annulus must land on the wall,
+/// not on the cap inside the lumen (the `full` phantom's path 3 did: 64 mm
+/// long, points 7–10 mm from the axis of an 11.5 mm annulus).
+#[test]
+fn radial_projection_ignores_the_caps() {
+    let mut mesh = cylinder::mesh(R, 0.0, 30.0, 360, 1.0);
+    // The bottom cap's centre pulled 2 mm below the wall's lower rim: a cone.
+    let centre = mesh.vertices.len() - 2;
+    mesh.vertices[centre].z = -2.0;
+    let wall = Wall::new(&mesh).unwrap();
+    let o = crate::geom::Point3::new(0.0, 0.0, -0.5);
+    let d = crate::geom::Vector3::new(1.0, 0.0, 0.0);
+    // Below the wall, the ray meets only the cone (at r = 11.25 mm).
+    let all = wall.hits(&o, &d, 100.0);
+    assert_eq!(all.len(), 1);
+    assert!((all[0] - 11.25).abs() < 0.02, "{all:?}");
+    let p = wall.radial(&o, &d, R);
+    assert!(
+        (p.x.hypot(p.y) - R).abs() < 1e-3 && p.z.abs() < 1e-9,
+        "{p:?}"
+    );
+    // Above the rim, the wall itself is hit.
+    let p = wall.radial(&crate::geom::Point3::new(0.0, 0.0, 3.0), &d, R);
+    assert!((p.x - R).abs() < 1e-3 && (p.z - 3.0).abs() < 1e-12, "{p:?}");
+}

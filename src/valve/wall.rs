@@ -11,6 +11,11 @@ pub struct Wall {
     bvh: PTriMesh,
     /// `region` cell data when present (0 wall, 1 VAJ cap, 2 top cap).
     region: Option<Vec<i64>>,
+    /// The wall proper without the caps, when regions say which is which:
+    /// suture paths run at the annulus, right at the VAJ cap's rim, and a
+    /// segmented cap on a tilted valve is a voxel staircase that a radial ray
+    /// would hit inside the lumen.
+    wall_only: Option<PTriMesh>,
 }
 
 fn g(p: &Point3) -> GVec {
@@ -30,8 +35,33 @@ impl Wall {
             .cell_data
             .get("region")
             .and_then(|a| a.values.to_f64())
-            .map(|v| v.into_iter().map(|x| x as i64).collect());
-        Ok(Wall { bvh, region })
+            .map(|v| v.into_iter().map(|x| x as i64).collect::<Vec<i64>>());
+        let wall_only = match &region {
+            Some(r) if r.len() == mesh.triangles.len() && r.iter().any(|&x| x != 0) => {
+                let tris: Vec<[u32; 3]> = mesh
+                    .triangles
+                    .iter()
+                    .zip(r)
+                    .filter(|(_, x)| **x == 0)
+                    .map(|(t, _)| *t)
+                    .collect();
+                if tris.is_empty() {
+                    None
+                } else {
+                    let verts = mesh.vertices.iter().map(g).collect();
+                    Some(
+                        PTriMesh::new(verts, tris)
+                            .map_err(|e| format!("surface wall cannot be indexed: {e}"))?,
+                    )
+                }
+            }
+            _ => None,
+        };
+        Ok(Wall {
+            bvh,
+            region,
+            wall_only,
+        })
     }
 
     /// Closest surface point and whether it lies on the wall proper (not a cap).
@@ -46,38 +76,44 @@ impl Wall {
 
     /// Every crossing of the ray o + t·d (d unit), up to `max_t`, nearest first.
     pub fn hits(&self, o: &Point3, d: &Vector3, max_t: f64) -> Vec<f64> {
-        let mut out = Vec::new();
-        let mut start = 0.0;
-        let dir = GVec::new(d.x, d.y, d.z);
-        while out.len() < 6 {
-            let ray = Ray::new(g(&(o + d * start)), dir);
-            match self.bvh.cast_local_ray(&ray, max_t - start, false) {
-                Some(t) => {
-                    out.push(start + t);
-                    start += t + 1e-6;
-                }
-                None => break,
-            }
-        }
-        out
+        crossings(&self.bvh, o, d, max_t)
     }
 
-    /// Radial projection: the crossing of the ray nearest to `r_expect`;
-    /// closest-point projection of o + r_expect·d when the ray misses.
+    /// Radial projection onto the wall proper (caps ignored): the crossing
+    /// of the ray nearest to `r_expect`; the closest wall point to
+    /// o + r_expect·d when the ray misses.
     pub fn radial(&self, o: &Point3, d: &Vector3, r_expect: f64) -> Point3 {
-        let mut hits = self.hits(o, d, 20.0 * r_expect.max(1.0));
+        let mesh = self.wall_only.as_ref().unwrap_or(&self.bvh);
+        let max_t = 20.0 * r_expect.max(1.0);
+        let mut hits = crossings(mesh, o, d, max_t);
         if hits.is_empty() {
             // A ray along a mesh edge can slip through: nudge it.
             let side = d.cross(&Vector3::new(0.3, 0.5, 0.8)).normalize() * 1e-6;
-            hits = self.hits(o, &(d + side).normalize(), 20.0 * r_expect.max(1.0));
-            let _ = &mut hits;
+            hits = crossings(mesh, o, &(d + side).normalize(), max_t);
         }
         match hits
             .iter()
             .min_by(|a, b| (*a - r_expect).abs().total_cmp(&(*b - r_expect).abs()))
         {
             Some(t) => o + d * *t,
-            None => self.closest(&(o + d * r_expect)).0,
+            None => n(mesh.project_local_point(g(&(o + d * r_expect)), true).point),
         }
     }
+}
+
+fn crossings(bvh: &PTriMesh, o: &Point3, d: &Vector3, max_t: f64) -> Vec<f64> {
+    let mut out = Vec::new();
+    let mut start = 0.0;
+    let dir = GVec::new(d.x, d.y, d.z);
+    while out.len() < 6 {
+        let ray = Ray::new(g(&(o + d * start)), dir);
+        match bvh.cast_local_ray(&ray, max_t - start, false) {
+            Some(t) => {
+                out.push(start + t);
+                start += t + 1e-6;
+            }
+            None => break,
+        }
+    }
+    out
 }
