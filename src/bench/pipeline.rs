@@ -3,10 +3,10 @@
 //! both as compiled into this coapt) per phantom preset, with the seconds
 //! and peak memory of every stage and where the time goes inside them.
 //!
-//! Each stage runs in its own child `coapt run CONFIG --from S --until S`:
-//! inside one `coapt run` process the manifest's `peak_rss_mb` is the
-//! process's high-water mark so far, so every stage after the heaviest one
-//! would show that one's peak. The children share one run directory and its
+//! Each stage runs in its own child `coapt run CONFIG --from S --until S`,
+//! so its peak memory and wall time (start-up, input hashing) are its own
+//! even where the high-water mark cannot be reset between stages of one
+//! process (`provenance::reset_peak_rss`, Linux only). The children share one run directory and its
 //! manifest, so the report still sees every stage's timing, as after a plain
 //! `coapt run`. The phantom is input generation: timed, not in the total.
 

@@ -93,6 +93,7 @@ pub fn execute(
     let started = provenance::now_utc();
     tracing::info!(stage = spec.name, event = "start", reason = %reason, "{}: running ({reason})", spec.name);
     let progress = Progress::new(spec.name, inv.log);
+    provenance::reset_peak_rss();
     let t0 = Instant::now();
     let result = (spec.run)(io, params, &progress);
     progress.finish();

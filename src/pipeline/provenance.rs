@@ -71,6 +71,14 @@ pub fn format_utc(secs: i64) -> String {
 }
 
 /// Peak resident memory of this process so far, MB (Linux; `None` elsewhere).
+/// Start a new peak: Linux resets VmHWM to the current resident size when
+/// "5" is written to clear_refs, so a stage run after a heavier one in the
+/// same process records its own peak, not its predecessor's. Elsewhere (or
+/// when refused: returns false) the peak stays the process's so far.
+pub fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
 pub fn peak_rss_mb() -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
@@ -81,6 +89,26 @@ pub fn peak_rss_mb() -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn peak_memory_starts_again_after_a_reset() {
+        {
+            // Large enough for its own mapping, returned to the system on drop.
+            let v = vec![1u8; 600 << 20];
+            std::hint::black_box(&v);
+        }
+        let Some(high) = peak_rss_mb() else {
+            return; // no /proc here: nothing to reset either
+        };
+        assert!(high > 600.0, "{high}");
+        if reset_peak_rss() {
+            let after = peak_rss_mb().unwrap();
+            assert!(
+                after < high - 300.0,
+                "peak {high} MB, after reset {after} MB"
+            );
+        }
+    }
 
     #[test]
     fn utc_formatting() {
