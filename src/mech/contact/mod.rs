@@ -14,8 +14,13 @@
 //! let mask = penalty::contact_mask(x.len(), &pairs);   // `contact` point data
 //! ```
 
+pub mod barrier;
+pub mod jet;
+pub mod leaflet_barrier;
 pub mod penalty;
 pub mod planes;
 
+#[cfg(test)]
+mod barrier_tests;
 #[cfg(test)]
 mod tests;
