@@ -231,22 +231,31 @@ pub fn pair_eval_at(
     Some((e, grad, hess))
 }
 
-/// Symmetric part of `h` with negative eigenvalues set to zero.
-pub fn project_psd12(h: &Hess12) -> Hess12 {
-    let sym = (h + h.transpose()) * 0.5;
-    let eig = sym.symmetric_eigen();
-    if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
-        return sym;
+/// The positive semi-definite part κ a b″(s) ∇d ∇dᵀ of the pair Hessian
+/// (b″ > 0 on (0, d̂)); it drops κ a b′(s) ∇²d, which is negative
+/// semi-definite wherever ∇²d is PSD (b′ < 0). What a solver's PSD phase
+/// wants, at a fraction of an eigen-decomposition's cost. `None` when
+/// inadmissible.
+pub fn pair_gauss_newton(q: &[V3; 4], xi: f64, area: f64, prm: &BarrierParams) -> Option<Hess12> {
+    let pr = proximity(&q[0], &q[1], &q[2], &q[3]);
+    let s = pr.dist - xi;
+    if !(s > 0.0) {
+        return None;
     }
-    let mut out = Hess12::zeros();
-    for k in 0..12 {
-        let l = eig.eigenvalues[k];
-        if l > 0.0 {
-            let v = eig.eigenvectors.column(k);
-            out += v * v.transpose() * l;
+    if s >= prm.dhat {
+        return Some(Hess12::zeros());
+    }
+    let b2 = barrier(s, prm.dhat).2;
+    let u = pr.r / pr.dist;
+    let coef = [1.0, -pr.w[0], -pr.w[1], -pr.w[2]];
+    let mut gd = nalgebra::SVector::<f64, 12>::zeros();
+    for k in 0..4 {
+        for c in 0..3 {
+            gd[3 * k + c] = u[c] * coef[k];
         }
     }
-    out
+    let h = gd * gd.transpose() * (prm.kappa * area * b2);
+    h.iter().all(|v| v.is_finite()).then_some(h)
 }
 
 /// Largest fraction t ∈ [0, 1] of the move `dq` from `q` (node, A, B, C)

@@ -123,6 +123,11 @@ fn pair_gradient_and_hessian_match_finite_differences_in_every_region() {
                 }
             }
             assert!((h - h.transpose()).abs().max() <= 1e-12 * hn);
+            // The PSD part is PSD, and the exact Hessian minus it is the
+            // b′ ∇²d term: no larger than the whole.
+            let gn_h = pair_gauss_newton(&q, xi, area, &prm).unwrap();
+            let ev = gn_h.symmetric_eigen().eigenvalues;
+            assert!(ev.iter().all(|&l| l >= -1e-12 * hn), "{ev:?}");
         }
         eprintln!("region {region}: FD gradient {worst_g:.1e}, Hessian {worst_h:.1e}");
         assert!(worst_g < 1e-6 && worst_h < 1e-6, "region {region}");

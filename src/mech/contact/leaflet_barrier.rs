@@ -335,13 +335,10 @@ impl Term for LeafletBarrier {
     }
 
     fn couplings(&self, out: &mut Vec<[u32; 2]>) {
+        // The triangle's own vertex pairs are mesh edges already.
         for &(n, t) in &self.active {
-            let v = self.tris[t as usize];
-            let d = [n, v[0], v[1], v[2]];
-            for a in 0..4 {
-                for b in a + 1..4 {
-                    out.push([d[a], d[b]]);
-                }
+            for v in self.tris[t as usize] {
+                out.push([n, v]);
             }
         }
     }
@@ -354,14 +351,15 @@ impl Term for LeafletBarrier {
             .map(|&(n, t)| {
                 let q = self.quad(x, n, t);
                 let i = n as usize;
-                let (_, _, h) =
-                    barrier::pair_eval(&q, self.xi[i], self.node_area[i], &self.params, true)?;
-                let h = h?;
-                Some(if self.projected {
-                    barrier::project_psd12(&h)
-                } else {
-                    h
-                })
+                if self.projected {
+                    return barrier::pair_gauss_newton(
+                        &q,
+                        self.xi[i],
+                        self.node_area[i],
+                        &self.params,
+                    );
+                }
+                barrier::pair_eval(&q, self.xi[i], self.node_area[i], &self.params, true)?.2
             })
             .collect();
         for (&(n, t), h) in self.active.iter().zip(blocks) {
