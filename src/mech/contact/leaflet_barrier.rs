@@ -165,7 +165,9 @@ impl LeafletBarrier {
     }
 
     fn update_candidates(&mut self, x: &[V3]) {
-        let per: Vec<(Vec<(u32, u16)>, Vec<Vec<u32>>)> = (0..x.len())
+        // Per node: its (node, body) keys and their candidate lists.
+        type Found = (Vec<(u32, u16)>, Vec<Vec<u32>>);
+        let per: Vec<Found> = (0..x.len())
             .into_par_iter()
             .with_min_len(64)
             .map(|i| {
@@ -389,7 +391,7 @@ impl Term for LeafletBarrier {
         }
         // The tree is fitted to x (update ran at x): every triangle a node
         // can reach lies within ξ + |Δx_i| + max |Δx| of it now.
-        let best = (0..x.len())
+        (0..x.len())
             .into_par_iter()
             .with_min_len(64)
             .map(|i| {
@@ -412,8 +414,7 @@ impl Term for LeafletBarrier {
                 t_min
             })
             // min is exact whatever the order: thread-independent.
-            .reduce(|| 1.0, f64::min);
-        best
+            .reduce(|| 1.0, f64::min)
     }
 
     fn admissible(&self, x: &[V3]) -> bool {
