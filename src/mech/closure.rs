@@ -5,13 +5,17 @@ use std::time::Instant;
 
 use super::bending::{self, Bending};
 use super::config::{CloseConfig, ContactKind, Reference, SolverKind};
-use super::contact::penalty::ContactParams;
+use super::contact::barrier::BarrierParams;
+use super::contact::leaflet_barrier::LeafletBarrier;
 use super::contact::planes::Plane;
 use super::element::{RefTri, V3};
 use super::solve::{self, NewtonOptions, Outcome, RelaxOptions, Stop};
 use super::sparse::Dofs;
 use super::system::{PressureMode, System, Term};
-use super::terms::{LeafletContact, PlaneContact};
+use super::terms::PlaneContact;
+
+/// Largest nodal move of one Newton step (mm).
+const MAX_STEP_MM: f64 = 0.5;
 
 /// Leaflets as the mechanics sees them (all in mm, LPS).
 #[derive(Debug, Clone)]
@@ -366,13 +370,22 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
     let mut terms: Vec<Box<dyn Term>> = Vec::new();
     match cfg.contact {
         ContactKind::Leaflets if n_leaflets > 1 => {
-            let params = ContactParams::from_pressure(
-                cfg.contact_margin,
-                cfg.pressure.max(1e-6),
-                cfg.contact_alpha,
-            );
-            terms.push(Box::new(LeafletContact::new(
-                &l.x, &l.tris, &l.leaflet, params, 2.0,
+            if cfg.solver != SolverKind::Newton {
+                return Err(
+                    "contact = \"leaflets\" needs solver = \"newton\" (its steps are filtered so that nothing crosses)"
+                        .into(),
+                );
+            }
+            let params = BarrierParams::from_pressure(cfg.contact_margin, cfg.pressure.max(1e-6));
+            let node_fixed: Vec<bool> = l.boundary.iter().map(|&b| b == 1).collect();
+            terms.push(Box::new(LeafletBarrier::new(
+                &l.x,
+                &l.tris,
+                &l.leaflet,
+                &node_fixed,
+                params,
+                cfg.thickness,
+                2.0 * MAX_STEP_MM,
             )));
         }
         ContactKind::Planes => {
@@ -413,7 +426,7 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
     let mut x = l.x.clone();
     let nopt = NewtonOptions {
         stop: stop.clone(),
-        max_step_mm: 0.5,
+        max_step_mm: MAX_STEP_MM,
         max_rejections: 12,
         ptc: false,
     };

@@ -48,6 +48,16 @@ pub trait Term: Send + Sync {
     fn contact_mask(&self, _x: &[V3]) -> Option<Vec<u8>> {
         None
     }
+    /// Largest fraction of the move `dx` (per node) from `x` the term
+    /// allows (a barrier's collision-free step); `x` is the state of the
+    /// last [`Term::update`].
+    fn max_step(&self, _x: &[V3], _dx: &[V3]) -> f64 {
+        1.0
+    }
+    /// Whether the state may be taken at all (a barrier: nothing crossed).
+    fn admissible(&self, _x: &[V3]) -> bool {
+        true
+    }
 }
 
 pub struct System {

@@ -1,6 +1,10 @@
-//! The contact terms of the model, as [`Term`]s: true leaflet-to-leaflet
-//! node-to-triangle penalty contact (ALGORITHMS.md §7.2) and the seed 001
-//! penalty planes (eq. 37) for the symmetric one-leaflet case.
+//! The contact terms of the model, as [`Term`]s: the signed
+//! node-to-triangle penalty (ALGORITHMS.md §7.2) and the seed 001 penalty
+//! planes (eq. 37) for the symmetric one-leaflet case. `contact =
+//! "leaflets"` closes with the barrier of `contact::leaflet_barrier`
+//! instead: on a valve the penalty's contact set grew without bound (free-
+//! edge nodes re-learning their side); [`LeafletContact`] stays for
+//! comparison and for its own tests.
 
 use super::contact::penalty::{self, ContactParams, Pair, Sides};
 use super::contact::planes::Plane;

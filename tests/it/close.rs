@@ -232,3 +232,112 @@ fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
         assert_eq!(bits.count_ones(), 2, "leaflet {k} touches planes {bits:b}");
     }
 }
+
+/// The sample valve closes with true leaflet-to-leaflet contact (the
+/// barrier): converged, the same bytes whatever the thread count, every
+/// leaflet touching both others, and no triangle pair of different
+/// leaflets crossing that did not cross in the placed leaflets (exact
+/// triangle–triangle tests; the placement may sew neighbours over each
+/// other at the commissures).
+#[test]
+fn sample_valve_closes_with_leaflet_contact_without_crossing() {
+    use coapt::geom::bvh::Bvh;
+    use coapt::geom::tri_tri;
+    use coapt::io::vtp;
+    use coapt::mech::element::V3;
+    let d = tmpdir("close-leaflets");
+    let surface = sample_leaflets(&d);
+    let text = std::fs::read_to_string(repo().join("pipelines/close.toml")).unwrap();
+    let text: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("contact") {
+                "contact = \"leaflets\""
+            } else {
+                l
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let cfg = d.join("close-leaflets.toml");
+    std::fs::write(&cfg, text).unwrap();
+    let run = |threads: &str, out: &str| {
+        let o = close(
+            &d.join("leaflets.vtp"),
+            &surface,
+            &cfg,
+            &d.join(out),
+            &[
+                "--valve",
+                &s(&d.join("valve.json")),
+                "--log",
+                &s(&d.join(format!("{out}.json"))),
+                "--threads",
+                threads,
+                "--quiet",
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    run("1", "closed1.vtp");
+    run("2", "closed2.vtp");
+    assert_eq!(
+        std::fs::read(d.join("closed1.vtp")).unwrap(),
+        std::fs::read(d.join("closed2.vtp")).unwrap()
+    );
+    let log: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("closed1.vtp.json")).unwrap()).unwrap();
+    assert_eq!(log["solver"]["converged"], true);
+    let crossing = |m: &coapt::geom::TriMesh| {
+        let x: Vec<V3> = m.vertices.iter().map(|p| V3::new(p.x, p.y, p.z)).collect();
+        let body: Vec<u16> = m
+            .cell_data
+            .get("leaflet")
+            .unwrap()
+            .values
+            .to_f64()
+            .unwrap()
+            .iter()
+            .map(|&k| k as u16)
+            .collect();
+        let bvh = Bvh::build(&x, &m.triangles);
+        tri_tri::intersecting_pairs(&x, &m.triangles, &body, &bvh)
+    };
+    let before = vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
+    let after = vtp::read_mesh(&d.join("closed1.vtp")).unwrap();
+    let (c0, c1) = (crossing(&before), crossing(&after));
+    assert!(
+        c1.iter().all(|p| c0.contains(p)),
+        "{} crossing pairs after, {} before",
+        c1.len(),
+        c0.len()
+    );
+    assert_eq!(log["intersecting_triangle_pairs"], c1.len());
+    // Every leaflet touches both others (contact bits are leaflet numbers).
+    let contact = after
+        .point_data
+        .get("contact")
+        .unwrap()
+        .values
+        .to_f64()
+        .unwrap();
+    let leaf = after
+        .cell_data
+        .get("leaflet")
+        .unwrap()
+        .values
+        .to_f64()
+        .unwrap();
+    for k in 1..=3 {
+        let mut bits = 0u8;
+        for (t, tri) in after.triangles.iter().enumerate() {
+            if leaf[t] == k as f64 {
+                for &i in tri {
+                    bits |= contact[i as usize] as u8;
+                }
+            }
+        }
+        assert_eq!(bits.count_ones(), 2, "leaflet {k} touches {bits:b}");
+        assert_eq!(bits & (1 << (k - 1)), 0, "leaflet {k} touches itself");
+    }
+}

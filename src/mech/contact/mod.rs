@@ -1,5 +1,7 @@
-//! Contact for membranes (ALGORITHMS.md §7): node-to-triangle penalty
-//! contact between bodies and the seed's penalty planes. The broad phase
+//! Contact for membranes (ALGORITHMS.md §7): the unsigned-distance barrier
+//! between leaflets with its collision-free step (`barrier`,
+//! `leaflet_barrier`; what `contact = "leaflets"` uses), the signed
+//! node-to-triangle penalty (`penalty`) and the seed's penalty planes. The broad phase
 //! (`geom::bvh`), closest points and the exact triangle–triangle test live in
 //! `geom/`, shared with the leaflets and report stages.
 //!
@@ -14,8 +16,13 @@
 //! let mask = penalty::contact_mask(x.len(), &pairs);   // `contact` point data
 //! ```
 
+pub mod barrier;
+pub mod jet;
+pub mod leaflet_barrier;
 pub mod penalty;
 pub mod planes;
 
+#[cfg(test)]
+mod barrier_tests;
 #[cfg(test)]
 mod tests;

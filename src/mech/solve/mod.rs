@@ -44,7 +44,8 @@ pub struct Record {
     pub residual_n: f64,
     /// Largest nodal force (N) before the step.
     pub max_force_n: f64,
-    /// Newton: line-search factor α; relaxation: λ (mm/N).
+    /// Newton: fraction of the Newton step taken (line-search α times a
+    /// barrier's collision-free limit); relaxation: λ (mm/N).
     pub step: f64,
     /// Levenberg shift relative to the mean diagonal (Newton).
     pub shift: f64,

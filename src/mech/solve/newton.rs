@@ -167,6 +167,16 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
             let s = opt.max_step_mm / dmax;
             d.iter_mut().for_each(|z| *z *= s);
         }
+        // A barrier allows only the part of the step that crosses nothing.
+        let dx = sys.step(&vec![V3::zeros(); x.len()], &d, 1.0);
+        let limit = sys
+            .terms
+            .iter()
+            .map(|t| t.max_step(x, &dx))
+            .fold(1.0, f64::min);
+        if limit < 1.0 {
+            d.iter_mut().for_each(|z| *z *= limit);
+        }
         let slope = -rhs.iter().zip(&d).map(|(a, b)| a * b).sum::<f64>();
         let e0 = if symmetric {
             sys.energy(x).ok().flatten()
@@ -177,6 +187,10 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
         let mut accepted = None;
         while alpha > 1e-4 {
             let xn = sys.step(x, &d, alpha);
+            if !sys.terms.iter().all(|t| t.admissible(&xn)) {
+                alpha *= 0.5;
+                continue;
+            }
             if let Some(e0) = e0 {
                 if slope >= 0.0 {
                     break;
@@ -218,7 +232,7 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
         match accepted {
             Some(xn) => {
                 *x = xn;
-                rec.step = alpha;
+                rec.step = alpha * limit;
                 rejections = 0;
                 if alpha == 1.0 && !opt.ptc {
                     shift = if shift < 1e-6 { 0.0 } else { shift * 0.1 };
