@@ -222,25 +222,20 @@ fn out_of_range_parameters_fail_before_any_work() {
 }
 
 /// A reader that stops early (`coapt info … | head -1`) ends coapt quietly,
-/// never with a panic about the closed pipe.
+/// never with a panic about the closed pipe. The read end is closed as soon
+/// as coapt starts, long before it has read its input and printed.
 #[test]
 fn a_closed_stdout_is_not_a_panic() {
-    use std::io::{BufRead, BufReader};
     use std::process::{Command, Stdio};
     let mut child = Command::new(env!("CARGO_BIN_EXE_coapt"))
-        .args(["info", "--json"])
-        .arg(repo().join("sample_data/landmarks.mrk.json"))
+        .arg("info")
+        .arg(repo().join("sample_data/ct.nii.gz"))
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let mut first = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut first)
-        .unwrap();
-    // The pipe is closed here, before coapt has written everything.
+    drop(child.stdout.take());
     let out = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");
-    assert!(!first.is_empty());
 }
