@@ -79,27 +79,53 @@ impl Wall {
         crossings(&self.bvh, o, d, max_t)
     }
 
-    /// Radial projection onto the wall proper (caps ignored): the crossing
-    /// of the ray nearest to `r_expect`; the closest wall point to
-    /// o + r_expect·d when the ray misses.
+    /// Radial projection: the crossing of the ray nearest to `r_expect`,
+    /// on the wall proper when the ray meets it. Below the wall's lower rim
+    /// (the nadirs sit at the annulus, right where the VAJ cap cuts the
+    /// lumen) a cap crossing still serves when it lies within 1 mm of the
+    /// wall, where the cap meets it; a cap crossing deep inside the
+    /// lumen (a segmented cap on a tilted valve is a voxel staircase that can
+    /// bulge past the annulus level) is refused for the closest wall point.
     pub fn radial(&self, o: &Point3, d: &Vector3, r_expect: f64) -> Point3 {
-        let mesh = self.wall_only.as_ref().unwrap_or(&self.bvh);
         let max_t = 20.0 * r_expect.max(1.0);
-        let mut hits = crossings(mesh, o, d, max_t);
-        if hits.is_empty() {
-            // A ray along a mesh edge can slip through: nudge it.
-            let side = d.cross(&Vector3::new(0.3, 0.5, 0.8)).normalize() * 1e-6;
-            hits = crossings(mesh, o, &(d + side).normalize(), max_t);
+        let nearest = |hits: &[f64]| {
+            hits.iter()
+                .copied()
+                .min_by(|a, b| (a - r_expect).abs().total_cmp(&(b - r_expect).abs()))
+        };
+        let cast = |mesh: &PTriMesh| {
+            let hits = crossings(mesh, o, d, max_t);
+            if hits.is_empty() {
+                // A ray along a mesh edge can slip through: nudge it.
+                let side = d.cross(&Vector3::new(0.3, 0.5, 0.8)).normalize() * 1e-6;
+                crossings(mesh, o, &(d + side).normalize(), max_t)
+            } else {
+                hits
+            }
+        };
+        let Some(wall) = &self.wall_only else {
+            return match nearest(&cast(&self.bvh)) {
+                Some(t) => o + d * t,
+                None => self.closest(&(o + d * r_expect)).0,
+            };
+        };
+        if let Some(t) = nearest(&cast(wall)) {
+            return o + d * t;
         }
-        match hits
-            .iter()
-            .min_by(|a, b| (*a - r_expect).abs().total_cmp(&(*b - r_expect).abs()))
-        {
-            Some(t) => o + d * *t,
-            None => n(mesh.project_local_point(g(&(o + d * r_expect)), true).point),
+        let on_rim = |t: &f64| {
+            let p = o + d * *t;
+            (n(wall.project_local_point(g(&p), true).point) - p).norm() <= CAP_HIT_NEAR_WALL_MM
+        };
+        match nearest(&cast(&self.bvh)).filter(on_rim) {
+            Some(t) => o + d * t,
+            None => n(wall.project_local_point(g(&(o + d * r_expect)), true).point),
         }
     }
 }
+
+/// A cap crossing this close to the wall (mm) is where the cap meets the
+/// wall, at the rim; farther in, it is a step of the cap inside the lumen.
+const CAP_HIT_NEAR_WALL_MM: f64 = 1.0;
 
 fn crossings(bvh: &PTriMesh, o: &Point3, d: &Vector3, max_t: f64) -> Vec<f64> {
     let mut out = Vec::new();
