@@ -244,10 +244,17 @@ fn newton_with_continuation(
 ) -> Outcome {
     let mut all: Option<Outcome> = None;
     let mut notes = Vec::new();
+    // The time limit bounds the whole solve, not each phase of each round.
+    let t0 = std::time::Instant::now();
+    let seconds_left = || stop.max_seconds - t0.elapsed().as_secs_f64();
     for round in 1..=5 {
         let used = all.as_ref().map_or(0, |o| o.iterations);
         let left = stop.max_iterations.saturating_sub(used);
         if left == 0 {
+            break;
+        }
+        if seconds_left() <= 0.0 {
+            notes.push(format!("time limit {} s reached", stop.max_seconds));
             break;
         }
         let r0 = all.as_ref().map_or(f64::NAN, |o| o.initial_residual_n);
@@ -268,6 +275,7 @@ fn newton_with_continuation(
                 stop: Stop {
                     rel: 1e-2,
                     max_iterations: left,
+                    max_seconds: seconds_left().max(0.0),
                     ..stop.clone()
                 },
                 ..nopt.clone()
@@ -294,6 +302,7 @@ fn newton_with_continuation(
         let mut exact = nopt.clone();
         exact.stop.rel = target(&merged);
         exact.stop.max_iterations = stop.max_iterations.saturating_sub(merged.iterations).max(1);
+        exact.stop.max_seconds = seconds_left().max(0.0);
         let p2 = solve::newton(sys, x, &exact);
         notes.push(format!("Newton: {}", p2.reason));
         let conv = p2.converged;
