@@ -5,10 +5,6 @@ use std::path::Path;
 
 use crate::common::*;
 
-fn s(p: &Path) -> String {
-    p.to_str().unwrap().to_string()
-}
-
 /// Valve + leaflets on the committed sample's truth surface (h = 1 mm).
 fn sample_leaflets(d: &Path) -> std::path::PathBuf {
     sample_valve_and_leaflets(
@@ -38,6 +34,36 @@ fn close(
     ];
     a.extend(extra.iter().map(|x| x.to_string()));
     coapt(&a.iter().map(String::as_str).collect::<Vec<_>>())
+}
+
+/// Close `d/leaflets.vtp` with `cfg` on one and on two threads
+/// (`closed1.vtp`, `closed2.vtp`); the two must be the same bytes. The
+/// one-thread closure.json.
+fn close_on_one_and_two_threads(d: &Path, surface: &Path, cfg: &Path) -> serde_json::Value {
+    for threads in ["1", "2"] {
+        let out = format!("closed{threads}.vtp");
+        let o = close(
+            &d.join("leaflets.vtp"),
+            surface,
+            cfg,
+            &d.join(&out),
+            &[
+                "--valve",
+                &s(&d.join("valve.json")),
+                "--log",
+                &s(&d.join(format!("{out}.json"))),
+                "--threads",
+                threads,
+                "--quiet",
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_eq!(
+        std::fs::read(d.join("closed1.vtp")).unwrap(),
+        std::fs::read(d.join("closed2.vtp")).unwrap()
+    );
+    json(&d.join("closed1.vtp.json"))
 }
 
 #[test]
@@ -117,32 +143,7 @@ fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
     let d = tmpdir("close-planes");
     let surface = sample_leaflets(&d);
     let cfg = repo().join("pipelines/close.toml");
-    let run = |threads: &str, out: &str| {
-        let o = close(
-            &d.join("leaflets.vtp"),
-            &surface,
-            &cfg,
-            &d.join(out),
-            &[
-                "--valve",
-                &s(&d.join("valve.json")),
-                "--log",
-                &s(&d.join(format!("{out}.json"))),
-                "--threads",
-                threads,
-                "--quiet",
-            ],
-        );
-        assert!(o.status.success(), "{}", stderr(&o));
-    };
-    run("1", "closed1.vtp");
-    run("2", "closed2.vtp");
-    assert_eq!(
-        std::fs::read(d.join("closed1.vtp")).unwrap(),
-        std::fs::read(d.join("closed2.vtp")).unwrap()
-    );
-    let log: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(d.join("closed1.vtp.json")).unwrap()).unwrap();
+    let log = close_on_one_and_two_threads(&d, &surface, &cfg);
     assert_eq!(log["solver"]["converged"], true);
     assert!(log["solver"]["residual_n"].as_f64().unwrap() <= 1e-7);
     let before = vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
@@ -261,32 +262,7 @@ fn sample_valve_closes_with_leaflet_contact_without_crossing() {
         .join("\n");
     let cfg = d.join("close-leaflets.toml");
     std::fs::write(&cfg, text).unwrap();
-    let run = |threads: &str, out: &str| {
-        let o = close(
-            &d.join("leaflets.vtp"),
-            &surface,
-            &cfg,
-            &d.join(out),
-            &[
-                "--valve",
-                &s(&d.join("valve.json")),
-                "--log",
-                &s(&d.join(format!("{out}.json"))),
-                "--threads",
-                threads,
-                "--quiet",
-            ],
-        );
-        assert!(o.status.success(), "{}", stderr(&o));
-    };
-    run("1", "closed1.vtp");
-    run("2", "closed2.vtp");
-    assert_eq!(
-        std::fs::read(d.join("closed1.vtp")).unwrap(),
-        std::fs::read(d.join("closed2.vtp")).unwrap()
-    );
-    let log: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(d.join("closed1.vtp.json")).unwrap()).unwrap();
+    let log = close_on_one_and_two_threads(&d, &surface, &cfg);
     assert_eq!(log["solver"]["converged"], true);
     let crossing = |m: &coapt::geom::TriMesh| {
         let x: Vec<V3> = m.vertices.iter().map(|p| V3::new(p.x, p.y, p.z)).collect();

@@ -10,15 +10,6 @@ use serde_json::Value;
 use crate::common::*;
 use crate::report_html::{browser, check, errors, strings};
 
-fn s(p: &Path) -> String {
-    p.to_str().unwrap().to_string()
-}
-
-fn json(p: &Path) -> Value {
-    serde_json::from_slice(&std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
-        .unwrap()
-}
-
 /// The sample's run config (closure settings of pipelines/close.toml) with
 /// a [design] section and the leaflet mesh size `h`.
 fn config(dir: &Path, h: &str, sizes: &str) -> PathBuf {

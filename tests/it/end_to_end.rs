@@ -27,15 +27,6 @@ const WALL_TOL_MM: f64 = 0.5;
 const HEIGHT_TOL_MM: f64 = 0.15;
 const AREA_TOL: f64 = 0.03;
 
-fn s(p: &Path) -> String {
-    p.to_str().unwrap().to_string()
-}
-
-fn json(p: &Path) -> Value {
-    serde_json::from_slice(&std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
-        .unwrap()
-}
-
 fn p3(v: &Value) -> Point3 {
     Point3::new(
         v[0].as_f64().unwrap(),

@@ -10,15 +10,6 @@ use serde_json::Value;
 use crate::common::*;
 use crate::report_html::{browser, check, errors, strings};
 
-fn s(p: &Path) -> String {
-    p.to_str().unwrap().to_string()
-}
-
-fn json(p: &Path) -> Value {
-    serde_json::from_slice(&std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
-        .unwrap()
-}
-
 /// A run config like pipelines/sample.toml with every input absolute and
 /// the closure settings in `dir/close.toml` (a copy), so a test can edit them.
 fn sample_config(dir: &Path) -> PathBuf {

@@ -45,11 +45,6 @@ fn snakemake() -> Option<PathBuf> {
     Some(exe)
 }
 
-fn json(p: &Path) -> Value {
-    serde_json::from_slice(&std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
-        .unwrap()
-}
-
 fn metrics(v: &Value) -> Value {
     serde_json::json!({"verdict": v["verdict"], "criteria": v["criteria"], "metrics": v["metrics"], "conventions": v["conventions"]})
 }
