@@ -103,12 +103,8 @@ impl Wall {
                 hits
             }
         };
-        let Some(wall) = &self.wall_only else {
-            return match nearest(&cast(&self.bvh)) {
-                Some(t) => o + d * t,
-                None => self.closest(&(o + d * r_expect)).0,
-            };
-        };
+        // Without region labels the whole surface counts as wall.
+        let wall = self.wall_only.as_ref().unwrap_or(&self.bvh);
         if let Some(t) = nearest(&cast(wall)) {
             return o + d * t;
         }
@@ -116,7 +112,8 @@ impl Wall {
             let p = o + d * *t;
             (n(wall.project_local_point(g(&p), true).point) - p).norm() <= CAP_HIT_NEAR_WALL_MM
         };
-        match nearest(&cast(&self.bvh)).filter(on_rim) {
+        let caps = self.wall_only.as_ref().map(|_| &self.bvh);
+        match caps.and_then(|all| nearest(&cast(all))).filter(on_rim) {
             Some(t) => o + d * t,
             None => n(wall.project_local_point(g(&(o + d * r_expect)), true).point),
         }
