@@ -25,7 +25,6 @@ use rayon::prelude::*;
 pub use recommend::{Outcome, Recommendation};
 pub use settings::Settings;
 
-use crate::geom::ValveFrame;
 use crate::io::write_atomic;
 use crate::pipeline::config::RunConfig;
 use crate::pipeline::execute::Invocation;
@@ -148,7 +147,9 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
         .collect::<Result<Vec<_>>>()?;
     let rec = recommend::recommend(&outcomes);
 
-    let frame = upstream.get("valve").and_then(|p| valve_frame(p).ok());
+    let frame = upstream
+        .get("valve")
+        .and_then(|p| crate::io::valve_json::read_frame(p).ok());
     let doc = document::build(
         &outcomes,
         &rec,
@@ -178,14 +179,6 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
         outcomes,
         recommendation: rec,
     })
-}
-
-fn valve_frame(path: &Path) -> Result<ValveFrame> {
-    let v: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(path).map_err(|e| Error::read(path, e))?)
-            .map_err(|e| Error::bad_input(path, format!("not JSON: {e}")))?;
-    serde_json::from_value(v["valve_frame"].clone())
-        .map_err(|e| Error::bad_input(path, format!("no valid valve_frame: {e}")))
 }
 
 /// The design report: the report stage on the shown size's valve, with the

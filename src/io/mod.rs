@@ -9,6 +9,7 @@ pub mod nifti;
 pub mod ply;
 pub mod png;
 pub mod stl;
+pub mod valve_json;
 pub mod vtp;
 
 pub use atomic::{Transaction, write_atomic};

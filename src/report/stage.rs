@@ -340,7 +340,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         .map(PathBuf::from)
         .or_else(|| cpath.parent().map(Path::to_path_buf));
     let run_dir = run_dir.as_deref();
-    let frame = load::valve_frame(vpath)?;
+    let frame = crate::io::valve_json::read_frame(vpath)?;
     let closed = vtp::read_mesh(cpath)?;
     let placed = vtp::read_mesh(lpath)?;
     let valve = load::closed_valve(&closed, cpath, &placed, lpath, frame)?;

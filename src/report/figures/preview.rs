@@ -17,7 +17,7 @@ fn load_valve(run: &Path) -> (ClosedValve, Vec<u8>) {
     let (cp, lp) = (run.join("closed.vtp"), run.join("leaflets.vtp"));
     let closed = vtp::read_mesh(&cp).expect("closed.vtp");
     let placed = vtp::read_mesh(&lp).expect("leaflets.vtp");
-    let frame = load::valve_frame(&run.join("valve.json")).expect("valve.json");
+    let frame = crate::io::valve_json::read_frame(&run.join("valve.json")).expect("valve.json");
     let v = load::closed_valve(&closed, &cp, &placed, &lp, frame).expect("a closed valve");
     let contact = closed
         .point_data
