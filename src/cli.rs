@@ -193,6 +193,7 @@ fn command() -> Command {
             )
             .subcommand(bench::close::command())
             .subcommand(bench::pipeline::command())
+            .subcommand(bench::seed001::command())
             .subcommand(
                 Command::new("stress-close")
                     .about("The closure solver on randomised hostile variants of the peer case: counts converged / failed with a diagnosis / non-finite / hang")
@@ -317,6 +318,7 @@ fn value_name(kind: ParamKind) -> &'static str {
             crate::units::Kind::Intensity => "HU",
             crate::units::Kind::Force => "FORCE",
             crate::units::Kind::Time => "TIME",
+            crate::units::Kind::LineForce => "FORCE/LENGTH",
         },
         ParamKind::Lengths3 => "\"X, Y, Z mm\"",
         ParamKind::Int { .. } => "N",
@@ -473,6 +475,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 }
             }
             Some(("pipeline", b)) => bench::pipeline::dispatch(b, threads),
+            Some(("seed001", b)) => bench::seed001::dispatch(b),
             Some(("segment", b)) => {
                 let set = b.get_one::<String>("cases").expect("has default");
                 let baseline = b.get_one::<String>("baseline").map(String::as_str);
@@ -480,7 +483,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 Ok(())
             }
             _ => Err(Error::usage(
-                "coapt bench: name a benchmark (phantom, segment, surface, close, stress-close, pipeline)",
+                "coapt bench: name a benchmark (phantom, segment, surface, close, seed001, stress-close, pipeline)",
             )),
         },
         stage => {

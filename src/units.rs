@@ -29,6 +29,8 @@ pub enum Kind {
     Force,
     /// Internal unit: s (time limits).
     Time,
+    /// Force per length. Internal unit: N/mm (the suturing force's K).
+    LineForce,
 }
 
 impl Kind {
@@ -40,6 +42,7 @@ impl Kind {
             Kind::Intensity => "CT intensity",
             Kind::Force => "force",
             Kind::Time => "time",
+            Kind::LineForce => "force per length",
         }
     }
 
@@ -51,6 +54,7 @@ impl Kind {
             Kind::Intensity => "\"25 HU\"",
             Kind::Force => "\"1e-7 N\"",
             Kind::Time => "\"600 s\"",
+            Kind::LineForce => "\"1 N/m\"",
         }
     }
 
@@ -63,6 +67,7 @@ impl Kind {
             Kind::Intensity => "HU",
             Kind::Force => "N",
             Kind::Time => "s",
+            Kind::LineForce => "N/mm",
         }
     }
 
@@ -92,6 +97,7 @@ impl Kind {
             Kind::Intensity => &[("HU", 1.0)],
             Kind::Force => &[("N", 1.0), ("mN", 1e-3), ("uN", 1e-6)],
             Kind::Time => &[("s", 1.0), ("min", 60.0), ("ms", 1e-3)],
+            Kind::LineForce => &[("N/mm", 1.0), ("N/m", 1e-3), ("mN/mm", 1e-3)],
         }
     }
 

@@ -11,6 +11,7 @@ use super::contact::planes::Plane;
 use super::element::{RefTri, V3};
 use super::solve::{self, NewtonOptions, Outcome, RelaxOptions, Stop};
 use super::sparse::Dofs;
+use super::suture::{self, Sutured, Wall};
 use super::system::{PressureMode, System, Term};
 use super::terms::PlaneContact;
 
@@ -51,6 +52,9 @@ pub struct Closed {
     pub setup_s: f64,
     pub solve_s: f64,
     pub pressure_sign: Vec<f64>,
+    /// The suturing pre-stage, when it ran (its `x` is where the closure
+    /// started).
+    pub suturing: Option<Sutured>,
 }
 
 /// Lug corners: sutured nodes that share a triangle edge with a free-edge node.
@@ -127,8 +131,9 @@ pub fn pressure_signs(l: &Leaflets, axis: &Axis, n_leaflets: usize) -> Vec<f64> 
 }
 
 /// Seed 001 contact planes for each leaflet: through the axis and each of
-/// its two commissures, facing the leaflet.
-fn planes_for(
+/// its two commissures, facing the leaflet; two per leaflet, in leaflet
+/// order.
+pub(super) fn planes_for(
     l: &Leaflets,
     axis: &Axis,
     n_leaflets: usize,
@@ -236,7 +241,7 @@ fn stretches(x: &[V3], refs: &[RefTri], tris: &[[u32; 3]]) -> (Vec<f64>, Vec<f64
 /// tangent is nearly singular) until the residual has dropped 100-fold, then
 /// Newton with the exact, non-symmetric tangent (LU), quadratic near the
 /// end; when that stalls, continuation takes over again.
-fn newton_with_continuation(
+pub(super) fn newton_with_continuation(
     sys: &mut System,
     x: &mut Vec<V3>,
     stop: &Stop,
@@ -320,7 +325,7 @@ fn newton_with_continuation(
     o
 }
 
-fn set_projected(sys: &mut System, projected: bool) {
+pub(super) fn set_projected(sys: &mut System, projected: bool) {
     sys.project = projected;
     for t in sys.terms.iter_mut() {
         t.set_projected(projected);
@@ -343,15 +348,91 @@ fn merge(prev: Option<Outcome>, mut next: Outcome) -> Outcome {
 }
 
 /// Close the leaflets. `axis`: from valve.json when known, else estimated.
+/// The suture line is sewn to the cylinder about the axis through it; see
+/// [`close_on`] for a patient's wall.
 pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Closed, String> {
+    close_on(l, cfg, axis, None, None)
+}
+
+/// Close the leaflets: suture them first (seed 001 Algorithm 1) unless
+/// `cfg.suture.mode` is off (the stage turns `auto` into off for leaflets
+/// that say they are sutured) or `sutured` gives the pre-stage's result
+/// already (the low-pressure closure reuses the first one's). `wall`: the
+/// wall whose tangent the sutured triangles turn to (default: the cylinder
+/// about the axis).
+pub fn close_on(
+    l: &Leaflets,
+    cfg: &CloseConfig,
+    axis: Option<Axis>,
+    wall: Option<&Wall>,
+    sutured: Option<&Sutured>,
+) -> Result<Closed, String> {
     let t0 = Instant::now();
     let n_leaflets = l.leaflet.iter().map(|&k| k as usize + 1).max().unwrap_or(0);
     let axis = match axis {
         Some(a) => a,
         None => axis_from_leaflets(l)?,
     };
+    if !l.boundary.iter().any(|&b| b == 1) {
+        return Err("no sutured nodes (boundary = 1): the leaflets would float away".into());
+    }
+    let stop = Stop {
+        abs_n: cfg.tolerance,
+        rel: cfg.relative_tolerance,
+        max_iterations: cfg.max_iterations,
+        max_seconds: cfg.time_limit,
+    };
+    let nopt = NewtonOptions {
+        stop: stop.clone(),
+        max_step_mm: MAX_STEP_MM,
+        max_rejections: 12,
+        ptc: false,
+    };
+    let suturing = match (sutured, cfg.suture.mode) {
+        (Some(s), _) => Some(s.clone()),
+        (None, suture::Mode::Off) => None,
+        (None, _) => {
+            let cyl = Wall::Cylinder(axis);
+            let s = suture::suture(l, &cfg.suture, &axis, wall.unwrap_or(&cyl), &stop, &nopt)?;
+            if s.status == suture::Status::Failed {
+                return Ok(Closed {
+                    contact: vec![0; s.x.len()],
+                    area_stretch: Vec::new(),
+                    max_stretch: Vec::new(),
+                    setup_s: t0.elapsed().as_secs_f64(),
+                    solve_s: 0.0,
+                    pressure_sign: pressure_signs(l, &axis, n_leaflets),
+                    outcome: Outcome {
+                        reason: format!("suturing (seed 001 Algorithm 1) failed: {}", s.reason),
+                        iterations: s.iterations,
+                        residual_n: s.rounds.last().map_or(0.0, |r| r.residual_n),
+                        initial_residual_n: s.rounds.first().map_or(0.0, |r| r.residual_n),
+                        seconds: s.seconds,
+                        ..Outcome::start()
+                    },
+                    x: s.x.clone(),
+                    suturing: Some(s),
+                });
+            }
+            Some(s)
+        }
+    };
+    // From here on the leaflets are where suturing left them.
+    let placed = l;
+    let sewn;
+    let l = match &suturing {
+        Some(s) => {
+            sewn = Leaflets {
+                x: s.x.clone(),
+                ..placed.clone()
+            };
+            &sewn
+        }
+        None => placed,
+    };
     let ref_x: Vec<V3> = match (cfg.reference, &l.ref_uv) {
-        (Reference::Placed, _) => l.x.clone(),
+        (Reference::Sutured, _) => l.x.clone(),
+        (Reference::Placed, _) => placed.x.clone(),
         (Reference::Flat, Some(uv)) => uv.iter().map(|p| V3::new(p[0], p[1], 0.0)).collect(),
         (Reference::Flat, None) => {
             return Err("reference = \"flat\" needs point data ref_uv".into());
@@ -367,9 +448,6 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
         );
     }
     let fixed: Vec<[bool; 3]> = l.boundary.iter().map(|&b| [b == 1; 3]).collect();
-    if !fixed.iter().any(|f| f[0]) {
-        return Err("no sutured nodes (boundary = 1): the leaflets would float away".into());
-    }
     let signs = pressure_signs(l, &axis, n_leaflets);
     let tri_pressure: Vec<f64> = l
         .leaflet
@@ -424,21 +502,9 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
         project: false,
         pressure_tangent: true,
     };
-    let stop = Stop {
-        abs_n: cfg.tolerance,
-        rel: cfg.relative_tolerance,
-        max_iterations: cfg.max_iterations,
-        max_seconds: cfg.time_limit,
-    };
-    let setup_s = t0.elapsed().as_secs_f64();
+    let setup_s = t0.elapsed().as_secs_f64() - suturing.as_ref().map_or(0.0, |s| s.seconds);
     let t1 = Instant::now();
     let mut x = l.x.clone();
-    let nopt = NewtonOptions {
-        stop: stop.clone(),
-        max_step_mm: MAX_STEP_MM,
-        max_rejections: 12,
-        ptc: false,
-    };
     let outcome = match cfg.solver {
         SolverKind::Newton => newton_with_continuation(&mut sys, &mut x, &stop, &nopt),
         SolverKind::Relax => {
@@ -484,5 +550,6 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
         setup_s,
         solve_s,
         pressure_sign: signs,
+        suturing,
     })
 }

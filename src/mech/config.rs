@@ -19,10 +19,26 @@
 //! half the thickness so pressed leaflets do not cross; default "0 mm", the
 //! seed's planes through the axis), `tolerance` (default
 //! "1e-7 N"), `relative_tolerance` (default 1e-7), `max_iterations`,
-//! `time_limit` (default "600 s"), `reference` ("placed": the placed leaflet
-//! is stress-free, as after the seeds' suturing; "flat": the flat template
-//! is the reference, leaving the suturing stress in the leaflet), `bending`
-//! (true: add the bending stiffness D = E't³/12 of a shell, default false).
+//! `time_limit` (default "600 s"), `reference` ("sutured", the default: the
+//! configuration after suturing is stress-free, as in seed 001; "placed":
+//! the placed template is, so suturing leaves stress; "flat": the flat
+//! template is, leaving the stress of both placing and suturing in the
+//! leaflet), `bending` (true: add the bending stiffness D = E't³/12 of a
+//! shell, default false).
+//!
+//! The suturing pre-stage (seed 001 Algorithm 1, [`super::suture`]) has its
+//! own table; every key is optional, the defaults are the seed's:
+//!
+//! ```toml
+//! [suture]
+//! mode = "auto"          # auto (unless the leaflets say they are sutured) | on | off
+//! mu = "900 kPa"         # auxiliary neo-Hookean shell
+//! thickness = "0.8 mm"
+//! pressure = "90 mmHg"
+//! k0 = "1 N/mm"          # first suturing force parameter K, doubled each round
+//! tolerance = 0.01       # ε_sew: stop when max sin φ_T < tolerance
+//! max_rounds = 40
+//! ```
 
 use std::path::Path;
 
@@ -30,6 +46,7 @@ use serde::Deserialize;
 
 use super::element::Membrane;
 use super::material::{Gent, Goh, MassSpring, NeoHookean, StVenantKirchhoff, msm};
+use super::suture;
 use crate::units::{self, Kind};
 use crate::{Error, Result};
 
@@ -59,6 +76,19 @@ struct Raw {
     reference: Option<String>,
     bending: Option<bool>,
     effective_height_pressure: Option<String>,
+    suture: Option<RawSuture>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSuture {
+    mode: Option<String>,
+    mu: Option<String>,
+    thickness: Option<String>,
+    pressure: Option<String>,
+    k0: Option<String>,
+    tolerance: Option<f64>,
+    max_rounds: Option<usize>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -99,6 +129,7 @@ pub enum SolverKind {
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reference {
+    Sutured,
     Placed,
     Flat,
 }
@@ -126,6 +157,7 @@ pub struct CloseConfig {
     /// Also close at this (low) pressure, MPa, for the effective height
     /// (the seeds measure h_E at 3 mmHg); `None`: only the closing pressure.
     pub effective_height_pressure: Option<f64>,
+    pub suture: suture::Settings,
 }
 
 impl CloseConfig {
@@ -183,6 +215,15 @@ impl CloseConfig {
             "effective_height_pressure_mmhg": self.effective_height_pressure.map(|p| p / units::MMHG_IN_MPA),
             "reference": format!("{:?}", self.reference).to_lowercase(),
             "bending": self.bending,
+            "suture": {
+                "mode": format!("{:?}", self.suture.mode).to_lowercase(),
+                "mu_mpa": self.suture.mu,
+                "thickness_mm": self.suture.thickness,
+                "pressure_mmhg": self.suture.pressure / units::MMHG_IN_MPA,
+                "k0_n_per_mm": self.suture.k0,
+                "tolerance_sin_phi": self.suture.tolerance,
+                "max_rounds": self.suture.max_rounds,
+            },
         })
     }
 }
@@ -301,11 +342,17 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
             ));
         }
     };
-    let reference = match raw.reference.as_deref().unwrap_or("placed") {
+    let reference = match raw.reference.as_deref().unwrap_or("sutured") {
+        "sutured" => Reference::Sutured,
         "placed" => Reference::Placed,
         "flat" => Reference::Flat,
-        other => return Err(format!("reference \"{other}\": expected placed or flat")),
+        other => {
+            return Err(format!(
+                "reference \"{other}\": expected sutured, placed or flat"
+            ));
+        }
     };
+    let suture = parse_suture(raw.suture)?;
     let contact_margin =
         q(Kind::Length, &raw.contact_margin, "contact_margin")?.unwrap_or(0.5 * thickness);
     Ok(CloseConfig {
@@ -344,6 +391,50 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
                 );
             }
             None => None,
+        },
+        suture,
+    })
+}
+
+fn parse_suture(raw: Option<RawSuture>) -> std::result::Result<suture::Settings, String> {
+    let d = suture::Settings::default();
+    let Some(r) = raw else { return Ok(d) };
+    let pos = |v: Option<f64>, key: &str, default: f64| match v {
+        None => Ok(default),
+        Some(v) if v > 0.0 && v.is_finite() => Ok(v),
+        Some(_) => Err(format!("suture.{key} must be positive")),
+    };
+    let tolerance = match r.tolerance {
+        None => d.tolerance,
+        Some(t) if t > 0.0 && t < 1.0 => t,
+        Some(t) => return Err(format!("suture.tolerance {t} must lie in (0, 1) (a sine)")),
+    };
+    Ok(suture::Settings {
+        mode: match r.mode.as_deref().unwrap_or("auto") {
+            "auto" => suture::Mode::Auto,
+            "on" => suture::Mode::On,
+            "off" => suture::Mode::Off,
+            other => {
+                return Err(format!("suture.mode \"{other}\": expected auto, on or off"));
+            }
+        },
+        mu: pos(q(Kind::Pressure, &r.mu, "suture.mu")?, "mu", d.mu)?,
+        thickness: pos(
+            q(Kind::Length, &r.thickness, "suture.thickness")?,
+            "thickness",
+            d.thickness,
+        )?,
+        pressure: pos(
+            q(Kind::Pressure, &r.pressure, "suture.pressure")?,
+            "pressure",
+            d.pressure,
+        )?,
+        k0: pos(q(Kind::LineForce, &r.k0, "suture.k0")?, "k0", d.k0)?,
+        tolerance,
+        max_rounds: match r.max_rounds {
+            None => d.max_rounds,
+            Some(n) if n >= 1 => n,
+            Some(_) => return Err("suture.max_rounds must be at least 1".into()),
         },
     })
 }

@@ -7,7 +7,8 @@
 //! potential on a leaflet (its free edge moves), so a valve is solved on the
 //! residual (`closure`: continuation, then Newton with LU); where every load
 //! has a potential (`verify`: closed or clamped membranes) Newton uses the
-//! energy and Cholesky. `stage` is the `close` stage, `config` its
+//! energy and Cholesky. `suture` sews the placed template to the wall
+//! first (seed 001 Algorithm 1). `stage` is the `close` stage, `config` its
 //! `close.toml`.
 
 pub mod bending;
@@ -24,6 +25,7 @@ pub mod verify;
 pub mod closure;
 pub mod config;
 pub mod stage;
+pub mod suture;
 pub mod terms;
 #[cfg(test)]
 mod tests;

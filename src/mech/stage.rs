@@ -6,6 +6,7 @@ use serde_json::{Value as Json, json};
 use super::closure::{self, Axis, Leaflets};
 use super::config;
 use super::element::V3;
+use super::suture::{self, Wall};
 use crate::geom::bvh::Bvh;
 use crate::geom::closest_point::closest_point;
 use crate::geom::tri_tri;
@@ -156,6 +157,23 @@ fn axis_from_valve(path: &std::path::Path) -> Result<Axis> {
     })
 }
 
+/// The wall the suture line is sewn to: its wall triangles (region 0) when
+/// the surface labels its caps, else all of it.
+fn wall_of(m: &TriMesh) -> Wall {
+    let region = m.cell_data.get("region").and_then(|a| a.values.to_f64());
+    let tris = match region {
+        Some(r) if r.len() == m.triangles.len() => m
+            .triangles
+            .iter()
+            .zip(&r)
+            .filter(|(_, r)| **r == 0.0)
+            .map(|(t, _)| *t)
+            .collect(),
+        _ => m.triangles.clone(),
+    };
+    Wall::mesh(m.vertices.iter().map(v3).collect(), tris)
+}
+
 /// Distance (mm) of every sutured node to the wall.
 fn suture_distances(l: &Leaflets, wall: &TriMesh) -> Vec<f64> {
     let wx: Vec<V3> = wall.vertices.iter().map(v3).collect();
@@ -193,7 +211,15 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
     let mesh = vtp::read_mesh(lpath)?;
     let leaflets = leaflets_from_mesh(&mesh).map_err(|e| Error::bad_input(lpath, e))?;
     let cpath = io.input("config").expect("required");
-    let cfg = config::read(cpath)?;
+    let mut cfg = config::read(cpath)?;
+    let already_sutured = mesh
+        .field_data
+        .get("sutured")
+        .and_then(|a| a.values.to_f64())
+        .is_some_and(|v| v.first() == Some(&1.0));
+    if cfg.suture.mode == suture::Mode::Auto && already_sutured {
+        cfg.suture.mode = suture::Mode::Off;
+    }
     let spath = io.input("surface").expect("required");
     let wall = vtp::read_mesh(spath)?;
     let d = suture_distances(&leaflets, &wall);
@@ -203,7 +229,9 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         None => None,
     };
     progress.set(0.05);
-    let closed = closure::close(&leaflets, &cfg, axis).map_err(|e| Error::bad_input(lpath, e))?;
+    let wall_normals = wall_of(&wall);
+    let closed = closure::close_on(&leaflets, &cfg, axis, Some(&wall_normals), None)
+        .map_err(|e| Error::bad_input(lpath, e))?;
     progress.set(0.8);
     // The seeds read the effective height on an extra closure at a low
     // pressure (3 mmHg), where the leaflets just meet without being pressed.
@@ -213,8 +241,14 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
             low_cfg.pressure = p;
             low_cfg.effective_height_pressure = None;
             Some(
-                closure::close(&leaflets, &low_cfg, axis)
-                    .map_err(|e| Error::bad_input(lpath, e))?,
+                closure::close_on(
+                    &leaflets,
+                    &low_cfg,
+                    axis,
+                    Some(&wall_normals),
+                    closed.suturing.as_ref(),
+                )
+                .map_err(|e| Error::bad_input(lpath, e))?,
             )
         }
         _ => None,
@@ -233,7 +267,11 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         "triangles": leaflets.tris.len(),
         "free_dofs": leaflets.boundary.iter().filter(|&&b| b != 1).count() * 3,
         "sutured_to_wall_mm": {"max": dmax, "mean": d.iter().sum::<f64>() / d.len().max(1) as f64},
-        "suturing": "skipped: the placed leaflets are taken as the stress-free sutured configuration (reference = placed) or the flat template is the reference (reference = flat)",
+        "suturing": match &closed.suturing {
+            Some(s) => serde_json::to_value(s).expect("json"),
+            None if already_sutured => json!("skipped: the leaflets say they are sutured (field data sutured = 1)"),
+            None => json!("skipped: suture.mode = \"off\""),
+        },
         "pressure_sign_per_leaflet": closed.pressure_sign,
         "solver": {
             "converged": o.converged,
@@ -252,7 +290,7 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
             "iterations": l.outcome.iterations,
             "residual_n": l.outcome.residual_n,
         })),
-        "timing_s": {"setup": closed.setup_s, "solve": closed.solve_s, "low_pressure_solve": low.as_ref().map(|l| l.solve_s)},
+        "timing_s": {"setup": closed.setup_s, "suture": closed.suturing.as_ref().map(|s| s.seconds), "solve": closed.solve_s, "low_pressure_solve": low.as_ref().map(|l| l.solve_s)},
     });
     let text = serde_json::to_string_pretty(&log).expect("json") + "\n";
     let low_failed = low.as_ref().filter(|l| !l.outcome.converged);
@@ -289,6 +327,11 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         .collect();
     out.point_data
         .insert(DataArray::vectors_f64("displacement", &disp));
+    if let Some(s) = &closed.suturing {
+        let p: Vec<[f64; 3]> = s.x.iter().map(|q| [q.x, q.y, q.z]).collect();
+        out.point_data
+            .insert(DataArray::vectors_f64("sutured_position", &p));
+    }
     if let Some(l) = &low {
         let p: Vec<[f64; 3]> = l.x.iter().map(|q| [q.x, q.y, q.z]).collect();
         out.point_data

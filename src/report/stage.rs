@@ -290,6 +290,17 @@ fn findings(
                 ),
             );
         }
+        if log["suturing"]["status"] == json!("stalled") {
+            say(
+                Severity::Warning,
+                format!(
+                    "Suturing (seed 001 Algorithm 1) stopped before every sutured triangle was tangent to the wall: {}. The closure started from that state.",
+                    log["suturing"]["reason"]
+                        .as_str()
+                        .unwrap_or("no reason recorded")
+                ),
+            );
+        }
         if log["solver"]["converged"] == json!(false) {
             say(
                 Severity::Error,

@@ -105,25 +105,27 @@ fn a_closure_that_does_not_converge_exits_1_with_its_history_and_no_mesh() {
     let d = tmpdir("close-limit");
     let surface = sample_leaflets(&d);
     let cfg = d.join("close.toml");
-    std::fs::write(
-        &cfg,
-        "model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"none\"\nmax_iterations = 2\n",
-    )
-    .unwrap();
+    let base = "model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"none\"\nmax_iterations = 2\n";
     let out = d.join("closed.vtp");
     let log = d.join("closure.json");
-    let o = close(
-        &d.join("leaflets.vtp"),
-        &surface,
-        &cfg,
-        &out,
-        &["--valve", &s(&d.join("valve.json")), "--log", &s(&log)],
-    );
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stderr(&o).contains("did not converge"), "{}", stderr(&o));
-    assert!(!out.exists());
-    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&log).unwrap()).unwrap();
-    assert_eq!(v["solver"]["converged"], false);
+    let run = |text: &str| {
+        std::fs::write(&cfg, text).unwrap();
+        let o = close(
+            &d.join("leaflets.vtp"),
+            &surface,
+            &cfg,
+            &out,
+            &["--valve", &s(&d.join("valve.json")), "--log", &s(&log)],
+        );
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        assert!(stderr(&o).contains("did not converge"), "{}", stderr(&o));
+        assert!(!out.exists());
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&log).unwrap()).unwrap();
+        assert_eq!(v["solver"]["converged"], false);
+        (stderr(&o), v)
+    };
+    // The closure itself (no suturing) stops at its iteration limit.
+    let (_, v) = run(&format!("{base}\n[suture]\nmode = \"off\"\n"));
     let h = v["solver"]["history"].as_array().unwrap();
     assert_eq!(h.len(), 2, "one record per iteration");
     for r in h {
@@ -132,6 +134,15 @@ fn a_closure_that_does_not_converge_exits_1_with_its_history_and_no_mesh() {
     }
     // The placed leaflets hang from the sutures: those nodes lie on the wall.
     assert!(v["sutured_to_wall_mm"]["max"].as_f64().unwrap() < 0.05);
+    // Suturing's auxiliary problem gets the same limit and says so.
+    let (err, v) = run(base);
+    assert!(err.contains("suturing"), "{err}");
+    let su = &v["suturing"];
+    assert_eq!(su["status"], "failed");
+    let r = &su["rounds"][0];
+    assert_eq!(r["converged"], false);
+    assert_eq!(r["iterations"], 2);
+    assert!(r["residual_n"].as_f64().unwrap().is_finite());
 }
 
 /// The sample valve closes with the seed 001 contact planes: converged, no
@@ -237,9 +248,10 @@ fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
 /// The sample valve closes with true leaflet-to-leaflet contact (the
 /// barrier): converged, the same bytes whatever the thread count, every
 /// leaflet touching both others, and no triangle pair of different
-/// leaflets crossing that did not cross in the placed leaflets (exact
-/// triangle–triangle tests; the placement may sew neighbours over each
-/// other at the commissures).
+/// leaflets crossing that did not cross where the closure started, the
+/// sutured leaflets (exact triangle–triangle tests; the placement may sew
+/// neighbours over each other at the commissures, and suturing keeps each
+/// leaflet in its own sector with planes, not with contact).
 #[test]
 fn sample_valve_closes_with_leaflet_contact_without_crossing() {
     use coapt::geom::bvh::Bvh;
@@ -279,8 +291,18 @@ fn sample_valve_closes_with_leaflet_contact_without_crossing() {
         let bvh = Bvh::build(&x, &m.triangles);
         tri_tri::intersecting_pairs(&x, &m.triangles, &body, &bvh)
     };
-    let before = vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
     let after = vtp::read_mesh(&d.join("closed1.vtp")).unwrap();
+    let mut before = after.clone();
+    let sewn = after
+        .point_data
+        .get("sutured_position")
+        .expect("the closure sutured first")
+        .values
+        .to_f64()
+        .unwrap();
+    for (i, p) in before.vertices.iter_mut().enumerate() {
+        *p = coapt::geom::Point3::new(sewn[3 * i], sewn[3 * i + 1], sewn[3 * i + 2]);
+    }
     let (c0, c1) = (crossing(&before), crossing(&after));
     assert!(
         c1.iter().all(|p| c0.contains(p)),
@@ -316,4 +338,112 @@ fn sample_valve_closes_with_leaflet_contact_without_crossing() {
         assert_eq!(bits.count_ones(), 2, "leaflet {k} touches {bits:b}");
         assert_eq!(bits & (1 << (k - 1)), 0, "leaflet {k} touches itself");
     }
+}
+
+/// The suturing pre-stage (seed 001 Algorithm 1) runs by default on placed
+/// leaflets: closure.json records its rounds (K doubling from k0 until
+/// max sin φ < 0.01), closed.vtp carries the sutured positions with the
+/// sutures unmoved, and the closure's displacement is measured from the
+/// placed leaflets. Leaflets that say they are sutured (field data
+/// `sutured` = 1) are closed as they are, and `mode = "off"` does the same.
+#[test]
+fn placed_leaflets_are_sutured_first_unless_they_say_they_are() {
+    use coapt::geom::{DataArray, DataValues};
+    use coapt::io::vtp;
+    let d = tmpdir("close-suture");
+    let surface = sample_leaflets(&d);
+    let cfg = repo().join("pipelines/close.toml");
+    let run = |leaflets: &Path, cfg: &Path, name: &str| {
+        let out = d.join(format!("{name}.vtp"));
+        let log = d.join(format!("{name}.json"));
+        let o = close(
+            leaflets,
+            &surface,
+            cfg,
+            &out,
+            &[
+                "--valve",
+                &s(&d.join("valve.json")),
+                "--log",
+                &s(&log),
+                "--quiet",
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        (vtp::read_mesh(&out).unwrap(), json(&log))
+    };
+    let (closed, log) = run(&d.join("leaflets.vtp"), &cfg, "sewn");
+    let su = &log["suturing"];
+    assert_eq!(su["status"], "sewn", "{su}");
+    assert!(su["max_sin_phi"].as_f64().unwrap() < 0.01);
+    assert!(su["initial_max_sin_phi"].as_f64().unwrap() > 0.5);
+    let rounds = su["rounds"].as_array().unwrap();
+    assert!(rounds.len() > 3);
+    for (i, r) in rounds.iter().enumerate() {
+        assert_eq!(r["k_n_per_mm"].as_f64().unwrap(), 2f64.powi(i as i32));
+    }
+    assert_eq!(log["config"]["reference"], "sutured");
+    let placed = vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
+    let bnd = placed
+        .point_data
+        .get("boundary")
+        .unwrap()
+        .values
+        .to_f64()
+        .unwrap();
+    let sewn = closed
+        .point_data
+        .get("sutured_position")
+        .unwrap()
+        .values
+        .to_f64()
+        .unwrap();
+    let disp = closed
+        .point_data
+        .get("displacement")
+        .unwrap()
+        .values
+        .to_f64()
+        .unwrap();
+    let mut moved = 0.0f64;
+    for (i, p) in placed.vertices.iter().enumerate() {
+        let q = coapt::geom::Point3::new(sewn[3 * i], sewn[3 * i + 1], sewn[3 * i + 2]);
+        if bnd[i] == 1.0 {
+            assert_eq!(q, *p, "suturing moved a sutured node");
+        }
+        moved = moved.max((q - p).norm());
+        let c = closed.vertices[i];
+        for k in 0..3 {
+            assert!((c[k] - p[k] - disp[3 * i + k]).abs() < 1e-9);
+        }
+    }
+    assert!(moved > 0.5, "suturing moved nothing ({moved} mm)");
+
+    // The same leaflets, marked as sutured: closed from where they are.
+    let mut marked = placed.clone();
+    marked
+        .field_data
+        .insert(DataArray::new("sutured", 1, DataValues::U8(vec![1])));
+    let mpath = d.join("marked.vtp");
+    std::fs::write(&mpath, {
+        let mut b = Vec::new();
+        vtp::encode(&mut b, &marked.to_polydata(), &vtp::WriteOptions::default()).unwrap();
+        b
+    })
+    .unwrap();
+    let (c_marked, log_marked) = run(&mpath, &cfg, "marked");
+    assert!(
+        log_marked["suturing"]
+            .as_str()
+            .unwrap()
+            .contains("say they are sutured")
+    );
+    assert!(c_marked.point_data.get("sutured_position").is_none());
+    let text = std::fs::read_to_string(&cfg).unwrap() + "\n[suture]\nmode = \"off\"\n";
+    let off = d.join("off.toml");
+    std::fs::write(&off, text).unwrap();
+    let (c_off, log_off) = run(&d.join("leaflets.vtp"), &off, "off");
+    assert!(log_off["suturing"].as_str().unwrap().contains("off"));
+    assert_eq!(c_off.vertices, c_marked.vertices);
+    assert_ne!(c_off.vertices, closed.vertices);
 }
