@@ -5,6 +5,7 @@
 pub mod close;
 pub mod phantom;
 pub mod pipeline;
+pub mod seed001;
 pub mod segment;
 pub mod stress_close;
 pub mod surface;
