@@ -1,8 +1,13 @@
-//! `cargo bench --bench mesher`: our advancing-front mesher against spade's
-//! constrained Delaunay refinement (Ruppert, 25° angle limit, max area of
-//! the equilateral triangle of side h) on the same boundary nodes, h = 0.5 mm.
-//! Prints time per leaflet (median of 5) and quality for both.
-//! (gmsh/Triangle via `tools/` is not wired up yet.)
+//! `cargo bench --bench mesher [-- --outlines-dir DIR]`: our advancing-front
+//! mesher against spade's constrained Delaunay refinement (Ruppert, 25°
+//! angle limit, max area of the equilateral triangle of side h) on the same
+//! boundary nodes, h = 0.5 mm. Prints time per leaflet (median of 7) and
+//! quality for both, and the ratio ours / spade.
+//!
+//! With `--outlines-dir DIR` it also writes, per template, DIR/NN.json with
+//! the boundary nodes exactly as our mesher splits the outline (Triangle
+//! and gmsh get the same nodes), both meshes and both timings, for
+//! `tools/mesh_crosscheck.py`, which adds Triangle and gmsh to the table.
 
 use std::collections::HashSet;
 use std::f64::consts::PI;
@@ -11,9 +16,12 @@ use std::time::Instant;
 use coapt::leaflet::aft::{self, shape};
 use coapt::leaflet::seed001::Seed001;
 use coapt::leaflet::template::{ArcTemplate, OzakiTemplate, Template};
+use serde_json::json;
 use spade::{
     AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation,
 };
+
+const REPS: usize = 7;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -61,10 +69,20 @@ fn spade_mesh(bpts: &[[f64; 2]], h: f64) -> Vec<[[f64; 2]; 3]> {
 }
 
 fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let dir = args
+        .iter()
+        .position(|a| a == "--outlines-dir")
+        .and_then(|i| args.get(i + 1))
+        .map(std::path::PathBuf::from);
+    if let Some(d) = &dir {
+        std::fs::create_dir_all(d).expect("create --outlines-dir");
+    }
     let h = 0.5;
     let templates = vec![
         Template::Ozaki(OzakiTemplate::new(19.0, 11.0, 2.0, 24.0).unwrap()),
         Template::Arc(ArcTemplate::ozaki_size(21).unwrap()),
+        Template::Arc(ArcTemplate::ozaki_size(35).unwrap()),
         Template::Arc(ArcTemplate::new(12.0, 10f64.to_radians(), 13.0, 13.0).unwrap()),
         Template::Seed001(
             Seed001::new(15.0, 2.0 * PI / 3.0 - 0.4, 1.5, 15.0, -2.0 * PI / 9.0).unwrap(),
@@ -74,10 +92,10 @@ fn main() {
         "{:<44} {:>6} {:>8} {:>6} {:>6} | {:>6} {:>8} {:>6} {:>6} | {:>6}",
         "template (h = 0.5 mm)", "tris", "ms", "minang", "q", "tris", "ms", "minang", "q", "ratio"
     );
-    for t in &templates {
+    for (ti, t) in templates.iter().enumerate() {
         let o = t.outline();
-        let (bpts, _) = o.discretise(h);
-        let ours: Vec<f64> = (0..5)
+        let (bpts, tags) = o.discretise(h);
+        let ours: Vec<f64> = (0..REPS)
             .map(|_| {
                 let t0 = Instant::now();
                 std::hint::black_box(aft::mesh(&o, h).unwrap());
@@ -86,14 +104,15 @@ fn main() {
             .collect();
         let m = aft::mesh(&o, h).unwrap();
         let s = m.stats(h);
-        let sp: Vec<f64> = (0..5)
+        let sp: Vec<f64> = (0..REPS)
             .map(|_| {
                 let t0 = Instant::now();
                 std::hint::black_box(spade_mesh(&bpts, h));
                 t0.elapsed().as_secs_f64() * 1e3
             })
             .collect();
-        let (n2, a2, q2) = quality(&spade_mesh(&bpts, h));
+        let spm = spade_mesh(&bpts, h);
+        let (n2, a2, q2) = quality(&spm);
         let (to, ts) = (median(ours), median(sp));
         println!(
             "{:<44} {:>6} {:>8.2} {:>6.1} {:>6.3} | {:>6} {:>8.2} {:>6.1} {:>6.3} | {:>6.2}",
@@ -108,5 +127,18 @@ fn main() {
             q2,
             to / ts
         );
+        if let Some(d) = &dir {
+            let doc = json!({
+                "template": t.name(),
+                "h_mm": h,
+                "boundary_mm": bpts,
+                "sutured": tags.iter().map(|e| e.code() == 1).collect::<Vec<_>>(),
+                "ours": {"ms": to, "nodes_mm": m.nodes, "tris": m.tris},
+                "spade": {"ms": ts, "tris_mm": spm},
+            });
+            let path = d.join(format!("{ti:02}.json"));
+            std::fs::write(&path, serde_json::to_string(&doc).unwrap() + "\n")
+                .expect("write outline json");
+        }
     }
 }

@@ -132,17 +132,47 @@ impl Grid {
         }
     }
 
-    /// Ids in the cells meeting the box, sorted and unique (deterministic).
-    fn query(&self, lo: P2, hi: P2, out: &mut Vec<u32>) {
-        out.clear();
+    /// Take `id` out of the cells meeting the box it was inserted with.
+    fn remove(&mut self, id: u32, lo: P2, hi: P2) {
         let (i0, i1, j0, j1) = self.range(lo, hi);
         for j in j0..=j1 {
             for i in i0..=i1 {
-                out.extend_from_slice(&self.buckets[j * self.nx + i]);
+                let b = &mut self.buckets[j * self.nx + i];
+                if let Some(k) = b.iter().position(|&x| x == id) {
+                    b.swap_remove(k);
+                }
             }
         }
-        out.sort_unstable();
-        out.dedup();
+    }
+
+    /// Ids in the cells meeting the box, in cell order (deterministic); an
+    /// id stored in several cells is listed once when `seen` is given
+    /// (stamp per id: no sort needed — the profile's top entry before).
+    fn query(&self, lo: P2, hi: P2, out: &mut Vec<u32>, seen: Option<(&mut Vec<u32>, u32)>) {
+        out.clear();
+        let (i0, i1, j0, j1) = self.range(lo, hi);
+        match seen {
+            None => {
+                for j in j0..=j1 {
+                    for i in i0..=i1 {
+                        out.extend_from_slice(&self.buckets[j * self.nx + i]);
+                    }
+                }
+            }
+            Some((st, stamp)) => {
+                for j in j0..=j1 {
+                    for i in i0..=i1 {
+                        for &id in &self.buckets[j * self.nx + i] {
+                            let slot = &mut st[id as usize];
+                            if *slot != stamp {
+                                *slot = stamp;
+                                out.push(id);
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -157,6 +187,8 @@ struct Front {
     heap: BinaryHeap<Reverse<(u64, u32)>>,
     tris: Vec<[u32; 3]>,
     scratch: Vec<u32>,
+    edge_seen: Vec<u32>,
+    stamp: u32,
 }
 
 impl Front {
@@ -176,19 +208,39 @@ impl Front {
         self.map.insert([a, b], id);
         self.deg[a as usize] += 1;
         self.deg[b as usize] += 1;
-        let lo = [pa[0].min(pb[0]), pa[1].min(pb[1])];
-        let hi = [pa[0].max(pb[0]), pa[1].max(pb[1])];
+        self.edge_seen.push(0);
+        let (lo, hi) = bbox(pa, pb);
         self.edge_grid.insert(id, lo, hi);
         let key = (dist(pa, pb) * penalty).to_bits();
         self.heap.push(Reverse((key, id)));
     }
 
+    /// Dead edges and closed nodes leave the grids, so queries scan only
+    /// the live front (a closed node never rejoins it).
     fn kill_edge(&mut self, id: u32) {
         let [a, b] = self.edges[id as usize];
         self.alive[id as usize] = false;
         self.map.remove(&[a, b]);
-        self.deg[a as usize] -= 1;
-        self.deg[b as usize] -= 1;
+        let (pa, pb) = (self.nodes[a as usize], self.nodes[b as usize]);
+        let (lo, hi) = bbox(pa, pb);
+        self.edge_grid.remove(id, lo, hi);
+        for v in [a, b] {
+            self.deg[v as usize] -= 1;
+            if self.deg[v as usize] == 0 {
+                let p = self.nodes[v as usize];
+                self.node_grid.remove(v, p, p);
+            }
+        }
+    }
+
+    fn query_edges(&mut self, lo: P2, hi: P2, out: &mut Vec<u32>) {
+        self.stamp = self.stamp.wrapping_add(1);
+        if self.stamp == 0 {
+            self.edge_seen.iter_mut().for_each(|x| *x = u32::MAX);
+            self.stamp = 1;
+        }
+        self.edge_grid
+            .query(lo, hi, out, Some((&mut self.edge_seen, self.stamp)));
     }
 
     /// Can triangle (a, b, c) be cut off the front at edge `ab`?
@@ -218,7 +270,7 @@ impl Front {
         ];
         let mut ids = std::mem::take(&mut self.scratch);
         let mut ok = true;
-        self.edge_grid.query(lo, hi, &mut ids);
+        self.query_edges(lo, hi, &mut ids);
         for &e in &ids {
             if !self.alive[e as usize] || e == ab {
                 continue;
@@ -236,7 +288,7 @@ impl Front {
             }
         }
         if ok {
-            self.node_grid.query(lo, hi, &mut ids);
+            self.node_grid.query(lo, hi, &mut ids, None);
             for &k in &ids {
                 if self.deg[k as usize] == 0 || k == a || k == b || Some(k) == c_id {
                     continue;
@@ -313,6 +365,13 @@ fn crosses(i1: u32, i2: u32, p1: P2, p2: P2, j1: u32, j2: u32, q1: P2, q2: P2) -
     true
 }
 
+fn bbox(a: P2, b: P2) -> (P2, P2) {
+    (
+        [a[0].min(b[0]), a[1].min(b[1])],
+        [a[0].max(b[0]), a[1].max(b[1])],
+    )
+}
+
 fn seg_dist(p: P2, a: P2, b: P2) -> f64 {
     let ab = [b[0] - a[0], b[1] - a[1]];
     let l2 = ab[0] * ab[0] + ab[1] * ab[1];
@@ -365,6 +424,8 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
         heap: BinaryHeap::new(),
         tris: Vec::new(),
         scratch: Vec::new(),
+        edge_seen: Vec::new(),
+        stamp: 0,
     };
     for &p in &bpts {
         f.add_node(p);
@@ -398,6 +459,7 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
             [pstar[0] - rs, pstar[1] - rs],
             [pstar[0] + rs, pstar[1] + rs],
             &mut near,
+            None,
         );
         cand.clear();
         for &k in &near {
@@ -487,26 +549,24 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
 /// One sweep of quality-improving Lawson flips (deterministic order).
 /// Returns the number of flips.
 fn flip_pass(m: &mut FlatMesh) -> usize {
-    let mut edge_tris: HashMap<[u32; 2], Vec<u32>> = HashMap::default();
+    // Edge → triangles by sorting (edge key, triangle): interior edges are
+    // the equal-key neighbours, in key order, lower triangle first.
+    let mut et: Vec<(u64, u32)> = Vec::with_capacity(3 * m.tris.len());
     for (t, tri) in m.tris.iter().enumerate() {
         for k in 0..3 {
             let (p, q) = (tri[k], tri[(k + 1) % 3]);
-            edge_tris
-                .entry([p.min(q), p.max(q)])
-                .or_default()
-                .push(t as u32);
+            et.push((((p.min(q) as u64) << 32) | p.max(q) as u64, t as u32));
         }
     }
-    let mut keys: Vec<[u32; 2]> = edge_tris
-        .iter()
-        .filter(|(_, v)| v.len() == 2)
-        .map(|(k, _)| *k)
+    et.sort_unstable();
+    let pairs: Vec<([u32; 2], [u32; 2])> = et
+        .windows(2)
+        .filter(|w| w[0].0 == w[1].0)
+        .map(|w| ([(w[0].0 >> 32) as u32, w[0].0 as u32], [w[0].1, w[1].1]))
         .collect();
-    keys.sort_unstable();
     let mut touched = vec![false; m.tris.len()];
     let mut flips = 0;
-    for key in keys {
-        let ts = &edge_tris[&key];
+    for (key, ts) in pairs {
         let (t1, t2) = (ts[0] as usize, ts[1] as usize);
         if touched[t1] || touched[t2] {
             continue;

@@ -2,6 +2,7 @@
 //! their placement in the patient's root.
 
 pub mod aft;
+pub mod crossings;
 pub mod outline;
 pub mod place;
 pub mod seed001;

@@ -4,6 +4,7 @@
 use serde_json::{Value as Json, json};
 
 use super::aft;
+use super::crossings;
 use super::outline::Edge;
 use super::place::{self, Path3};
 use super::template::{Template, read_templates};
@@ -126,8 +127,8 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         ));
     }
     let surf_path = io.input("surface").expect("required");
-    let wall =
-        Wall::new(&vtp::read_mesh(surf_path)?).map_err(|e| Error::bad_input(surf_path, e))?;
+    let surface = vtp::read_mesh(surf_path)?;
+    let wall = Wall::new(&surface).map_err(|e| Error::bad_input(surf_path, e))?;
     let templates = read_templates(io.input("template").expect("required"))?;
     let h = params.quantity("h");
     let theta = params.quantity("fiber_angle");
@@ -136,6 +137,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let mut per = Vec::new();
     // Timings go to the run record, not the artifact: outputs depend on inputs only.
     let mut mesh_ms_all = Vec::new();
+    let mut commissures = Vec::new();
     for k in 0..3 {
         let t: &Template = &templates[k];
         let outline = t.outline();
@@ -146,6 +148,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         mesh_ms_all.push(mesh_ms);
         let (s, w) = place::column_coords(t, &m);
         let path = Path3::new(pd.lines[k].iter().map(|&i| pd.points[i as usize]).collect());
+        commissures.push(path.at(0.0));
         let omega = match t {
             Template::Seed001(s) => s.omega,
             _ => params.quantity("omega"),
@@ -203,6 +206,12 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         }));
         progress.set((k + 1) as f64 / 3.5);
     }
+    let leaf_of: Vec<u16> = lf.iter().map(|&k| k as u16).collect();
+    let sutured: Vec<bool> = bnd.iter().map(|&b| b == 1).collect();
+    let crossings = crossings::summary(&out, &leaf_of, &sutured, &surface, &commissures);
+    if let Some(msg) = crossings.get("warning").and_then(|w| w.as_str()) {
+        tracing::warn!("leaflets: {msg}");
+    }
     out.point_data.insert(DataArray::new(
         "ref_uv",
         2,
@@ -217,7 +226,12 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     out.frame = Frame::Lps;
     out.sanity_check()
         .map_err(|e| Error::failed("leaflets", e.to_string()))?;
-    let summary = json!({"h_mm": h, "fiber_angle_deg": theta.to_degrees(), "leaflets": per});
+    let summary = json!({
+        "h_mm": h,
+        "fiber_angle_deg": theta.to_degrees(),
+        "leaflets": per,
+        "crossings": crossings,
+    });
     let mut tx = Transaction::new();
     let pdo = out.to_polydata();
     tx.write(io.output("leaflets"), |w| {

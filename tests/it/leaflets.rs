@@ -97,3 +97,52 @@ fn phantom_leaflets_stay_in_their_wedges_and_inside_the_wall() {
         }
     }
 }
+
+/// The sample chain's leaflets cross neither each other nor the wall
+/// (exact triangle tests; the suture strip may touch where it is sewn).
+/// Recomputed here from leaflets.vtp and the surface, and leaflets.json
+/// must say the same.
+#[test]
+fn sample_leaflets_cross_neither_each_other_nor_the_wall() {
+    use coapt::leaflet::crossings::{leaflet_pairs, wall_pairs};
+    for template in [
+        "pipelines/templates/ozaki_default.toml",
+        "pipelines/templates/ozaki_sizes.toml",
+        "pipelines/templates/seed001.toml",
+    ] {
+        let d = tmpdir("leaflets-crossings");
+        let surface = sample_valve_and_leaflets(&d, template, &[]);
+        let m = vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
+        let wall = vtp::read_mesh(&surface).unwrap();
+        let DataValues::I32(leaf) = &m.cell_data.get("leaflet").unwrap().values else {
+            panic!()
+        };
+        let DataValues::U8(bnd) = &m.point_data.get("boundary").unwrap().values else {
+            panic!()
+        };
+        let leaf: Vec<u16> = leaf.iter().map(|&k| k as u16).collect();
+        let sutured: Vec<bool> = bnd.iter().map(|&b| b == 1).collect();
+        let (ll, sewn) = leaflet_pairs(&m.vertices, &m.triangles, &leaf, &sutured);
+        let lw = wall_pairs(
+            &m.vertices,
+            &m.triangles,
+            &sutured,
+            &wall.vertices,
+            &wall.triangles,
+        );
+        assert!(ll.is_empty(), "{template}: leaflets cross: {ll:?}");
+        assert!(lw.is_empty(), "{template}: leaflets cross the wall: {lw:?}");
+        // Neighbours are sewn to the same three posts: the strips touch there.
+        let summary: Value =
+            serde_json::from_slice(&std::fs::read(d.join("leaflets.json")).unwrap()).unwrap();
+        let c = &summary["crossings"];
+        assert_eq!(c["leaflet_leaflet_pairs"], 0);
+        assert_eq!(c["leaflet_wall_pairs"], 0);
+        assert_eq!(c["sewn_contacts"].as_u64().unwrap() as usize, sewn.len());
+        assert!(c.get("warning").is_none());
+        for w in c["where"].as_array().unwrap() {
+            assert_eq!(w["kind"], "sewn");
+            assert!(w["max_distance_to_commissure_mm"].as_f64().unwrap() < 3.0);
+        }
+    }
+}
