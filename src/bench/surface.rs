@@ -48,18 +48,63 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
     Ok(())
 }
 
-/// Time `f` `repeat` times; (min, median) seconds and the last result.
-fn timed<T>(repeat: u32, mut f: impl FnMut() -> T) -> (f64, f64, T) {
+/// Wall and CPU times of `repeat` calls of `f`, and the last result.
+struct Timed<T> {
+    min: f64,
+    median: f64,
+    /// Least CPU time of the calling thread over the calls, when known.
+    cpu_min: Option<f64>,
+    last: T,
+}
+
+fn timed<T>(repeat: u32, mut f: impl FnMut() -> T) -> Timed<T> {
     let mut times = Vec::new();
+    let mut cpu: Option<f64> = None;
     let mut last = None;
     for _ in 0..repeat {
+        let c = thread_cpu_s();
         let t = Instant::now();
         let r = std::hint::black_box(f());
         times.push(t.elapsed().as_secs_f64());
+        if let (Some(c0), Some(c1)) = (c, thread_cpu_s()) {
+            cpu = Some(cpu.map_or(c1 - c0, |m| m.min(c1 - c0)));
+        }
         last = Some(r);
     }
     let min = times.iter().cloned().fold(f64::INFINITY, f64::min);
-    (min, median(times), last.expect("repeat ≥ 1"))
+    Timed {
+        min,
+        median: median(times),
+        cpu_min: cpu,
+        last: last.expect("repeat ≥ 1"),
+    }
+}
+
+/// CPU seconds the calling thread has run. In a one-thread pool the worker
+/// does all the work, so this is the work's cost whatever else the machine
+/// runs (wall time on a shared machine includes the other processes' turns).
+#[cfg(all(target_os = "linux", target_pointer_width = "64"))]
+fn thread_cpu_s() -> Option<f64> {
+    #[repr(C)]
+    struct Timespec {
+        sec: i64,
+        nsec: i64,
+    }
+    unsafe extern "C" {
+        fn clock_gettime(clock: i32, ts: *mut Timespec) -> i32;
+    }
+    const CLOCK_THREAD_CPUTIME_ID: i32 = 3;
+    let mut ts = Timespec { sec: 0, nsec: 0 };
+    // SAFETY: `ts` is a valid, writable timespec in the 64-bit Linux layout
+    // (time_t and long are both 64 bits), and the clock id is a constant the
+    // kernel defines.
+    let rc = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    (rc == 0).then(|| ts.sec as f64 + ts.nsec as f64 * 1e-9)
+}
+
+#[cfg(not(all(target_os = "linux", target_pointer_width = "64")))]
+fn thread_cpu_s() -> Option<f64> {
+    None
 }
 
 /// Samples the bound pass reads: summed as i64 over chunks (so the compiler
@@ -120,28 +165,33 @@ fn measure<T: Summed>(vol: &Volume<T>, iso: f64, repeat: u32, threads: usize) ->
     let mut identical = true;
     for &t in &counts {
         let p = pool(t)?;
-        let (bw_min, bw_med, sum) = p.install(|| {
+        let bw = p.install(|| {
             timed(repeat, || {
                 data.par_chunks(1 << 16).map(T::chunk_sum).sum::<i64>()
             })
         });
-        let (mc_min, mc_med, s) = p.install(|| timed(repeat, || extract(vol, iso)));
+        let mc = p.install(|| timed(repeat, || extract(vol, iso)));
         match &first {
-            None => first = Some(s),
+            None => first = Some(mc.last),
             Some(f) => {
-                identical &= f.vertices == s.vertices
-                    && f.triangles == s.triangles
-                    && f.on_border == s.on_border;
+                identical &= f.vertices == mc.last.vertices
+                    && f.triangles == mc.last.triangles
+                    && f.on_border == mc.last.on_border;
             }
         }
-        rows.push(json!({
+        let mut row = json!({
             "threads": t,
-            "one_pass_s": {"min": bw_min, "median": bw_med},
-            "one_pass_gb_per_s": std::mem::size_of_val(data) as f64 / bw_min / 1e9,
-            "sample_sum": sum,
-            "marching_cubes_s": {"min": mc_min, "median": mc_med},
-            "marching_cubes_over_one_pass": mc_min / bw_min,
-        }));
+            "one_pass_s": {"min": bw.min, "median": bw.median},
+            "one_pass_gb_per_s": std::mem::size_of_val(data) as f64 / bw.min / 1e9,
+            "sample_sum": bw.last,
+            "marching_cubes_s": {"min": mc.min, "median": mc.median},
+            "marching_cubes_over_one_pass": mc.min / bw.min,
+        });
+        if let (1, Some(b), Some(m)) = (t, bw.cpu_min, mc.cpu_min) {
+            row["cpu_s"] = json!({"one_pass": b, "marching_cubes": m});
+            row["cpu_marching_cubes_over_one_pass"] = json!(m / b);
+        }
+        rows.push(row);
     }
     let s = first.expect("one thread count at least");
     Ok(json!({
@@ -156,6 +206,7 @@ fn measure<T: Summed>(vol: &Volume<T>, iso: f64, repeat: u32, threads: usize) ->
         "marching_cubes_triangles": s.triangles.len(),
         "identical_across_thread_counts": identical,
         "per_threads": rows,
+        "loadavg": std::fs::read_to_string("/proc/loadavg").ok().map(|l| l.trim().to_string()),
     }))
 }
 
@@ -165,10 +216,11 @@ fn stage_timing(mask: &Volume<u8>, iso: f64, repeat: u32, threads: usize) -> Res
         ..SurfaceParams::default()
     };
     let p = pool(threads)?;
-    let (st_min, st_med, r) =
-        p.install(|| timed(repeat.min(3), || surface_from_mask(mask, &params)));
-    let (_, report) = r?;
-    Ok(
-        json!({"threads": threads, "s": {"min": st_min, "median": st_med}, "triangles": report.triangles}),
-    )
+    let st = p.install(|| timed(repeat.min(3), || surface_from_mask(mask, &params)));
+    let (_, report) = st.last?;
+    Ok(json!({
+        "threads": threads,
+        "s": {"min": st.min, "median": st.median},
+        "triangles": report.triangles,
+    }))
 }

@@ -181,8 +181,14 @@ fn cut_edges(a: &[u64], ay: &[u64], az: &[u64], x: usize) -> [u64; 3] {
 /// (1,1)) with both inside and outside corners: the only ones with triangles.
 #[inline]
 fn mixed_cells(rows: &[&[u64]; 4], x: usize) -> (u64, [u64; 4], [u64; 4]) {
-    let lo = rows.map(|r| r[x]);
-    let hi = rows.map(|r| shifted(r, x));
+    // Written out: `array::map` stayed an out-of-line call in the hot loops.
+    let lo = [rows[0][x], rows[1][x], rows[2][x], rows[3][x]];
+    let hi = [
+        shifted(rows[0], x),
+        shifted(rows[1], x),
+        shifted(rows[2], x),
+        shifted(rows[3], x),
+    ];
     let all = lo.iter().chain(&hi).fold(!0, |m, w| m & w);
     let any = lo.iter().chain(&hi).fold(0, |m, w| m | w);
     (any & !all, lo, hi)
@@ -258,6 +264,7 @@ fn bit_extent(row: &[u64]) -> (u32, u32) {
     (first as u32, last as u32 + 1)
 }
 
+#[inline(never)] // one symbol per pass in profiles
 /// Pass 1: the padded bit grid and the box of inside nodes, in padded
 /// coordinates ([lo, hi] per axis, bit / row index), or `None` when empty.
 fn classify<T: Sample>(
@@ -347,18 +354,7 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
         .with_min_len(16)
         .map(|r| {
             let (j, k) = jk(r);
-            let a = g.row(j, k);
-            let (ay, az, ayz) = (g.row(j + 1, k), g.row(j, k + 1), g.row(j + 1, k + 1));
-            let (mut nv, mut nt) = (0, 0);
-            for x in 0..nw {
-                nv += (prefix_counts3(&cut_edges(a, ay, az, x)) >> 56) as u32;
-                let (mut m, lo, hi) = mixed_cells(&[a, ay, az, ayz], x);
-                while m != 0 {
-                    nt += tab.count(case_of(&lo, &hi, m.trailing_zeros()));
-                    m &= m - 1;
-                }
-            }
-            (nv, nt)
+            count_row(&g, tab, j, k)
         })
         .collect();
 
@@ -393,10 +389,6 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
     // A mirroring affine turns outward index-space triangles inward.
     let flip = m.fixed_view::<3, 3>(0, 0).determinant() < 0.0;
     let mm: [[f64; 4]; 3] = [0, 1, 2].map(|r| [0, 1, 2, 3].map(|c| m[(r, c)]));
-    let world = |p: [f64; 3]| {
-        let row = |r: usize| mm[r][0] * p[0] + mm[r][1] * p[1] + mm[r][2] * p[2] + mm[r][3];
-        Point3::new(row(0), row(1), row(2))
-    };
     // Samples of padded row (jp, kp) when it lies inside the volume.
     let data_row = |jp: usize, kp: usize| -> Option<&[T]> {
         (jp >= 1 && kp >= 1 && jp <= dy && kp <= dz).then(|| {
@@ -412,47 +404,9 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
         .enumerate()
         .for_each(|(r, (vs, bs, ts))| {
             let (j, k) = jk(r);
-            let a = g.row(j, k);
-            let (ay, az) = (g.row(j + 1, k), g.row(j, k + 1));
             if !vs.is_empty() {
-                let rows3 = [data_row(j, k), data_row(j + 1, k), data_row(j, k + 1)];
-                let sample = |q: usize, i: i64| -> Option<f64> {
-                    let row = rows3[q]?;
-                    (i >= 0 && (i as usize) < dx).then(|| row[i as usize].value())
-                };
-                let (vj, vk) = (j as f64 - 1.0, k as f64 - 1.0);
-                let mut n = 0;
-                for x in 0..nw {
-                    let e = cut_edges(a, ay, az, x);
-                    let mut any = e[0] | e[1] | e[2];
-                    while any != 0 {
-                        let p = any.trailing_zeros();
-                        any &= any - 1;
-                        let vi = (64 * (g.w0 + x) + p as usize) as i64 - 1;
-                        let f0 = sample(0, vi);
-                        for (axis, ea) in e.iter().enumerate() {
-                            if ea >> p & 1 == 0 {
-                                continue;
-                            }
-                            let f1 = match axis {
-                                0 => sample(0, vi + 1),
-                                1 => sample(1, vi),
-                                _ => sample(2, vi),
-                            };
-                            // A padding node sits just outside: the vertex goes
-                            // half-way, as if the mask continued to the border.
-                            let t = match (f0, f1) {
-                                (Some(x), Some(y)) => (iso - x) / (y - x),
-                                _ => 0.5,
-                            };
-                            let mut pt = [vi as f64, vj, vk];
-                            pt[axis] += t;
-                            vs[n] = world(pt);
-                            bs[n] = f0.is_none() || f1.is_none();
-                            n += 1;
-                        }
-                    }
-                }
+                let samples = [data_row(j, k), data_row(j + 1, k), data_row(j, k + 1)];
+                let n = emit_vertices(&g, j, k, samples, dx, iso, &mm, vs, bs);
                 debug_assert_eq!(n, vs.len());
             }
             if !ts.is_empty() {
@@ -483,10 +437,90 @@ const EDGE_SLOT: [(u8, u8); 12] = {
     t
 };
 
+/// Vertices of node row (j, k) (padded) into `vs` and `bs`, from the samples
+/// of the node row and its +y and +z neighbours (`None`: padding). Returns
+/// how many were written.
+#[inline(never)] // one symbol per pass in profiles
+#[allow(clippy::too_many_arguments)]
+fn emit_vertices<T: Sample>(
+    g: &BitGrid,
+    j: usize,
+    k: usize,
+    samples: [Option<&[T]>; 3],
+    dx: usize,
+    iso: f64,
+    mm: &[[f64; 4]; 3],
+    vs: &mut [Point3],
+    bs: &mut [bool],
+) -> usize {
+    let (a, ay, az) = (g.row(j, k), g.row(j + 1, k), g.row(j, k + 1));
+    let sample = |q: usize, i: i64| -> Option<f64> {
+        let row = samples[q]?;
+        (i >= 0 && (i as usize) < dx).then(|| row[i as usize].value())
+    };
+    let world = |p: [f64; 3]| {
+        let row = |r: usize| mm[r][0] * p[0] + mm[r][1] * p[1] + mm[r][2] * p[2] + mm[r][3];
+        Point3::new(row(0), row(1), row(2))
+    };
+    let (vj, vk) = (j as f64 - 1.0, k as f64 - 1.0);
+    let mut n = 0;
+    for x in 0..a.len() {
+        let e = cut_edges(a, ay, az, x);
+        let mut any = e[0] | e[1] | e[2];
+        while any != 0 {
+            let p = any.trailing_zeros();
+            any &= any - 1;
+            let vi = (64 * (g.w0 + x) + p as usize) as i64 - 1;
+            let f0 = sample(0, vi);
+            for (axis, ea) in e.iter().enumerate() {
+                if ea >> p & 1 == 0 {
+                    continue;
+                }
+                let f1 = match axis {
+                    0 => sample(0, vi + 1),
+                    1 => sample(1, vi),
+                    _ => sample(2, vi),
+                };
+                // A padding node sits just outside: the vertex goes
+                // half-way, as if the mask continued to the border.
+                let t = match (f0, f1) {
+                    (Some(x), Some(y)) => (iso - x) / (y - x),
+                    _ => 0.5,
+                };
+                let mut pt = [vi as f64, vj, vk];
+                pt[axis] += t;
+                vs[n] = world(pt);
+                bs[n] = f0.is_none() || f1.is_none();
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
+/// Pass 2 for node row (j, k) and the cell row above it (padded
+/// coordinates): (vertices, triangles).
+#[inline(never)] // one symbol per pass in profiles
+fn count_row(g: &BitGrid, tab: &CaseTable, j: usize, k: usize) -> (u32, u32) {
+    let a = g.row(j, k);
+    let (ay, az, ayz) = (g.row(j + 1, k), g.row(j, k + 1), g.row(j + 1, k + 1));
+    let (mut nv, mut nt) = (0, 0);
+    for x in 0..a.len() {
+        nv += (prefix_counts3(&cut_edges(a, ay, az, x)) >> 56) as u32;
+        let (mut m, lo, hi) = mixed_cells(&[a, ay, az, ayz], x);
+        while m != 0 {
+            nt += tab.count(case_of(&lo, &hi, m.trailing_zeros()));
+            m &= m - 1;
+        }
+    }
+    (nv, nt)
+}
+
 /// Triangles of cell row (j, k) (padded) into `ts`; `firsts` are the first
 /// vertex ids of its node rows (y, z) = (0,0), (1,0), (0,1), (1,1). Returns
 /// how many were written.
 #[allow(clippy::too_many_arguments)]
+#[inline(never)] // one symbol per pass in profiles
 fn emit_triangles(
     g: &BitGrid,
     tab: &CaseTable,
@@ -503,7 +537,12 @@ fn emit_triangles(
     let nz = [(j, k + 1), (j + 1, k + 1), (j, k + 2), (j + 1, k + 2)].map(|(a, b)| g.row(a, b));
     let edges = |x: usize| -> [[u64; 3]; 4] {
         if x < nw {
-            [0, 1, 2, 3].map(|q| cut_edges(node[q], ny[q], nz[q], x))
+            [
+                cut_edges(node[0], ny[0], nz[0], x),
+                cut_edges(node[1], ny[1], nz[1], x),
+                cut_edges(node[2], ny[2], nz[2], x),
+                cut_edges(node[3], ny[3], nz[3], x),
+            ]
         } else {
             [[0; 3]; 4]
         }
@@ -514,7 +553,12 @@ fn emit_triangles(
     for x in 0..nw {
         let next = edges(x + 1);
         let (mut m, lo, hi) = mixed_cells(&node, x);
-        let prefix = cur.map(|e| prefix_counts3(&e));
+        let prefix = [
+            prefix_counts3(&cur[0]),
+            prefix_counts3(&cur[1]),
+            prefix_counts3(&cur[2]),
+            prefix_counts3(&cur[3]),
+        ];
         while m != 0 {
             let p = m.trailing_zeros();
             m &= m - 1;
@@ -546,10 +590,11 @@ fn emit_triangles(
                 ];
             }
             for t in tab.triangles(case_of(&lo, &hi, p)) {
-                let v = t.map(|e| {
+                let id = |e: u8| {
                     let (q, slot) = EDGE_SLOT[e as usize];
                     ids[q as usize][slot as usize]
-                });
+                };
+                let v = [id(t[0]), id(t[1]), id(t[2])];
                 ts[w] = if flip { [v[0], v[2], v[1]] } else { v };
                 w += 1;
             }
