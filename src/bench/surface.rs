@@ -99,7 +99,7 @@ fn thread_cpu_s() -> Option<f64> {
     // (time_t and long are both 64 bits), and the clock id is a constant the
     // kernel defines.
     let rc = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    (rc == 0).then(|| ts.sec as f64 + ts.nsec as f64 * 1e-9)
+    (rc == 0).then_some(ts.sec as f64 + ts.nsec as f64 * 1e-9)
 }
 
 #[cfg(not(all(target_os = "linux", target_pointer_width = "64")))]
