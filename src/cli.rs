@@ -178,19 +178,7 @@ fn command() -> Command {
                             .value_parser(clap::value_parser!(u32).range(1..=20)),
                     ),
             )
-            .subcommand(
-                Command::new("surface")
-                    .about("Marching cubes vs one pass over the mask, and the default stage (in process, JSON)")
-                    .arg(Arg::new("mask").long("mask").value_name("PATH").required(true).value_parser(clap::value_parser!(PathBuf)))
-                    .arg(Arg::new("iso").long("iso").value_name("X").default_value("0.5").value_parser(clap::value_parser!(f64)))
-                    .arg(
-                        Arg::new("repeat")
-                            .long("repeat")
-                            .value_name("N")
-                            .default_value("5")
-                            .value_parser(clap::value_parser!(u32).range(1..=50)),
-                    ),
-            )
+            .subcommand(bench::surface::command())
             .subcommand(bench::close::command())
             .subcommand(bench::pipeline::command())
             .subcommand(bench::seed001::command())
@@ -432,13 +420,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 println!("{table}");
                 Ok(())
             }
-            Some(("surface", b)) => {
-                let mask = b.get_one::<PathBuf>("mask").expect("required");
-                let iso = *b.get_one::<f64>("iso").expect("has default");
-                let repeat = *b.get_one::<u32>("repeat").expect("has default");
-                println!("{}", bench::surface::run(mask, iso, repeat, threads)?);
-                Ok(())
-            }
+            Some(("surface", b)) => bench::surface::dispatch(b, threads),
             Some(("close", b)) => bench::close::dispatch(b, threads),
             Some(("stress-close", b)) => {
                 let limit = *b.get_one::<f64>("time-limit").expect("has default");

@@ -8,13 +8,23 @@ PHANTOM_DIR is what `coapt phantom` writes (truth_mask.nii.gz, ct.nii.gz,
 truth_surface.vtp). Two masks are meshed, unsmoothed, at iso 0.5:
   truth   the truth mask;
   ct>HU   the CT thresholded at --hu (millions of triangles).
-For each: coapt (`coapt surface --smooth 0 --keep-all`, timed in process by
-`coapt bench surface`), vtkFlyingEdges3D and vtkMarchingCubes (timed around
-Update(), vtkSMPTools initialised to the same thread count), and
-skimage.measure.marching_cubes (Lewiner, single-threaded). Compared:
-vertex and triangle counts, the symmetric Hausdorff distance between the
-vertex sets (mm), how many triangles are the same vertex triples, and how
-many edges of each output are not shared by exactly two triangles.
+For each: coapt (`coapt surface --smooth 0 --keep-all`), vtkFlyingEdges3D
+and vtkMarchingCubes, and skimage.measure.marching_cubes (Lewiner,
+single-threaded). Compared: vertex and triangle counts, the symmetric
+Hausdorff distance between the vertex sets (mm), how many triangles are the
+same vertex triples, and how many edges of each output are not shared by
+exactly two triangles.
+
+Speed, in one run: `coapt bench surface --threads MAX` times coapt's
+extraction at 1 and MAX threads, each against the memory-bandwidth bound
+(one parallel summing pass over the volume's samples at the dtype the
+extractor reads, in a pool of the same size); here vtkFlyingEdges3D is timed
+around Update() with vtkSMPTools (STDThread backend) initialised to each
+thread count in --threads, and its process-CPU / wall time shows how many
+threads it really kept busy. A third input times both on the int16 CT
+itself at iso HU + 0.5 (same inside set as the mask; coapt classifies with
+16-bit integer compares): counts only, since VTK's padding value moves the
+border vertices. The table at the end has the ratios.
 
 VTK and scikit-image get the mask padded by one voxel of zeros (outside the
 timing), as coapt pads internally, so that surfaces cut by the grid border
@@ -29,6 +39,7 @@ Needs numpy, nibabel, vtk, scipy, scikit-image (tools/requirements.txt).
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -70,12 +81,12 @@ def polydata_arrays(pd):
     return pts, tris.astype(np.int64)
 
 
-def image_data(padded):
+def image_data(padded, vtk_type=vtk.VTK_UNSIGNED_CHAR):
     img = vtk.vtkImageData()
     img.SetDimensions(*padded.shape)
     img.SetOrigin(-1.0, -1.0, -1.0)  # index of the padding layer
     img.SetSpacing(1.0, 1.0, 1.0)
-    arr = ns.numpy_to_vtk(padded.ravel(order="F"), deep=True, array_type=vtk.VTK_UNSIGNED_CHAR)
+    arr = ns.numpy_to_vtk(padded.ravel(order="F"), deep=True, array_type=vtk_type)
     img.GetPointData().SetScalars(arr)
     return img
 
@@ -88,13 +99,79 @@ def run_vtk(cls, img, iso, repeat):
     f.ComputeScalarsOff()
     if hasattr(f, "ComputeGradientsOff"):
         f.ComputeGradientsOff()
-    times = []
+    times, cpu = [], []
     for _ in range(repeat):
         f.Modified()
+        c = time.process_time()
         t = time.perf_counter()
         f.Update()
         times.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
+    best = int(np.argmin(times))
+    run_vtk.cpu_over_wall = cpu[best] / times[best]
+    run_vtk.cpu_min = min(cpu)
     return min(times), float(np.median(times)), polydata_arrays(f.GetOutput())
+
+
+def time_both(a, path, iso, img_vtk, threads):
+    """coapt's bench (1 and max threads) and vtkFlyingEdges3D at each count."""
+    out = json.loads(subprocess.run(
+        [a.coapt, "bench", "surface", "--mask", str(path), "--iso", str(iso), "--repeat",
+         str(a.repeat), "--threads", str(max(threads)), "--quiet"],
+        check=True, capture_output=True, text=True).stdout)
+    out["coapt_vertices"] = out.pop("marching_cubes_vertices")
+    out["coapt_triangles"] = out.pop("marching_cubes_triangles")
+    coapt = {row["threads"]: row for row in out["per_threads"]}
+    rows = []
+    for t in threads:
+        vtk.vtkSMPTools.SetBackend("STDThread")
+        vtk.vtkSMPTools.Initialize(t)
+        fe_min, fe_med, fe_out = run_vtk(vtk.vtkFlyingEdges3D, img_vtk, iso, a.repeat)
+        row = {
+            "threads": t,
+            "vtk_smp_threads": vtk.vtkSMPTools.GetEstimatedNumberOfThreads(),
+            "vtk_flying_edges_s": {"min": fe_min, "median": fe_med},
+            "vtk_cpu_over_wall": run_vtk.cpu_over_wall,
+            "vtk_process_cpu_s": run_vtk.cpu_min,
+        }
+        if t in coapt:
+            c = coapt[t]
+            row.update({
+                "one_pass_s": c["one_pass_s"]["min"],
+                "coapt_s": c["marching_cubes_s"],
+                "coapt_over_one_pass": c["marching_cubes_over_one_pass"],
+                "vtk_over_coapt": fe_min / c["marching_cubes_s"]["min"],
+            })
+            if "cpu_s" in c:
+                row["coapt_cpu_s"] = c["cpu_s"]["marching_cubes"]
+                row["one_pass_cpu_s"] = c["cpu_s"]["one_pass"]
+        rows.append(row)
+    out["per_threads"] = rows
+    out["vtk_output"] = fe_out
+    return out
+
+
+def print_speed_table(results):
+    print(f"\n{'input':<22}{'thr':>4}{'one pass ms':>13}{'coapt ms':>10}{'coapt/pass':>12}"
+          f"{'VTK FE ms':>11}{'VTK/coapt':>11}{'VTK cpu/wall':>14}")
+    for name, r in results["masks"].items():
+        for row in r["speed"]["per_threads"]:
+            if "coapt_s" not in row:
+                continue
+            print(f"{name:<22}{row['threads']:>4}{1e3 * row['one_pass_s']:>13.1f}"
+                  f"{1e3 * row['coapt_s']['min']:>10.1f}{row['coapt_over_one_pass']:>12.1f}"
+                  f"{1e3 * row['vtk_flying_edges_s']['min']:>11.1f}{row['vtk_over_coapt']:>11.2f}"
+                  f"{row['vtk_cpu_over_wall']:>14.2f}")
+    print("\nOne thread, CPU time (not inflated by other processes on the machine):")
+    print(f"{'input':<22}{'one pass ms':>13}{'coapt ms':>10}{'coapt/pass':>12}{'VTK FE ms':>11}{'VTK/coapt':>11}")
+    for name, r in results["masks"].items():
+        for row in r["speed"]["per_threads"]:
+            if "coapt_cpu_s" not in row:
+                continue
+            print(f"{name:<22}{1e3 * row['one_pass_cpu_s']:>13.1f}{1e3 * row['coapt_cpu_s']:>10.1f}"
+                  f"{row['coapt_cpu_s'] / row['one_pass_cpu_s']:>12.1f}{1e3 * row['vtk_process_cpu_s']:>11.1f}"
+                  f"{row['vtk_process_cpu_s'] / row['coapt_cpu_s']:>11.2f}")
+    print(f"(min of --repeat runs; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs at the end)", flush=True)
 
 
 def open_edges(tris):
@@ -182,23 +259,9 @@ def main():
         c_pts, c_tris = read_vtp(raw)
         r["coapt"] = {"vertices": len(c_pts), "triangles": len(c_tris), "open_or_nonmanifold_edges": open_edges(c_tris)}
         img_vtk = image_data(padded)
-        for t in threads:
-            bench = json.loads(subprocess.run(
-                [a.coapt, "bench", "surface", "--mask", str(path), "--repeat", str(a.repeat),
-                 "--threads", str(t), "--quiet"], check=True, capture_output=True, text=True).stdout)
-            vtk.vtkSMPTools.SetBackend("STDThread")
-            vtk.vtkSMPTools.Initialize(t)
-            fe_min, fe_med, (fe_pts, fe_tris) = run_vtk(vtk.vtkFlyingEdges3D, img_vtk, 0.5, a.repeat)
-            row = {
-                "coapt_s": bench["marching_cubes_s"]["min"],
-                "one_pass_s": bench["one_pass_s"]["min"],
-                "coapt_over_one_pass": bench["marching_cubes_over_one_pass"],
-                "coapt_stage_default_s": bench["stage_default_s"]["min"],
-                "vtk_flying_edges_s": fe_min,
-                "vtk_smp_threads": vtk.vtkSMPTools.GetEstimatedNumberOfThreads(),
-                "flying_edges_over_coapt": fe_min / bench["marching_cubes_s"]["min"],
-            }
-            r[f"threads_{t}"] = row
+        speed = time_both(a, path, 0.5, img_vtk, threads)
+        fe_pts, fe_tris = speed.pop("vtk_output")
+        r["speed"] = speed
         fe_pts = to_world(fe_pts, aff)
         r["vtkFlyingEdges3D"] = {"vertices": len(fe_pts), "triangles": len(fe_tris), "open_or_nonmanifold_edges": open_edges(fe_tris),
                                  **compare(fe_pts, fe_tris, c_pts, c_tris)}
@@ -216,6 +279,17 @@ def main():
                                 **compare(sk_pts, sk_f.astype(np.int64), c_pts, c_tris)}
         results["masks"][name] = r
         print(json.dumps({name: r}, indent=1), flush=True)
+
+    # The CT itself (int16), classified at the same set as the mask.
+    iso = a.hu + 0.5
+    ct = np.asanyarray(ct_img.dataobj).astype(np.int16)
+    img_ct = image_data(np.pad(ct, 1, constant_values=np.iinfo(np.int16).min), vtk.VTK_SHORT)
+    speed = time_both(a, a.phantom / "ct.nii.gz", iso, img_ct, threads)
+    fe_pts, fe_tris = speed.pop("vtk_output")
+    speed["vtk_vertices"], speed["vtk_triangles"] = len(fe_pts), len(fe_tris)
+    results["masks"][f"ct int16 iso {iso:g}"] = {"speed": speed}
+    print(json.dumps({f"ct int16 iso {iso:g}": speed}, indent=1), flush=True)
+    print_speed_table(results)
 
     # Accuracy of the default (smoothed) surface against the analytic truth.
     smooth = tmp / "aorta.vtp"

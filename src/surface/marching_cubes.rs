@@ -1,25 +1,28 @@
-//! Marching cubes in flying-edges passes over x-rows.
+//! Marching cubes in flying-edges passes over x-rows, on bit rows.
 //!
-//! The volume is seen through a one-node frame of "outside" around the
-//! bounding box of its inside samples (the padding that closes surfaces
-//! touching the grid border). Passes:
-//! 1. the one full read: first and last inside sample of every row (the
-//!    bounding box and the per-row trimming follow);
-//! 2. per node row of the box: inside bits, within the row's extent only;
-//! 3. per row: cut x/y/z edges of each node and the vertex count; cases of
-//!    the cell row (vectorised) and the triangle count;
-//! 4. prefix sums give every row its exact slice of the output arrays;
-//! 5. per row: vertices in node order (x, y, z edge), then triangles, whose
-//!    vertex ids follow from running counts along the four node rows of the
-//!    cell row. No hash map, no welding: an edge's vertex is made once, by
-//!    the row that owns the edge's lower node.
+//! The volume is seen through a one-node frame of "outside" around the grid
+//! (the padding that closes surfaces touching the grid border). Every node is
+//! one bit: node (i, j, k) is bit i + 1 of the bit row (j + 1, k + 1), so a
+//! 512-sample row is nine u64 words and 64 edges or cells are classified by a
+//! handful of word operations. Passes:
+//! 1. the one full read: inside bits of every row (64 samples → one word),
+//!    and the bounding box of the inside bits;
+//! 2. per node row of the box: cut x/y/z edges are `a ^ (a >> 1)`, `a ^ a_y`,
+//!    `a ^ a_z` and the vertex count is their popcount; per cell row the cells
+//!    that are neither all in nor all out are `or8 & !and8` of the four rows
+//!    and their shifts, and only those are looked up in the triangle table;
+//! 3. prefix sums give every row its exact slice of the output arrays;
+//! 4. per row: vertices in node order (x, y, z edge), then triangles, whose
+//!    vertex ids are the row's first id plus popcounts of the cut edges before
+//!    the node. No hash map, no welding, no per-cell array: an edge's vertex
+//!    is made once, by the row that owns the edge's lower node.
 //!
-//! Rows are independent, so passes 2, 3 and 5 run in parallel with rayon and
-//! the output does not depend on the thread count.
+//! Rows are independent, so every pass runs in parallel with rayon and the
+//! output does not depend on the thread count.
 
 use rayon::prelude::*;
 
-use super::tables::{EDGE_CORNERS, table};
+use super::tables::{CaseTable, EDGE_CORNERS, table};
 use crate::geom::{Matrix4, Point3, Volume};
 
 /// Sample types the extractor reads.
@@ -31,6 +34,35 @@ pub trait Sample: Copy + Send + Sync {
     /// value > iso
     fn above(self, t: Self::Threshold) -> bool;
     fn value(self) -> f64;
+    /// Bit k set when `s[k]` is above `t`; `s` has at most 64 samples.
+    #[inline]
+    fn bits(s: &[Self], t: Self::Threshold) -> u64 {
+        pack(s, |v| v.above(t))
+    }
+}
+
+/// Bit k set when `f(s[k])`, for at most 64 samples: the compares go to a
+/// byte array (a vectorised loop), eight bytes of 0/1 become eight bits by
+/// one multiply.
+#[inline]
+fn pack<T: Copy>(s: &[T], f: impl Fn(T) -> bool) -> u64 {
+    let mut b = [0u8; 64];
+    for (o, &v) in b.iter_mut().zip(s) {
+        *o = f(v) as u8;
+    }
+    let mut m = 0;
+    for (k, c) in b.chunks_exact(8).enumerate() {
+        let x = u64::from_le_bytes(c.try_into().expect("8 bytes"));
+        // Byte i (0 or 1) lands on bit 56 + i of the product.
+        m |= (x.wrapping_mul(0x0102_0408_1020_4080) >> 56) << (8 * k);
+    }
+    m
+}
+
+/// All `n` ≤ 64 low bits.
+#[inline]
+fn low_bits(n: usize) -> u64 {
+    if n >= 64 { !0 } else { (1 << n) - 1 }
 }
 
 impl Sample for u8 {
@@ -47,6 +79,15 @@ impl Sample for u8 {
     fn value(self) -> f64 {
         self as f64
     }
+    #[inline]
+    fn bits(s: &[u8], t: i16) -> u64 {
+        // Compare bytes with a byte (no widening); t ∈ [-1, 255].
+        match u8::try_from(t) {
+            Ok(t) => pack(s, |v| v > t),
+            Err(_) if t < 0 => low_bits(s.len()),
+            Err(_) => 0,
+        }
+    }
 }
 
 impl Sample for i16 {
@@ -61,6 +102,15 @@ impl Sample for i16 {
     #[inline]
     fn value(self) -> f64 {
         self as f64
+    }
+    #[inline]
+    fn bits(s: &[i16], t: i32) -> u64 {
+        // Compare 16-bit lanes with a 16-bit threshold; t ∈ [-32769, 32767].
+        match i16::try_from(t) {
+            Ok(t) => pack(s, |v| v > t),
+            Err(_) if t < 0 => low_bits(s.len()),
+            Err(_) => 0,
+        }
     }
 }
 
@@ -88,24 +138,193 @@ pub struct Isosurface {
     pub on_border: Vec<bool>,
 }
 
-/// [first, last + 1) of the samples above the threshold in one row; (0, 0)
-/// when none. Blocks are tested without early exit so the test vectorises.
+/// Inside bits of the padded node grid, `w` words per row, rows (j + 1) +
+/// ny·(k + 1); only words [w0, w1) of a row can hold a cut edge or cell.
+struct BitGrid {
+    words: Vec<u64>,
+    w: usize,
+    ny: usize,
+    nz: usize,
+    w0: usize,
+    w1: usize,
+    zeros: Vec<u64>,
+}
+
+impl BitGrid {
+    /// Words [w0, w1) of padded row (jp, kp); zeros beyond the grid.
+    #[inline]
+    fn row(&self, jp: usize, kp: usize) -> &[u64] {
+        if jp < self.ny && kp < self.nz {
+            let s = (jp + self.ny * kp) * self.w;
+            &self.words[s + self.w0..s + self.w1]
+        } else {
+            &self.zeros[..self.w1 - self.w0]
+        }
+    }
+}
+
+/// Node (x) and its successor's bit (x + 1) for the 64 nodes of word `x`.
 #[inline]
-fn row_extent<T: Sample>(row: &[T], t: T::Threshold) -> (u32, u32) {
-    const B: usize = 64;
-    let any = |c: &[T]| c.iter().fold(false, |acc, &v| acc | v.above(t));
-    let Some(bf) = row.chunks(B).position(any) else {
+fn shifted(a: &[u64], x: usize) -> u64 {
+    // The word after the span is all outside (see `BitGrid::w1`).
+    a[x] >> 1 | a.get(x + 1).map_or(0, |n| n << 63)
+}
+
+/// Cut x, y and z edges of the 64 nodes of word `x` of node row `a`, whose
+/// +y and +z neighbour rows are `ay` and `az`.
+#[inline]
+fn cut_edges(a: &[u64], ay: &[u64], az: &[u64], x: usize) -> [u64; 3] {
+    [a[x] ^ shifted(a, x), a[x] ^ ay[x], a[x] ^ az[x]]
+}
+
+/// Cells of word `x` of a cell row (node rows (y, z) = (0,0), (1,0), (0,1),
+/// (1,1)) with both inside and outside corners: the only ones with triangles.
+#[inline]
+fn mixed_cells(rows: &[&[u64]; 4], x: usize) -> (u64, [u64; 4], [u64; 4]) {
+    // Written out: `array::map` stayed an out-of-line call in the hot loops.
+    let lo = [rows[0][x], rows[1][x], rows[2][x], rows[3][x]];
+    let hi = [
+        shifted(rows[0], x),
+        shifted(rows[1], x),
+        shifted(rows[2], x),
+        shifted(rows[3], x),
+    ];
+    let all = lo.iter().chain(&hi).fold(!0, |m, w| m & w);
+    let any = lo.iter().chain(&hi).fold(0, |m, w| m | w);
+    (any & !all, lo, hi)
+}
+
+/// Case of cell `p` of a word; bit c is corner c = dx + 2·dy + 4·dz.
+#[inline]
+fn case_of(lo: &[u64; 4], hi: &[u64; 4], p: u32) -> u8 {
+    let mut c = 0u8;
+    for q in 0..4 {
+        c |= ((lo[q] >> p & 1) as u8) << (2 * q);
+        c |= ((hi[q] >> p & 1) as u8) << (2 * q + 1);
+    }
+    c
+}
+
+/// Byte i: how many of bits 8i..8i+8 of the three words are set (≤ 24).
+/// The target has no popcount instruction, so the three words share one
+/// bit-slicing count, and one multiply turns bytes into prefix sums.
+#[inline]
+fn byte_counts3(e: &[u64; 3]) -> u64 {
+    const M1: u64 = 0x5555_5555_5555_5555;
+    const M2: u64 = 0x3333_3333_3333_3333;
+    const M4: u64 = 0x0f0f_0f0f_0f0f_0f0f;
+    // Nibbles of each word count ≤ 4; summed over three words ≤ 12.
+    let nib = |x: u64| {
+        let x = x - (x >> 1 & M1);
+        (x & M2) + (x >> 2 & M2)
+    };
+    let s = nib(e[0]) + nib(e[1]) + nib(e[2]);
+    (s & M4) + (s >> 4 & M4)
+}
+
+/// Byte i: the set bits of the three words below bit 8(i + 1) (≤ 192).
+#[inline]
+fn prefix_counts3(e: &[u64; 3]) -> u64 {
+    byte_counts3(e).wrapping_mul(0x0101_0101_0101_0101)
+}
+
+/// Set bits of the three words below bit `p` < 64, from their prefix counts.
+#[inline]
+fn count_below(e: &[u64; 3], prefix: u64, p: u32) -> u32 {
+    let byte = p / 8;
+    let whole = if byte == 0 {
+        0
+    } else {
+        (prefix >> (8 * byte - 8) & 0xff) as u32
+    };
+    let low = (1u32 << (p % 8)) - 1;
+    let part = |x: u64| POP8[(x >> (8 * byte)) as usize & low as usize] as u32;
+    whole + part(e[0]) + part(e[1]) + part(e[2])
+}
+
+/// Set bits of every byte value.
+const POP8: [u8; 256] = {
+    let mut t = [0u8; 256];
+    let mut i = 0;
+    while i < 256 {
+        t[i] = (i as u32).count_ones() as u8;
+        i += 1;
+    }
+    t
+};
+
+/// [first, last + 1) of the set bits of a row; (0, 0) when none.
+fn bit_extent(row: &[u64]) -> (u32, u32) {
+    let Some(f) = row.iter().position(|&w| w != 0) else {
         return (0, 0);
     };
-    let first = bf * B + row[bf * B..].iter().position(|v| v.above(t)).unwrap();
-    let nb = row.len().div_ceil(B);
-    let bl = (0..nb)
-        .rev()
-        .find(|&b| any(&row[b * B..((b + 1) * B).min(row.len())]))
-        .unwrap();
-    let end = ((bl + 1) * B).min(row.len());
-    let last = bl * B + row[bl * B..end].iter().rposition(|v| v.above(t)).unwrap();
+    let l = row.iter().rposition(|&w| w != 0).expect("a word is set");
+    let first = 64 * f + row[f].trailing_zeros() as usize;
+    let last = 64 * l + 63 - row[l].leading_zeros() as usize;
     (first as u32, last as u32 + 1)
+}
+
+#[inline(never)] // one symbol per pass in profiles
+/// Pass 1: the padded bit grid and the box of inside nodes, in padded
+/// coordinates ([lo, hi] per axis, bit / row index), or `None` when empty.
+fn classify<T: Sample>(
+    data: &[T],
+    dims: [usize; 3],
+    thr: T::Threshold,
+) -> Option<(BitGrid, [[usize; 2]; 3])> {
+    let [dx, dy, dz] = dims;
+    let (ny, nz) = (dy + 2, dz + 2);
+    let w = (dx + 2).div_ceil(64);
+    let mut words = vec![0u64; w * ny * nz];
+    let extent: Vec<(u32, u32)> = words
+        .par_chunks_mut(w)
+        .with_min_len(64)
+        .enumerate()
+        .map(|(r, out)| {
+            let (jp, kp) = (r % ny, r / ny);
+            if jp == 0 || kp == 0 || jp > dy || kp > dz {
+                return (0, 0);
+            }
+            let vr = (jp - 1) + dy * (kp - 1);
+            let mut any = 0;
+            for (c, s) in data[vr * dx..(vr + 1) * dx].chunks(64).enumerate() {
+                let m = T::bits(s, thr);
+                any |= m;
+                out[c] |= m << 1;
+                if m >> 63 != 0 {
+                    out[c + 1] |= 1;
+                }
+            }
+            if any == 0 { (0, 0) } else { bit_extent(out) }
+        })
+        .collect();
+    let mut lo = [usize::MAX; 3];
+    let mut hi = [0usize; 3];
+    for (r, &(f, l)) in extent.iter().enumerate() {
+        if l > f {
+            let (jp, kp) = (r % ny, r / ny);
+            lo = [lo[0].min(f as usize), lo[1].min(jp), lo[2].min(kp)];
+            hi = [hi[0].max(l as usize - 1), hi[1].max(jp), hi[2].max(kp)];
+        }
+    }
+    if lo[0] == usize::MAX {
+        return None;
+    }
+    // Cut edges and cells start one node before the first inside node and end
+    // at the last one; the word after `w1` is all outside (it holds bits above
+    // hi + 1, or lies beyond the row).
+    let (w0, w1) = ((lo[0] - 1) / 64, (hi[0] + 1) / 64 + 1);
+    let w1 = w1.min(w);
+    let grid = BitGrid {
+        words,
+        w,
+        ny,
+        nz,
+        w0,
+        w1,
+        zeros: vec![0; w1 - w0],
+    };
+    Some((grid, [0, 1, 2].map(|a| [lo[a] - 1, hi[a] + 1])))
 }
 
 /// Extract the `iso` surface of `vol` (inside: value > iso) in world
@@ -117,123 +336,32 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
     if data.is_empty() {
         return Isosurface::default();
     }
-    let (dx, dy) = (dims[0], dims[1]);
-
-    // Pass 1: the one full read. Extent of the inside samples of every row.
-    let extent: Vec<(u32, u32)> = data
-        .par_chunks(dx)
-        .with_min_len(64)
-        .map(|row| row_extent(row, thr))
-        .collect();
-    let mut lo = [i64::MAX; 3];
-    let mut hi = [i64::MIN; 3];
-    for (r, &(f, l)) in extent.iter().enumerate() {
-        if l > f {
-            let (j, k) = ((r % dy) as i64, (r / dy) as i64);
-            lo = [lo[0].min(f as i64), lo[1].min(j), lo[2].min(k)];
-            hi = [hi[0].max(l as i64 - 1), hi[1].max(j), hi[2].max(k)];
-        }
-    }
-    if lo[0] == i64::MAX {
+    let Some((g, bx)) = classify(data, dims, thr) else {
         return Isosurface::default();
-    }
-    // Node box: the inside box plus one node of outside on every side.
-    let lo = lo.map(|v| v - 1);
-    let hi = hi.map(|v| v + 1);
-    let n = [0, 1, 2].map(|a| (hi[a] - lo[a] + 1) as usize);
-    let rows = n[1] * n[2];
-    // Volume row of node row r, when it lies inside the volume.
-    let vrow = |r: usize| -> Option<usize> {
-        let (j, k) = (lo[1] + (r % n[1]) as i64, lo[2] + (r / n[1]) as i64);
-        (j >= 0 && k >= 0 && j < dy as i64 && k < dims[2] as i64)
-            .then(|| j as usize + dy * k as usize)
     };
-
-    // Pass 2: inside bits of the nodes, within each row's extent.
-    let mut ins = vec![0u8; n[0] * rows];
-    let trim: Vec<(usize, usize)> = ins
-        .par_chunks_mut(n[0])
-        .with_min_len(16)
-        .enumerate()
-        .map(|(r, row)| {
-            let Some(vr) = vrow(r) else { return (0, 0) };
-            let (f, l) = extent[vr];
-            if l <= f {
-                return (0, 0);
-            }
-            let src = &data[vr * dx + f as usize..vr * dx + l as usize];
-            let a0 = (f as i64 - lo[0]) as usize;
-            for (o, v) in row[a0..a0 + src.len()].iter_mut().zip(src) {
-                *o = v.above(thr) as u8;
-            }
-            (a0, a0 + src.len())
-        })
-        .collect();
-
-    // Pass 3: cut-edge bits of each node (bit 0 x, 1 y, 2 z) and vertex count
-    // per node row; cases and triangle count per cell row.
+    let [dx, dy, dz] = dims;
+    // Node rows of the box (one node of outside around the inside nodes).
+    let (j0, k0) = (bx[1][0], bx[2][0]);
+    let nj = bx[1][1] - j0 + 1;
+    let rows = nj * (bx[2][1] - k0 + 1);
+    let jk = |r: usize| (j0 + r % nj, k0 + r / nj);
+    let nw = g.w1 - g.w0;
     let tab = table();
-    let zeros = vec![0u8; n[0]];
-    let ins_row = |r: usize| &ins[r * n[0]..(r + 1) * n[0]];
-    let neighbour = |r: usize, dj: usize, dk: usize| -> Option<usize> {
-        let (j, k) = (r % n[1] + dj, r / n[1] + dk);
-        (j < n[1] && k < n[2]).then_some(j + n[1] * k)
-    };
-    // Nodes (or cells) of a set of rows that can touch an inside node: from
-    // one before the first inside node to the last one, below `len`.
-    let span = |rs: &[Option<usize>], len: usize| -> (usize, usize) {
-        let (mut a, mut b) = (usize::MAX, 0);
-        for &r in rs.iter().flatten() {
-            if trim[r].1 > trim[r].0 {
-                a = a.min(trim[r].0);
-                b = b.max(trim[r].1);
-            }
-        }
-        if a >= b { (0, 0) } else { (a - 1, b.min(len)) }
-    };
-    let mut ebits = vec![0u8; n[0] * rows];
-    // (vertices, triangles, first and end node with cut edges)
-    let counts: Vec<(u32, u32, usize, usize)> = ebits
-        .par_chunks_mut(n[0])
+
+    // Pass 2: vertices per node row, triangles per cell row.
+    let counts: Vec<(u32, u32)> = (0..rows)
+        .into_par_iter()
         .with_min_len(16)
-        .enumerate()
-        .map_init(Vec::new, |cases, (r, eb)| {
-            let (r10, r01, r11) = (neighbour(r, 1, 0), neighbour(r, 0, 1), neighbour(r, 1, 1));
-            let (e0, e1) = span(&[Some(r), r10, r01], n[0] - 1);
-            let i00 = ins_row(r);
-            let i10 = r10.map_or(&zeros[..], ins_row);
-            let i01 = r01.map_or(&zeros[..], ins_row);
-            // Equal-length slices: no bounds checks, the loop vectorises.
-            let l = e1 - e0;
-            let (v0, vx) = (&i00[e0..e0 + l], &i00[e0 + 1..e0 + 1 + l]);
-            let (vy, vz) = (&i10[e0..e0 + l], &i01[e0..e0 + l]);
-            let out = &mut eb[e0..e0 + l];
-            let mut nv = 0u32;
-            for k in 0..l {
-                let (x, y, z) = (v0[k] ^ vx[k], v0[k] ^ vy[k], v0[k] ^ vz[k]);
-                out[k] = x | y << 1 | z << 2;
-                nv += (x + y + z) as u32;
-            }
-            let mut nt = 0u32;
-            if let (Some(r10), Some(r01), Some(r11)) = (r10, r01, r11) {
-                let (c0, c1) = span(&[Some(r), Some(r10), Some(r01), Some(r11)], n[0] - 1);
-                let rows4 = [i00, ins_row(r10), ins_row(r01), ins_row(r11)];
-                cases_into(cases, rows4, c0, c1);
-                for chunk in cases.chunks(8) {
-                    if uniform(chunk) {
-                        continue;
-                    }
-                    nt += chunk.iter().map(|&c| tab.count(c)).sum::<u32>();
-                }
-            }
-            (nv, nt, e0, e1)
+        .map(|r| {
+            let (j, k) = jk(r);
+            count_row(&g, tab, j, k)
         })
         .collect();
 
-    // Pass 4: prefix sums → exact output sizes and each row's offsets.
+    // Pass 3: prefix sums → exact output sizes and each row's offsets.
     let mut voff = Vec::with_capacity(rows + 1);
     let (mut sv, mut st) = (0usize, 0usize);
-    for &(v, t, _, _) in &counts {
+    for &(v, t) in &counts {
         voff.push(sv);
         sv += v as usize;
         st += t as usize;
@@ -248,7 +376,7 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
     {
         let (mut vrest, mut brest, mut trest) =
             (&mut vertices[..], &mut on_border[..], &mut triangles[..]);
-        for &(v, t, _, _) in &counts {
+        for &(v, t) in &counts {
             let (va, vb) = vrest.split_at_mut(v as usize);
             let (ba, bb) = brest.split_at_mut(v as usize);
             let (ta, tb) = trest.split_at_mut(t as usize);
@@ -261,140 +389,30 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
     // A mirroring affine turns outward index-space triangles inward.
     let flip = m.fixed_view::<3, 3>(0, 0).determinant() < 0.0;
     let mm: [[f64; 4]; 3] = [0, 1, 2].map(|r| [0, 1, 2, 3].map(|c| m[(r, c)]));
-    let world = |p: [f64; 3]| {
-        let row = |r: usize| mm[r][0] * p[0] + mm[r][1] * p[1] + mm[r][2] * p[2] + mm[r][3];
-        Point3::new(row(0), row(1), row(2))
-    };
-    let data_row = |r: Option<usize>| -> Option<&[T]> {
-        let vr = vrow(r?)?;
-        Some(&data[vr * dx..(vr + 1) * dx])
+    // Samples of padded row (jp, kp) when it lies inside the volume.
+    let data_row = |jp: usize, kp: usize| -> Option<&[T]> {
+        (jp >= 1 && kp >= 1 && jp <= dy && kp <= dz).then(|| {
+            let vr = (jp - 1) + dy * (kp - 1);
+            &data[vr * dx..(vr + 1) * dx]
+        })
     };
 
-    // Pass 5: emit vertices (node row) and triangles (cell row).
+    // Pass 4: emit vertices (node row) and triangles (cell row).
     slices
         .into_par_iter()
         .with_min_len(16)
         .enumerate()
-        .for_each_init(Vec::new, |cases, (r, (vs, bs, ts))| {
-            let eb = &ebits[r * n[0]..(r + 1) * n[0]];
-            let (_, _, e0, e1) = counts[r];
+        .for_each(|(r, (vs, bs, ts))| {
+            let (j, k) = jk(r);
             if !vs.is_empty() {
-                let (r10, r01) = (neighbour(r, 1, 0), neighbour(r, 0, 1));
-                let rows3 = [data_row(Some(r)), data_row(r10), data_row(r01)];
-                let (vj, vk) = (lo[1] + (r % n[1]) as i64, lo[2] + (r / n[1]) as i64);
-                let sample = |q: usize, i: i64| -> Option<f64> {
-                    let row = rows3[q]?;
-                    (i >= 0 && (i as usize) < dx).then(|| row[i as usize].value())
-                };
-                let mut w = 0;
-                let mut a = e0;
-                while a < e1 {
-                    // Skip eight nodes without a cut edge at once.
-                    if a + 8 <= e1
-                        && u64::from_le_bytes(eb[a..a + 8].try_into().expect("8 bytes")) == 0
-                    {
-                        a += 8;
-                        continue;
-                    }
-                    let b = eb[a];
-                    a += 1;
-                    if b == 0 {
-                        continue;
-                    }
-                    let a = a - 1;
-                    let vi = lo[0] + a as i64;
-                    let f0 = sample(0, vi);
-                    for axis in 0..3 {
-                        if b >> axis & 1 == 0 {
-                            continue;
-                        }
-                        let f1 = match axis {
-                            0 => sample(0, vi + 1),
-                            1 => sample(1, vi),
-                            _ => sample(2, vi),
-                        };
-                        // A padding node sits just outside: the vertex goes
-                        // half-way, as if the mask continued to the border.
-                        let t = match (f0, f1) {
-                            (Some(x), Some(y)) => (iso - x) / (y - x),
-                            _ => 0.5,
-                        };
-                        let mut p = [vi as f64, vj as f64, vk as f64];
-                        p[axis] += t;
-                        vs[w] = world(p);
-                        bs[w] = f0.is_none() || f1.is_none();
-                        w += 1;
-                    }
-                }
-                debug_assert_eq!(w, vs.len());
+                let samples = [data_row(j, k), data_row(j + 1, k), data_row(j, k + 1)];
+                let n = emit_vertices(&g, j, k, samples, dx, iso, &mm, vs, bs);
+                debug_assert_eq!(n, vs.len());
             }
             if !ts.is_empty() {
-                let ids = [
-                    r,
-                    neighbour(r, 1, 0).unwrap(),
-                    neighbour(r, 0, 1).unwrap(),
-                    neighbour(r, 1, 1).unwrap(),
-                ];
-                let (i00, i10, i01, i11) = (
-                    ins_row(ids[0]),
-                    ins_row(ids[1]),
-                    ins_row(ids[2]),
-                    ins_row(ids[3]),
-                );
-                let ebs = ids.map(|q| &ebits[q * n[0]..(q + 1) * n[0]]);
-                let (c0, c1) = span(&ids.map(Some), n[0] - 1);
-                // Running vertex id of node a in each of the four node rows:
-                // the row's first id plus the cut edges before node a.
-                let mut base = [0usize; 4];
-                for q in 0..4 {
-                    let from = counts[ids[q]].2.min(c0);
-                    base[q] = voff[ids[q]]
-                        + ebs[q][from..c0]
-                            .iter()
-                            .map(|b| b.count_ones() as usize)
-                            .sum::<usize>();
-                }
-                cases_into(cases, [i00, i10, i01, i11], c0, c1);
-                let mut w = 0;
-                for (ci, chunk) in cases.chunks(8).enumerate() {
-                    let a0 = c0 + 8 * ci;
-                    if uniform(chunk) {
-                        // No triangle here; the rows' cut edges still count.
-                        for q in 0..4 {
-                            base[q] += ebs[q][a0..a0 + chunk.len()]
-                                .iter()
-                                .map(|b| b.count_ones() as usize)
-                                .sum::<usize>();
-                        }
-                        continue;
-                    }
-                    for (a, &case) in (a0..).zip(chunk) {
-                        let tris = tab.triangles(case);
-                        if !tris.is_empty() {
-                            // Vertex id of each of the 12 cell edges.
-                            let mut id = [0u32; 12];
-                            for (e, slot) in id.iter_mut().enumerate() {
-                                let [c, _] = EDGE_CORNERS[e];
-                                let q = (c >> 1 & 1) as usize + 2 * (c >> 2) as usize;
-                                let (node, axis) = ((c & 1) as usize, e / 4);
-                                let mut v = base[q];
-                                if node == 1 {
-                                    v += ebs[q][a].count_ones() as usize;
-                                }
-                                let bits = ebs[q][a + node] & ((1u8 << axis) - 1);
-                                *slot = (v + bits.count_ones() as usize) as u32;
-                            }
-                            for t in tris {
-                                let v = t.map(|e| id[e as usize]);
-                                ts[w] = if flip { [v[0], v[2], v[1]] } else { v };
-                                w += 1;
-                            }
-                        }
-                        for q in 0..4 {
-                            base[q] += ebs[q][a].count_ones() as usize;
-                        }
-                    }
-                }
+                // A cell row with triangles has all four node rows in the box.
+                let firsts = [r, r + 1, r + nj, r + nj + 1].map(|q| voff[q] as u32);
+                let w = emit_triangles(&g, tab, j, k, nw, firsts, flip, ts);
                 debug_assert_eq!(w, ts.len());
             }
         });
@@ -406,35 +424,185 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
     }
 }
 
-/// Cases of cells [c0, c1) of a cell row from its four node rows
-/// (y, z) = (0,0), (1,0), (0,1), (1,1); bit c of a case is corner
-/// c = dx + 2·dy + 4·dz. Equal-length slices so the loop vectorises.
-fn cases_into(out: &mut Vec<u8>, rows: [&[u8]; 4], c0: usize, c1: usize) {
-    let l = c1.saturating_sub(c0);
-    out.clear();
-    out.resize(l, 0);
-    let lo = rows.map(|r| &r[c0..c0 + l]);
-    let hi = rows.map(|r| &r[c0 + 1..c0 + 1 + l]);
-    for k in 0..l {
-        out[k] = lo[0][k]
-            | hi[0][k] << 1
-            | lo[1][k] << 2
-            | hi[1][k] << 3
-            | lo[2][k] << 4
-            | hi[2][k] << 5
-            | lo[3][k] << 6
-            | hi[3][k] << 7;
+/// Of each cell edge: the node row (y, z) = (0,0), (1,0), (0,1), (1,1) that
+/// owns it, and its slot 3·node + axis there (node 0 or 1 along x).
+const EDGE_SLOT: [(u8, u8); 12] = {
+    let mut t = [(0u8, 0u8); 12];
+    let mut e = 0;
+    while e < 12 {
+        let c = EDGE_CORNERS[e][0];
+        t[e] = ((c >> 1 & 1) + 2 * (c >> 2), 3 * (c & 1) + (e / 4) as u8);
+        e += 1;
     }
+    t
+};
+
+/// Vertices of node row (j, k) (padded) into `vs` and `bs`, from the samples
+/// of the node row and its +y and +z neighbours (`None`: padding). Returns
+/// how many were written.
+#[inline(never)] // one symbol per pass in profiles
+#[allow(clippy::too_many_arguments)]
+fn emit_vertices<T: Sample>(
+    g: &BitGrid,
+    j: usize,
+    k: usize,
+    samples: [Option<&[T]>; 3],
+    dx: usize,
+    iso: f64,
+    mm: &[[f64; 4]; 3],
+    vs: &mut [Point3],
+    bs: &mut [bool],
+) -> usize {
+    let (a, ay, az) = (g.row(j, k), g.row(j + 1, k), g.row(j, k + 1));
+    let sample = |q: usize, i: i64| -> Option<f64> {
+        let row = samples[q]?;
+        (i >= 0 && (i as usize) < dx).then(|| row[i as usize].value())
+    };
+    let world = |p: [f64; 3]| {
+        let row = |r: usize| mm[r][0] * p[0] + mm[r][1] * p[1] + mm[r][2] * p[2] + mm[r][3];
+        Point3::new(row(0), row(1), row(2))
+    };
+    let (vj, vk) = (j as f64 - 1.0, k as f64 - 1.0);
+    let mut n = 0;
+    for x in 0..a.len() {
+        let e = cut_edges(a, ay, az, x);
+        let mut any = e[0] | e[1] | e[2];
+        while any != 0 {
+            let p = any.trailing_zeros();
+            any &= any - 1;
+            let vi = (64 * (g.w0 + x) + p as usize) as i64 - 1;
+            let f0 = sample(0, vi);
+            for (axis, ea) in e.iter().enumerate() {
+                if ea >> p & 1 == 0 {
+                    continue;
+                }
+                let f1 = match axis {
+                    0 => sample(0, vi + 1),
+                    1 => sample(1, vi),
+                    _ => sample(2, vi),
+                };
+                // A padding node sits just outside: the vertex goes
+                // half-way, as if the mask continued to the border.
+                let t = match (f0, f1) {
+                    (Some(x), Some(y)) => (iso - x) / (y - x),
+                    _ => 0.5,
+                };
+                let mut pt = [vi as f64, vj, vk];
+                pt[axis] += t;
+                vs[n] = world(pt);
+                bs[n] = f0.is_none() || f1.is_none();
+                n += 1;
+            }
+        }
+    }
+    n
 }
 
-/// All cells of the chunk entirely outside or entirely inside (no triangle).
-#[inline]
-fn uniform(chunk: &[u8]) -> bool {
-    if let Ok(b) = <[u8; 8]>::try_from(chunk) {
-        // One word compare instead of eight byte compares.
-        let w = u64::from_le_bytes(b);
-        return w == 0 || w == u64::MAX;
+/// Pass 2 for node row (j, k) and the cell row above it (padded
+/// coordinates): (vertices, triangles).
+#[inline(never)] // one symbol per pass in profiles
+fn count_row(g: &BitGrid, tab: &CaseTable, j: usize, k: usize) -> (u32, u32) {
+    let a = g.row(j, k);
+    let (ay, az, ayz) = (g.row(j + 1, k), g.row(j, k + 1), g.row(j + 1, k + 1));
+    let (mut nv, mut nt) = (0, 0);
+    for x in 0..a.len() {
+        nv += (prefix_counts3(&cut_edges(a, ay, az, x)) >> 56) as u32;
+        let (mut m, lo, hi) = mixed_cells(&[a, ay, az, ayz], x);
+        while m != 0 {
+            nt += tab.count(case_of(&lo, &hi, m.trailing_zeros()));
+            m &= m - 1;
+        }
     }
-    let first = chunk[0];
-    (first == 0 || first == 255) && chunk.iter().all(|&c| c == first)
+    (nv, nt)
+}
+
+/// Triangles of cell row (j, k) (padded) into `ts`; `firsts` are the first
+/// vertex ids of its node rows (y, z) = (0,0), (1,0), (0,1), (1,1). Returns
+/// how many were written.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)] // one symbol per pass in profiles
+fn emit_triangles(
+    g: &BitGrid,
+    tab: &CaseTable,
+    j: usize,
+    k: usize,
+    nw: usize,
+    firsts: [u32; 4],
+    flip: bool,
+    ts: &mut [[u32; 3]],
+) -> usize {
+    // Node rows of the cell row, and each one's +y and +z neighbours.
+    let node = [(j, k), (j + 1, k), (j, k + 1), (j + 1, k + 1)].map(|(a, b)| g.row(a, b));
+    let ny = [(j + 1, k), (j + 2, k), (j + 1, k + 1), (j + 2, k + 1)].map(|(a, b)| g.row(a, b));
+    let nz = [(j, k + 1), (j + 1, k + 1), (j, k + 2), (j + 1, k + 2)].map(|(a, b)| g.row(a, b));
+    let edges = |x: usize| -> [[u64; 3]; 4] {
+        if x < nw {
+            [
+                cut_edges(node[0], ny[0], nz[0], x),
+                cut_edges(node[1], ny[1], nz[1], x),
+                cut_edges(node[2], ny[2], nz[2], x),
+                cut_edges(node[3], ny[3], nz[3], x),
+            ]
+        } else {
+            [[0; 3]; 4]
+        }
+    };
+    let mut base = firsts;
+    let mut cur = edges(0);
+    let mut w = 0;
+    for x in 0..nw {
+        let next = edges(x + 1);
+        let (mut m, lo, hi) = mixed_cells(&node, x);
+        let prefix = [
+            prefix_counts3(&cur[0]),
+            prefix_counts3(&cur[1]),
+            prefix_counts3(&cur[2]),
+            prefix_counts3(&cur[3]),
+        ];
+        while m != 0 {
+            let p = m.trailing_zeros();
+            m &= m - 1;
+            // Vertex ids of the six edges (node 0/1 of the cell × axis) each
+            // node row owns: the cut edges of the earlier nodes of the row,
+            // then the lower axes at the node.
+            let mut ids = [[0u32; 6]; 4];
+            for q in 0..4 {
+                let e = &cur[q];
+                let pre = base[q] + count_below(e, prefix[q], p);
+                let at = |e: &[u64; 3], b: u32| -> [u32; 3] {
+                    let x = (e[0] >> b & 1) as u32;
+                    [0, x, x + (e[1] >> b & 1) as u32]
+                };
+                let a0 = at(e, p);
+                let n0 = a0[2] + (e[2] >> p & 1) as u32;
+                let a1 = if p < 63 {
+                    at(e, p + 1)
+                } else {
+                    at(&next[q], 0)
+                };
+                ids[q] = [
+                    pre + a0[0],
+                    pre + a0[1],
+                    pre + a0[2],
+                    pre + n0 + a1[0],
+                    pre + n0 + a1[1],
+                    pre + n0 + a1[2],
+                ];
+            }
+            for t in tab.triangles(case_of(&lo, &hi, p)) {
+                let id = |e: u8| {
+                    let (q, slot) = EDGE_SLOT[e as usize];
+                    ids[q as usize][slot as usize]
+                };
+                let v = [id(t[0]), id(t[1]), id(t[2])];
+                ts[w] = if flip { [v[0], v[2], v[1]] } else { v };
+                w += 1;
+            }
+        }
+        for q in 0..4 {
+            base[q] += (prefix[q] >> 56) as u32;
+        }
+        cur = next;
+    }
+    w
 }

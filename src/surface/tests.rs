@@ -772,3 +772,61 @@ fn remeshing_keeps_every_component_closed_with_keep_all() {
         "{rep:?}"
     );
 }
+
+/// The integer paths (byte and 16-bit compares packed into bit words) must
+/// classify and interpolate exactly as the float path on the same values:
+/// fractional and integer iso values, iso values below and above every
+/// sample, rows that end inside a 64-sample word and rows longer than one.
+#[test]
+fn integer_classification_equals_float_classification() {
+    let mut rng = Rng::new(11);
+    for case in 0..120 {
+        let dims = [
+            1 + (rng.next_u64() % 150) as usize,
+            1 + (rng.next_u64() % 6) as usize,
+            1 + (rng.next_u64() % 5) as usize,
+        ];
+        let n = dims[0] * dims[1] * dims[2];
+        let fill = rng.next_u64() % 100;
+        let raw: Vec<u64> = (0..n).map(|_| rng.next_u64()).collect();
+        let aff = if case % 2 == 0 {
+            scaled(0.7)
+        } else {
+            affine_from_parts([0.5, 0.8, 1.1], &rotation(), Point3::new(1.0, 2.0, 3.0))
+        };
+        // int16 CT-like values around 150 HU, and the extremes.
+        let ct: Vec<i16> = raw
+            .iter()
+            .map(|&r| match r % 100 {
+                0 => i16::MIN,
+                1 => i16::MAX,
+                x if x < fill => 100 + (r >> 8) as i16 % 100,
+                _ => -1000 + (r >> 8) as i16 % 200,
+            })
+            .collect();
+        let mask: Vec<u8> = raw.iter().map(|&r| (r >> 16) as u8 % 3 * 127).collect();
+        let as_f32 = |v: &[i16]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+        let ct_f = Volume::from_fortran_vec(dims, aff, as_f32(&ct)).unwrap();
+        let ct_i = Volume::from_fortran_vec(dims, aff, ct).unwrap();
+        let mask_f = Volume::from_fortran_vec(
+            dims,
+            aff,
+            mask.iter().map(|&x| x as f32).collect::<Vec<f32>>(),
+        )
+        .unwrap();
+        let mask_u = Volume::from_fortran_vec(dims, aff, mask).unwrap();
+        let same = |a: &Isosurface, b: &Isosurface, what: String| {
+            assert_eq!(a.triangles, b.triangles, "{what}");
+            assert_eq!(a.vertices, b.vertices, "{what}");
+            assert_eq!(a.on_border, b.on_border, "{what}");
+        };
+        for iso in [150.0, 150.5, 149.999, -1000.0, -40000.0, 32767.0, 40000.0] {
+            let what = format!("int16 case {case} dims {dims:?} iso {iso}");
+            same(&extract(&ct_i, iso), &extract(&ct_f, iso), what);
+        }
+        for iso in [0.5, 127.0, 126.5, 253.9, 254.0, 255.0, -0.5, -3.0] {
+            let what = format!("uint8 case {case} dims {dims:?} iso {iso}");
+            same(&extract(&mask_u, iso), &extract(&mask_f, iso), what);
+        }
+    }
+}
