@@ -100,12 +100,16 @@ pub fn config_text(
     match model {
         "goh" => {}
         "msm" => {
-            material.iter().for_each(|k| drop(t.remove(*k)));
+            for k in material {
+                t.remove(k);
+            }
             t.insert("model".into(), s("msm"));
             t.insert("msm_law".into(), s("seed000-isotropic"));
         }
         "neo-hookean" => {
-            material.iter().for_each(|k| drop(t.remove(*k)));
+            for k in material {
+                t.remove(k);
+            }
             t.insert("model".into(), s("neo-hookean"));
             t.insert("mu".into(), s("900 kPa"));
         }
@@ -658,7 +662,17 @@ pub const CSV_HEADER: &str = "case,model,solver,contact,h_mm,nodes,triangles,sta
 /// contact kind; errors are row minus reference, empty where not
 /// measurable.
 pub fn csv(g: &Grid) -> String {
-    let f = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6}"));
+    let f = |v: Option<f64>| {
+        v.map_or(String::new(), |v| {
+            let t = format!("{v:.6}");
+            // A difference that rounds to zero is zero, whatever its sign.
+            if t == "-0.000000" {
+                t[1..].to_string()
+            } else {
+                t
+            }
+        })
+    };
     let mut s = String::from(CSV_HEADER);
     s.push('\n');
     for r in &g.rows {
