@@ -76,7 +76,7 @@ fn series(g: &Grid) -> Vec<Series> {
 
 /// Tick label of a log axis: the value in its shortest honest form.
 fn label(v: f64) -> String {
-    if v >= 1000.0 || v < 1e-3 {
+    if !(1e-3..1000.0).contains(&v) {
         format!("{v:.0e}")
     } else {
         let s = format!("{v:.3}");

@@ -123,7 +123,7 @@ fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
 fn barycentric(p: [[f64; 2]; 3], q: [f64; 2]) -> Option<[f64; 3]> {
     let (e1, e2, d) = (sub(p[1], p[0]), sub(p[2], p[0]), sub(q, p[0]));
     let det = cross(e1, e2);
-    if !(det.abs() > 0.0) {
+    if det == 0.0 || det.is_nan() {
         return None;
     }
     let b = cross(d, e2) / det;
