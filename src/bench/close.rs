@@ -432,13 +432,14 @@ fn print_line(r: &Row) -> String {
 
 pub fn command() -> Command {
     Command::new("close")
-        .about("Closure benchmark: the Ozaki-on-cylinder peer case (in process, one line per mesh)")
+        .about("Closure benchmark: the Ozaki-on-cylinder peer case (in process, one line per mesh); --grid: run time against error over meshes, models and solvers")
         .arg(
             Arg::new("case")
                 .long("case")
                 .value_name("NAME")
                 .default_value("ozaki-cylinder")
-                .value_parser(["ozaki-cylinder"]),
+                .value_parser(["ozaki-cylinder", "sample"])
+                .help("ozaki-cylinder: one leaflet on a cylinder (planes); sample: the committed sample's three leaflets (--grid only, its default)"),
         )
         .arg(
             Arg::new("h")
@@ -486,10 +487,180 @@ pub fn command() -> Command {
                 .value_name("FILE")
                 .value_parser(clap::value_parser!(PathBuf)),
         )
+        .arg(
+            Arg::new("grid")
+                .long("grid")
+                .action(clap::ArgAction::SetTrue)
+                .help("run time against error: every --hs × --models × --solvers × --contacts, errors against the finest converged Newton closure; needs --csv and --png"),
+        )
+        .arg(
+            Arg::new("hs")
+                .long("hs")
+                .value_name("MM,…")
+                .requires("grid")
+                .value_delimiter(',')
+                .action(clap::ArgAction::Append)
+                .value_parser(clap::value_parser!(f64))
+                .help("grid mesh sizes in mm (default 3,2,1,0.5,0.25)"),
+        )
+        .arg(
+            Arg::new("models")
+                .long("models")
+                .value_name("LIST")
+                .requires("grid")
+                .value_delimiter(',')
+                .action(clap::ArgAction::Append)
+                .value_parser(super::close_grid::MODELS)
+                .help("grid models (default msm,neo-hookean,goh: seed 000 spring law, μ 900 kPa, pipelines/close.toml's GOH)"),
+        )
+        .arg(
+            Arg::new("solvers")
+                .long("solvers")
+                .value_name("LIST")
+                .requires("grid")
+                .value_delimiter(',')
+                .action(clap::ArgAction::Append)
+                .value_parser(super::close_grid::SOLVERS)
+                .help("grid solvers (default relax,combined,newton)"),
+        )
+        .arg(
+            Arg::new("contacts")
+                .long("contacts")
+                .value_name("LIST")
+                .requires("grid")
+                .value_delimiter(',')
+                .action(clap::ArgAction::Append)
+                .value_parser(super::close_grid::CONTACTS)
+                .help("grid contact kinds (default planes); leaflets (true contact) runs with Newton only"),
+        )
+        .arg(
+            Arg::new("sample")
+                .long("sample")
+                .value_name("DIR")
+                .requires("grid")
+                .default_value("sample_data")
+                .value_parser(clap::value_parser!(PathBuf))
+                .help("the committed sample phantom (ct.nii.gz, landmarks.mrk.json) for --case sample"),
+        )
+        .arg(
+            Arg::new("work")
+                .long("work")
+                .value_name("DIR")
+                .requires("grid")
+                .value_parser(clap::value_parser!(PathBuf))
+                .help("keep the sample's run directory here (default: a temporary directory, removed)"),
+        )
+        .arg(
+            Arg::new("png")
+                .long("png")
+                .value_name("FILE")
+                .requires("grid")
+                .value_parser(clap::value_parser!(PathBuf))
+                .help("grid: wall time against the error in coaptation height (log–log)"),
+        )
+}
+
+fn given(m: &ArgMatches, id: &str) -> bool {
+    matches!(
+        m.value_source(id),
+        Some(clap::parser::ValueSource::CommandLine)
+    )
+}
+
+/// `coapt bench close --grid …`.
+fn dispatch_grid(m: &ArgMatches, threads: usize) -> Result<()> {
+    use super::close_grid as grid;
+    for flag in ["h", "model", "solver", "bending", "dump"] {
+        if given(m, flag) {
+            return Err(Error::usage(format!(
+                "--{flag} is for the single-case benchmark; with --grid use --hs, --models, --solvers (bending follows pipelines/close.toml)"
+            )));
+        }
+    }
+    let (Some(csv_path), Some(png_path)) =
+        (m.get_one::<PathBuf>("csv"), m.get_one::<PathBuf>("png"))
+    else {
+        return Err(Error::usage("--grid needs --csv FILE and --png FILE"));
+    };
+    let list = |id: &str, default: &[&str]| -> Vec<String> {
+        match m.get_many::<String>(id) {
+            Some(v) => v.cloned().collect(),
+            None => default.iter().map(|s| s.to_string()).collect(),
+        }
+    };
+    let case = match (
+        given(m, "case"),
+        m.get_one::<String>("case").map(String::as_str),
+    ) {
+        (true, Some("ozaki-cylinder")) => grid::Case::OzakiCylinder,
+        _ => grid::Case::Sample(m.get_one::<PathBuf>("sample").expect("default").clone()),
+    };
+    let opts = grid::Options {
+        case,
+        hs: match m.get_many::<f64>("hs") {
+            Some(v) => v.copied().collect(),
+            None => grid::HS.to_vec(),
+        },
+        models: list("models", &grid::MODELS),
+        solvers: list("solvers", &grid::SOLVERS),
+        contacts: list("contacts", &["planes"]),
+        // A fine relaxation could otherwise run for the single case's 600 s.
+        time_limit_s: if given(m, "time-limit") {
+            *m.get_one::<f64>("time-limit").expect("default")
+        } else {
+            120.0
+        },
+        work: m.get_one::<PathBuf>("work").cloned(),
+        threads,
+    };
+    println!(
+        "close grid: case {}, h {:?} mm, models {}, solvers {}, contacts {}, time limit {} s, {threads} thread(s)",
+        opts.case.name(),
+        opts.hs,
+        opts.models.join(","),
+        opts.solvers.join(","),
+        opts.contacts.join(","),
+        opts.time_limit_s
+    );
+    let g = grid::run(&opts)?;
+    for n in &g.notes {
+        println!("note: {n}");
+    }
+    let mut refs: Vec<String> = g
+        .rows
+        .iter()
+        .filter(|r| r.is_reference)
+        .map(|r| format!("{} → {}", r.model, r.reference.as_deref().unwrap_or("")))
+        .collect();
+    refs.dedup();
+    println!(
+        "references (finest converged Newton of the same model and contact): {}",
+        if refs.is_empty() {
+            "none".to_string()
+        } else {
+            refs.join("; ")
+        }
+    );
+    std::fs::write(csv_path, grid::csv(&g)).map_err(|e| Error::write(csv_path, e))?;
+    let title = format!(
+        "coapt bench close --grid: {} case, run time vs error",
+        opts.case.name()
+    );
+    let png = super::close_grid_plot::png(&g, &title);
+    std::fs::write(png_path, png).map_err(|e| Error::write(png_path, e))?;
+    Ok(())
 }
 
 /// `coapt bench close …` (the rayon pool is already sized by `--threads`).
 pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
+    if m.get_flag("grid") {
+        return dispatch_grid(m, threads);
+    }
+    if m.get_one::<String>("case").map(String::as_str) == Some("sample") {
+        return Err(Error::usage(
+            "--case sample runs only as a grid (--grid --csv FILE --png FILE)",
+        ));
+    }
     let hs: Vec<f64> = match m.get_one::<f64>("h") {
         Some(&h) if h > 0.0 && h.is_finite() => vec![h],
         Some(h) => return Err(Error::usage(format!("--h {h}: must be positive"))),

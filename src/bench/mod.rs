@@ -3,6 +3,9 @@
 //! file per benchmark.
 
 pub mod close;
+pub mod close_grid;
+pub mod close_grid_plot;
+pub mod displacement_error;
 pub mod phantom;
 pub mod pipeline;
 pub mod seed001;

@@ -1,6 +1,7 @@
 //! Integration tests: every user-visible behaviour of the `coapt` binary.
 
 mod bad_input;
+mod bench_close_grid;
 mod bench_pipeline;
 mod close;
 mod common;
