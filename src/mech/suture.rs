@@ -416,18 +416,20 @@ fn solve_round(
     stop: &Stop,
     nopt: &NewtonOptions,
     first: bool,
+    pattern: &mut Option<Pattern>,
 ) -> Outcome {
     if !first {
         let start = x.clone();
         closure::set_projected(sys, false);
         sys.pressure_tangent = true;
-        let o = solve::newton(
+        let o = solve::newton_reusing(
             sys,
             x,
             &NewtonOptions {
                 stop: stop.clone(),
                 ..nopt.clone()
             },
+            pattern,
         );
         if o.converged {
             return o;
@@ -525,6 +527,8 @@ pub fn suture(
     let mut x = l.x.clone();
     let mut rounds: Vec<Round> = Vec::new();
     let mut k = s.k0;
+    // One sparsity pattern (and symbolic LU) for every round's Newton.
+    let mut pattern = None;
     // The state of the last round whose solve converged.
     let mut kept: Option<Vec<V3>> = None;
     let mut stalled = None;
@@ -548,7 +552,7 @@ pub fn suture(
             max_seconds: left,
             ..stop.clone()
         };
-        let mut o = solve_round(&mut sys, &mut x, &loose, nopt, round == 0);
+        let mut o = solve_round(&mut sys, &mut x, &loose, nopt, round == 0, &mut pattern);
         let mut ms = force_of(&tris, k).max_sin(&x);
         if o.converged && ms < s.tolerance && loose.rel > stop.rel {
             let tight = Stop {
@@ -556,7 +560,7 @@ pub fn suture(
                 max_seconds: stop.max_seconds - t0.elapsed().as_secs_f64(),
                 ..stop.clone()
             };
-            let o2 = solve_round(&mut sys, &mut x, &tight, nopt, false);
+            let o2 = solve_round(&mut sys, &mut x, &tight, nopt, false, &mut pattern);
             o.iterations += o2.iterations;
             o.residual_n = o2.residual_n;
             o.converged = o2.converged;

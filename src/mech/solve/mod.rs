@@ -7,7 +7,7 @@ mod newton;
 mod relax;
 
 pub use combined::combined;
-pub use newton::{NewtonOptions, newton};
+pub use newton::{NewtonOptions, newton, newton_reusing};
 pub use relax::{RelaxOptions, relax};
 
 use serde::Serialize;

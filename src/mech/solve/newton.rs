@@ -37,9 +37,20 @@ impl Default for NewtonOptions {
 }
 
 pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome {
+    newton_reusing(sys, x, opt, &mut None)
+}
+
+/// [`newton`] keeping the sparsity pattern and its symbolic factorisation
+/// in `pattern` across calls: a sequence of solves of one system (the
+/// suturing rounds) analyses the pattern once instead of once per solve.
+pub fn newton_reusing(
+    sys: &mut System,
+    x: &mut Vec<V3>,
+    opt: &NewtonOptions,
+    pattern: &mut Option<Pattern>,
+) -> Outcome {
     let t0 = Instant::now();
     let mut out = Outcome::start();
-    let mut pattern: Option<Pattern> = None;
     let mut last_pairs: Vec<[u32; 2]> = Vec::new();
     let mut shift = 0.0f64;
     let mut rejections = 0usize;
@@ -97,7 +108,7 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
         let pairs = sys.couplings();
         // Terms list their couplings in a fixed order, so an unchanged list
         // (fixed planes, bending, settled contact) needs no sorted compare.
-        let rebuild = match &pattern {
+        let rebuild = match &*pattern {
             None => true,
             Some(_) if pairs == last_pairs => false,
             Some(p) => {
@@ -112,7 +123,7 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
             }
         };
         if rebuild {
-            pattern = Some(Pattern::new(sys.n_nodes(), &sys.dofs, &pairs));
+            *pattern = Some(Pattern::new(sys.n_nodes(), &sys.dofs, &pairs));
         }
         last_pairs = pairs;
         let pat = pattern.as_mut().expect("built");
