@@ -155,8 +155,9 @@ pub struct Metrics {
     /// Lowest point of the whole leaflet.
     pub lowest_mm: f64,
     pub max_displacement_mm: f64,
-    /// Deepest node behind a contact plane (mm, ≥ 0; planes through the
-    /// axis and the two lug corners, as `contact = "planes"` builds them).
+    /// Deepest node behind a contact plane (mm, ≥ 0; the planes through the
+    /// axis bounding the leaflet's 120° sector, as `contact = "planes"`
+    /// builds them for a leaflet alone).
     pub max_penetration_mm: f64,
 }
 
@@ -200,22 +201,30 @@ pub fn zones(x: &[V3], tris: &[[u32; 3]], dist: &[[f64; 2]], tau: f64) -> [(f64,
     out
 }
 
-/// Signed distances of `x` to the two planes through the +z axis and the
-/// lug corners of the placed leaflet `l`, positive on the leaflet's side.
+/// Signed distances of `x` to the two planes through the +z axis that
+/// bound the placed leaflet `l`'s 120° sector, positive on its side.
 pub fn plane_distances(l: &Leaflets, x: &[V3]) -> Vec<[f64; 2]> {
     let c = closure::corners(l);
     let rad = |p: &V3| V3::new(p.x, p.y, 0.0);
     let centroid = rad(&(l.x.iter().sum::<V3>() / l.x.len() as f64));
     // Split the corners by the side of the centroid's radial line.
     let side = |p: &V3| centroid.cross(&rad(p)).z >= 0.0;
+    // The planes bound the leaflet's 120° sector, as `close` puts them for
+    // a leaflet alone: 60° either side of the middle of its corners.
+    let ends: Vec<V3> = [true, false]
+        .map(|s| {
+            let pts: Vec<V3> = c
+                .iter()
+                .map(|&i| l.x[i as usize])
+                .filter(|p| side(p) == s)
+                .collect();
+            rad(&(pts.iter().sum::<V3>() / pts.len().max(1) as f64)).normalize()
+        })
+        .to_vec();
+    let middle = (ends[0] + ends[1]).normalize();
     let mut normals = Vec::new();
-    for s in [true, false] {
-        let pts: Vec<V3> = c
-            .iter()
-            .map(|&i| l.x[i as usize])
-            .filter(|p| side(p) == s)
-            .collect();
-        let m = rad(&(pts.iter().sum::<V3>() / pts.len().max(1) as f64));
+    for e in &ends {
+        let m = closure::sector_edge(&V3::z(), &middle, e);
         let mut n = V3::z().cross(&m).normalize();
         if n.dot(&centroid) < 0.0 {
             n = -n;
@@ -678,7 +687,7 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
     );
     if let Template::Ozaki(t) = template() {
         println!(
-            "suture path {:.2} mm vs template attachment edge {:.2} mm (free edge {:.2} mm); the placed leaflet is the stress-free reference",
+            "suture path {:.2} mm vs template attachment edge {:.2} mm (free edge {:.2} mm); sutured first (seed 001 Algorithm 1), the sutured leaflet is the stress-free reference; wall_s includes suturing",
             Path3::new(suture_path()).length(),
             t.sutured_length(),
             t.free_length()

@@ -130,9 +130,9 @@ pub fn pressure_signs(l: &Leaflets, axis: &Axis, n_leaflets: usize) -> Vec<f64> 
         .collect()
 }
 
-/// Seed 001 contact planes for each leaflet: through the axis and each of
-/// its two commissures, facing the leaflet; two per leaflet, in leaflet
-/// order.
+/// Seed 001 contact planes for each leaflet: through the axis, between it
+/// and each neighbour (a leaflet alone: the edges of its 120° sector),
+/// facing the leaflet; two per leaflet, in leaflet order.
 pub(super) fn planes_for(
     l: &Leaflets,
     axis: &Axis,
@@ -191,10 +191,12 @@ pub(super) fn planes_for(
             d - axis.dir * d.dot(&axis.dir)
         };
         let r = 0.5 * (rad(mine[0]).norm() + rad(mine[1]).norm());
+        let middle = (rad(mine[0]).normalize() + rad(mine[1]).normalize()).normalize();
         for corner in &mine {
             // Between two leaflets the plane of symmetry runs mid-way between
             // the facing lug corners (leaflets are sewn with gaps); a leaflet
-            // alone gets the plane through its own corner.
+            // alone stands for one of three (seed 001 §3.1): its planes bound
+            // its 120° sector, 60° either side of its middle.
             let neighbour = c
                 .iter()
                 .filter(|&&i| node_leaf[i as usize] != k)
@@ -202,7 +204,7 @@ pub(super) fn planes_for(
                 .min_by(|a, b| (a - corner).norm().total_cmp(&(b - corner).norm()));
             let dir = match neighbour {
                 Some(q) => rad(*corner).normalize() + rad(q).normalize(),
-                None => rad(*corner),
+                None => sector_edge(&axis.dir, &middle, &rad(*corner)),
             };
             let mut n = axis.dir.cross(&dir).normalize();
             if n.dot(&rad(centroid)) < 0.0 {
@@ -216,6 +218,15 @@ pub(super) fn planes_for(
         }
     }
     Ok(out)
+}
+
+/// The edge of a 120° sector about `axis` centred on `middle` (unit,
+/// radial), on the side of `towards`.
+pub fn sector_edge(axis: &V3, middle: &V3, towards: &V3) -> V3 {
+    let side = axis.cross(middle);
+    let s = if side.dot(towards) < 0.0 { -1.0 } else { 1.0 };
+    let (sin, cos) = (std::f64::consts::FRAC_PI_3).sin_cos();
+    middle * cos + side * (s * sin)
 }
 
 fn stretches(x: &[V3], refs: &[RefTri], tris: &[[u32; 3]]) -> (Vec<f64>, Vec<f64>) {
@@ -524,6 +535,26 @@ pub fn close_on(
         }
     };
     let solve_s = t1.elapsed().as_secs_f64();
+    let mut outcome = outcome;
+    // A solver that ran away (relaxation with too large a step) can leave
+    // finite but absurd positions: far beyond the leaflets' own size.
+    let (lo, hi) = l.x.iter().fold(
+        (V3::repeat(f64::INFINITY), V3::repeat(f64::NEG_INFINITY)),
+        |(a, b), p| (a.inf(p), b.sup(p)),
+    );
+    let span = (hi - lo).norm();
+    let moved = x
+        .iter()
+        .zip(&l.x)
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, f64::max);
+    if moved > 100.0 * span && x.iter().all(|p| p.iter().all(|v| v.is_finite())) {
+        outcome.converged = false;
+        outcome.reason = format!(
+            "diverged: a node moved {moved:.3e} mm, more than 100 times the leaflets' size ({span:.1} mm); {}",
+            outcome.reason
+        );
+    }
     if x.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
         return Err(format!(
             "the solver produced non-finite positions ({})",

@@ -235,7 +235,7 @@ fn findings(
     if completed {
         say(
             Severity::Info,
-            "One leaflet was closed between two contact planes (seed 001 §3.1): it is measured against those planes (through the axis and its lug corners; zone: signed distance ≤ half the margin, 0.01 R by default) and drawn with its mirror images as leaflets 2 and 3.".into(),
+            "One leaflet was closed between two contact planes (seed 001 §3.1): it is measured against those planes (through the axis, bounding its 120° sector; zone: signed distance ≤ half the margin, 0.01 R by default) and drawn with its mirror images as leaflets 2 and 3.".into(),
         );
     }
     if m.leaflets.iter().all(|l| l.coaptation_area_mm2 == 0.0) {

@@ -1,5 +1,5 @@
 //! Seed 001 §3.1 closes one leaflet between two contact planes through the
-//! axis and the leaflet's lug corners; the neighbours are the leaflet's
+//! axis that bound its 120° sector; the neighbours are the leaflet's
 //! mirror images across those planes. To measure such a closure like a
 //! valve, the report adds the two mirror images as leaflets 2 and 3 and
 //! measures leaflet 1 against the planes themselves (the gap to a mirror
@@ -30,9 +30,9 @@ fn corners(v: &ClosedValve) -> Vec<usize> {
     c
 }
 
-/// Unit normals of the planes through the axis and the two outermost lug
-/// corners (by angle about the axis, seen from the leaflet's centroid),
-/// each pointing into the leaflet's side.
+/// Unit normals of the planes through the axis 60° either side of the
+/// middle of the two outermost lug corners (by angle about the axis, seen
+/// from the leaflet's centroid), each pointing into the leaflet's side.
 fn planes(v: &ClosedValve) -> Option<[Vector3; 2]> {
     let f = &v.frame;
     let radial = |p: &Point3| {
@@ -53,11 +53,19 @@ fn planes(v: &ClosedValve) -> Option<[Vector3; 2]> {
     let hi = c
         .iter()
         .max_by(|&&a, &&b| angle(&v.x[a]).total_cmp(&angle(&v.x[b])))?;
-    let normal = |k: usize| {
-        let n = f.axis.cross(&radial(&v.x[k])).try_normalize(1e-9)?;
+    // The close stage bounds a leaflet alone by its 120° sector, 60° either
+    // side of the middle of its outermost corners.
+    let (a, b) = (
+        radial(&v.x[*lo]).try_normalize(1e-9)?,
+        radial(&v.x[*hi]).try_normalize(1e-9)?,
+    );
+    let middle = (a + b).try_normalize(1e-9)?;
+    let normal = |end: &Vector3| {
+        let edge = crate::mech::closure::sector_edge(&f.axis, &middle, end);
+        let n = f.axis.cross(&edge).try_normalize(1e-9)?;
         Some(if n.dot(&mid) < 0.0 { -n } else { n })
     };
-    Some([normal(*lo)?, normal(*hi)?])
+    Some([normal(&a)?, normal(&b)?])
 }
 
 /// The valve completed by the two mirror images, and the planes; `None`

@@ -16,8 +16,18 @@ pub fn combined(
 ) -> Outcome {
     let t0 = Instant::now();
     let mut all = Outcome::start();
+    // Newton's time limit bounds the whole solve: every phase gets what is
+    // left of it, not the whole limit again.
+    let limit = newton_opt.stop.max_seconds;
+    let left = || limit - t0.elapsed().as_secs_f64();
     for round in 0..rounds.max(1) {
-        let r = relax(sys, x, relax_opt);
+        if left() <= 0.0 {
+            all.reason = format!("time limit {limit} s reached after {round} rounds");
+            break;
+        }
+        let mut ropt = relax_opt.clone();
+        ropt.stop.max_seconds = ropt.stop.max_seconds.min(left());
+        let r = relax(sys, x, &ropt);
         if round == 0 {
             all.initial_residual_n = r.initial_residual_n;
         }
@@ -31,6 +41,7 @@ pub fn combined(
         }
         // Newton is judged against the initial residual of the whole solve.
         let mut nopt = newton_opt.clone();
+        nopt.stop.max_seconds = left().max(0.0);
         if all.initial_residual_n.is_finite() && r.residual_n > 0.0 {
             nopt.stop.rel = newton_opt.stop.rel * all.initial_residual_n / r.residual_n;
         }
