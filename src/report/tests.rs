@@ -311,7 +311,8 @@ fn orifice_of_a_disc_with_a_missing_wedge() {
 fn one_leaflet_closure_reproduces_the_seed_zone() {
     use crate::bench::close as peer;
     let (l, axis) = peer::ozaki_cylinder(1.0).unwrap();
-    let cfg = crate::mech::config::parse(&peer::config_text("svk", "newton", 120.0)).unwrap();
+    let cfg =
+        crate::mech::config::parse(&peer::config_text_with("svk", "newton", 120.0, true)).unwrap();
     let closed = crate::mech::closure::close(&l, &cfg, Some(axis)).unwrap();
     assert!(closed.outcome.converged, "{}", closed.outcome.reason);
     let c = |a: f64| Point3::new(peer::R * a.cos(), peer::R * a.sin(), 0.0);
