@@ -108,14 +108,19 @@ fn bench_close_grid_on_coarse_sample_meshes() {
         num(coarse, "disp_err_max_mm"),
     );
     assert!(rms > 0.0 && rms <= max && max < 5.0, "{rms} {max}");
-    // Two converged solvers on one mesh reach the same state.
+    // Two converged solvers on one mesh: from the sutured (bellied) start
+    // relaxation and Newton settle into nearby but different folds at
+    // h 2 mm (bending length ≈ 1 mm < h): 1.7 mm apart at most, 0.16 mm
+    // RMS, coaptation heights within 0.04 mm. Before suturing they met to
+    // 1e-3 mm. The grid measures both; this pins that they stay close.
     let same = rows
         .iter()
         .find(|r| r["solver"] == "combined" && r["h_mm"] == "2")
         .unwrap();
-    assert!(num(same, "disp_err_max_mm") < 1e-3, "{same:?}");
+    assert!(num(same, "disp_err_rms_mm") < 0.5, "{same:?}");
+    assert!(num(same, "disp_err_max_mm") < 3.0, "{same:?}");
     assert!(
-        num(same, "err_coaptation_height_mm").abs() < 1e-3,
+        num(same, "err_coaptation_height_mm").abs() < 0.2,
         "{same:?}"
     );
 
