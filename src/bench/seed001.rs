@@ -183,7 +183,8 @@ mod tests {
     use super::*;
 
     /// Seed 001 §3.2–3.3: on every (κ, θ) the stiffer pericardium
-    /// (μ 3000 kPa) coapts over a smaller zone than μ 900 kPa. Coarse mesh
+    /// (μ 3000 kPa) coapts over a smaller zone than μ 900 kPa, and the
+    /// isotropic case does not see the fibre angle. Coarse mesh
     /// (h 1.5 mm) to keep the twelve sutured closures quick.
     #[test]
     fn stiffer_pericardium_coapts_less_over_the_seed_grid() {
@@ -202,6 +203,17 @@ mod tests {
                 stiff.coaptation_area_mm2,
                 soft.coaptation_area_mm2
             );
+        }
+        // κ = 1/3 is the isotropic GOH (I₄* = I₁/3): the fibre angle must
+        // not matter. Rows run θ, then κ, then μ.
+        for m in 0..2 {
+            let (a, b) = (&rows[4 + m], &rows[10 + m]);
+            assert!(
+                (a.coaptation_area_mm2 - b.coaptation_area_mm2).abs()
+                    <= 1e-9 * a.coaptation_area_mm2,
+                "{a:?} {b:?}"
+            );
+            assert!((a.coaptation_height_mm - b.coaptation_height_mm).abs() <= 1e-9);
         }
     }
 }
