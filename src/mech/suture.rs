@@ -188,11 +188,13 @@ impl SutureForce {
     /// max_T sin φ_T, the seed's measure of how far from sewn (0 when there
     /// is no sutured triangle).
     pub fn max_sin(&self, x: &[V3]) -> f64 {
+        if self.tris.is_empty() {
+            return 0.0;
+        }
         self.tris
             .iter()
             .map(|t| t.sin_phi(x))
             .fold(f64::NEG_INFINITY, f64::max)
-            .max(if self.tris.is_empty() { 0.0 } else { -1.0 })
     }
 }
 

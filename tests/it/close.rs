@@ -66,6 +66,19 @@ fn close_on_one_and_two_threads(d: &Path, surface: &Path, cfg: &Path) -> serde_j
     json(&d.join("closed1.vtp.json"))
 }
 
+/// Per leaflet (1–3 in cell data `leaflet`), the union of its nodes'
+/// `contact` bits.
+fn contact_bits(m: &coapt::geom::TriMesh, contact: &[f64]) -> [u8; 3] {
+    let leaf = m.cell_data.get("leaflet").unwrap().values.to_f64().unwrap();
+    let mut bits = [0u8; 3];
+    for (t, tri) in m.triangles.iter().enumerate() {
+        for &i in tri {
+            bits[leaf[t] as usize - 1] |= contact[i as usize] as u8;
+        }
+    }
+    bits
+}
+
 #[test]
 fn close_refuses_bad_configs_and_meshes_without_boundary_labels() {
     let d = tmpdir("close-bad");
@@ -225,23 +238,13 @@ fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
         down / n
     );
     // Each leaflet touches both of its planes.
-    let leaf = after
-        .cell_data
-        .get("leaflet")
-        .unwrap()
-        .values
-        .to_f64()
-        .unwrap();
-    for k in 1..=3 {
-        let mut bits = 0u8;
-        for (t, tri) in after.triangles.iter().enumerate() {
-            if leaf[t] == k as f64 {
-                for &i in tri {
-                    bits |= contact[i as usize] as u8;
-                }
-            }
-        }
-        assert_eq!(bits.count_ones(), 2, "leaflet {k} touches planes {bits:b}");
+    for (k, bits) in contact_bits(&after, &contact).into_iter().enumerate() {
+        assert_eq!(
+            bits.count_ones(),
+            2,
+            "leaflet {} touches planes {bits:b}",
+            k + 1
+        );
     }
 }
 
@@ -319,24 +322,9 @@ fn sample_valve_closes_with_leaflet_contact_without_crossing() {
         .values
         .to_f64()
         .unwrap();
-    let leaf = after
-        .cell_data
-        .get("leaflet")
-        .unwrap()
-        .values
-        .to_f64()
-        .unwrap();
-    for k in 1..=3 {
-        let mut bits = 0u8;
-        for (t, tri) in after.triangles.iter().enumerate() {
-            if leaf[t] == k as f64 {
-                for &i in tri {
-                    bits |= contact[i as usize] as u8;
-                }
-            }
-        }
-        assert_eq!(bits.count_ones(), 2, "leaflet {k} touches {bits:b}");
-        assert_eq!(bits & (1 << (k - 1)), 0, "leaflet {k} touches itself");
+    for (k, bits) in contact_bits(&after, &contact).into_iter().enumerate() {
+        assert_eq!(bits.count_ones(), 2, "leaflet {} touches {bits:b}", k + 1);
+        assert_eq!(bits & (1 << k), 0, "leaflet {} touches itself", k + 1);
     }
 }
 
