@@ -298,6 +298,9 @@ pub struct Row {
     pub residual_n: f64,
     pub initial_residual_n: f64,
     pub wall_s: f64,
+    /// The suturing pre-stage's share of `wall_s` (s), its rounds and its
+    /// Newton iterations (each one factorisation).
+    pub suture: Option<(f64, usize, usize)>,
     pub reason: String,
     pub metrics: Option<Metrics>,
 }
@@ -374,6 +377,10 @@ pub fn run_config(
                 residual_n: c.outcome.residual_n,
                 initial_residual_n: c.outcome.initial_residual_n,
                 wall_s,
+                suture: c
+                    .suturing
+                    .as_ref()
+                    .map(|s| (s.seconds, s.rounds.len(), s.iterations)),
                 reason: c.outcome.reason.clone(),
                 metrics: Some(metrics(&l, &c)),
             }
@@ -387,19 +394,20 @@ pub fn run_config(
             residual_n: f64::NAN,
             initial_residual_n: f64::NAN,
             wall_s,
+            suture: None,
             reason: format!("error: {e}"),
             metrics: None,
         },
     })
 }
 
-const HEADER: &str = "h_mm,nodes,triangles,converged,iterations,residual_n,initial_residual_n,wall_s,contact_nodes,contact_area_mm2,coaptation_height_mm,coaptation_height_nodes_mm,contact_zmin_mm,free_edge_zmin_mm,lowest_mm,max_displacement_mm,max_penetration_mm,reason";
+const HEADER: &str = "h_mm,nodes,triangles,converged,iterations,residual_n,initial_residual_n,wall_s,suture_s,suture_rounds,suture_iterations,contact_nodes,contact_area_mm2,coaptation_height_mm,coaptation_height_nodes_mm,contact_zmin_mm,free_edge_zmin_mm,lowest_mm,max_displacement_mm,max_penetration_mm,reason";
 
 fn csv_line(r: &Row) -> String {
     let m = r.metrics;
     let f = |g: fn(&Metrics) -> f64| m.map(|m| format!("{:.4}", g(&m))).unwrap_or_default();
     format!(
-        "{},{},{},{},{},{:.3e},{:.3e},{:.3},{},{},{},{},{},{},{},{},{},\"{}\"",
+        "{},{},{},{},{},{:.3e},{:.3e},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"",
         r.h,
         r.nodes,
         r.triangles,
@@ -408,6 +416,9 @@ fn csv_line(r: &Row) -> String {
         r.residual_n,
         r.initial_residual_n,
         r.wall_s,
+        r.suture.map(|s| format!("{:.3}", s.0)).unwrap_or_default(),
+        r.suture.map(|s| s.1.to_string()).unwrap_or_default(),
+        r.suture.map(|s| s.2.to_string()).unwrap_or_default(),
         m.map(|m| m.contact_nodes.to_string()).unwrap_or_default(),
         f(|m| m.contact_area_mm2),
         f(|m| m.coaptation_height_mm),
@@ -424,8 +435,20 @@ fn csv_line(r: &Row) -> String {
 fn print_line(r: &Row) -> String {
     let conv = if r.converged { "yes" } else { "NO" };
     let mut s = format!(
-        "{:>5.2} {:>6} {:>4} {:>5} {:>10.3e} {:>9.3e} {:>8.2}",
-        r.h, r.nodes, conv, r.iterations, r.residual_n, r.initial_residual_n, r.wall_s
+        "{:>5.2} {:>6} {:>4} {:>5} {:>10.3e} {:>9.3e} {:>8.2} {:>6} {:>9}",
+        r.h,
+        r.nodes,
+        conv,
+        r.iterations,
+        r.residual_n,
+        r.initial_residual_n,
+        r.wall_s,
+        r.suture
+            .map(|s| format!("{:.2}", s.0))
+            .unwrap_or_else(|| "-".into()),
+        r.suture
+            .map(|s| format!("{}/{}", s.1, s.2))
+            .unwrap_or_else(|| "-".into()),
     );
     match r.metrics {
         Some(m) => {
@@ -702,14 +725,14 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
     );
     if let Template::Ozaki(t) = template() {
         println!(
-            "suture path {:.2} mm vs template attachment edge {:.2} mm (free edge {:.2} mm); sutured first (seed 001 Algorithm 1), the sutured leaflet is the stress-free reference; wall_s includes suturing",
+            "suture path {:.2} mm vs template attachment edge {:.2} mm (free edge {:.2} mm); sutured first (seed 001 Algorithm 1), the sutured leaflet is the stress-free reference; wall_s includes suturing (sew_s; sew_rd/it: its rounds of K and Newton iterations)",
             Path3::new(suture_path()).length(),
             t.sutured_length(),
             t.free_length()
         );
     }
     println!(
-        "{:>5} {:>6} {:>4} {:>5} {:>10} {:>9} {:>8} {:>6} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}",
+        "{:>5} {:>6} {:>4} {:>5} {:>10} {:>9} {:>8} {:>6} {:>9} {:>6} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}",
         "h_mm",
         "nodes",
         "conv",
@@ -717,6 +740,8 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
         "resid_N",
         "resid0_N",
         "wall_s",
+        "sew_s",
+        "sew_rd/it",
         "touch",
         "area_mm2",
         "coapt_h",

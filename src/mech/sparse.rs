@@ -1,11 +1,16 @@
 //! The tangent matrix: a 3×3-block sparsity pattern over the free degrees
 //! of freedom, built once per coupling set, filled in element order (so the
 //! sum is the same whatever the thread count), and factorised by faer with
-//! the symbolic analysis reused while the pattern does not change.
+//! the symbolic analysis reused while the pattern does not change. The
+//! numeric factors and the work space are kept too: a Newton solve
+//! factorises the same pattern dozens of times, and allocating (and
+//! zero-filling fresh pages for) a supernodal LU each time cost a quarter
+//! of the suturing pre-stage.
 
-use faer::Side;
-use faer::sparse::linalg::solvers::{Llt, Lu, SymbolicLlt, SymbolicLu};
-use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::sparse::linalg::{cholesky, lu};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+use faer::{Conj, MatMut, Par, Side};
 
 pub const NONE: u32 = u32::MAX;
 
@@ -49,9 +54,28 @@ pub struct Pattern {
     row_idx: Vec<u32>,
     /// The couplings it was built from (to detect a change).
     pub key: Vec<[u32; 2]>,
-    symbolic_llt: Option<SymbolicLlt<u32>>,
-    symbolic_lu: Option<SymbolicLu<u32>>,
+    llt: Option<LltFactor>,
+    lu: Option<LuFactor>,
     sym: SymbolicSparseColMat<u32>,
+}
+
+/// Cholesky of one pattern: symbolic analysis, factor values and work space,
+/// all reused from one factorisation to the next.
+struct LltFactor {
+    symbolic: cholesky::SymbolicCholesky<u32>,
+    values: Vec<f64>,
+    mem: MemBuffer,
+}
+
+/// LU with partial pivoting of one pattern, reused likewise.
+struct LuFactor {
+    symbolic: lu::SymbolicLu<u32>,
+    numeric: lu::NumericLu<u32, f64>,
+    mem: MemBuffer,
+}
+
+fn par() -> Par {
+    faer::get_global_parallelism()
 }
 
 impl Pattern {
@@ -136,8 +160,8 @@ impl Pattern {
             col_ptr,
             row_idx,
             key,
-            symbolic_llt: None,
-            symbolic_lu: None,
+            llt: None,
+            lu: None,
             sym,
         }
     }
@@ -222,37 +246,73 @@ impl Pattern {
         y
     }
 
-    fn matrix(&self, vals: &[f64]) -> SparseColMat<u32, f64> {
-        SparseColMat::new(self.sym.clone(), vals.to_vec())
-    }
-
     /// Solve A x = b by Cholesky (A symmetric); `Err` when A is not
     /// positive definite.
     pub fn solve_llt(&mut self, vals: &[f64], b: &mut [f64]) -> Result<(), String> {
-        if self.symbolic_llt.is_none() {
-            self.symbolic_llt = Some(
-                SymbolicLlt::try_new(self.sym.as_ref(), Side::Lower)
-                    .map_err(|e| format!("{e:?}"))?,
-            );
+        if self.llt.is_none() {
+            let symbolic = cholesky::factorize_symbolic_cholesky(
+                self.sym.as_ref(),
+                Side::Lower,
+                Default::default(),
+                Default::default(),
+            )
+            .map_err(|e| format!("{e:?}"))?;
+            let req = StackReq::any_of(&[
+                symbolic.factorize_numeric_llt_scratch::<f64>(par(), Default::default()),
+                symbolic.solve_in_place_scratch::<f64>(1, par()),
+            ]);
+            self.llt = Some(LltFactor {
+                values: vec![0.0; symbolic.len_val()],
+                mem: MemBuffer::try_new(req).map_err(|e| format!("{e:?}"))?,
+                symbolic,
+            });
         }
-        let a = self.matrix(vals);
-        let f =
-            Llt::try_new_with_symbolic(self.symbolic_llt.clone().unwrap(), a.as_ref(), Side::Lower)
-                .map_err(|e| format!("{e:?}"))?;
-        solve_in_place(&f, b);
+        let a = SparseColMatRef::new(self.sym.as_ref(), vals);
+        let f = self.llt.as_mut().expect("built");
+        let l = f
+            .symbolic
+            .factorize_numeric_llt(
+                &mut f.values,
+                a,
+                Side::Lower,
+                Default::default(),
+                par(),
+                MemStack::new(&mut f.mem),
+                Default::default(),
+            )
+            .map_err(|e| format!("{e:?}"))?;
+        l.solve_in_place_with_conj(Conj::No, column(b), par(), MemStack::new(&mut f.mem));
         Ok(())
     }
 
     /// Solve A x = b by LU with partial pivoting (A non-symmetric).
     pub fn solve_lu(&mut self, vals: &[f64], b: &mut [f64]) -> Result<(), String> {
-        if self.symbolic_lu.is_none() {
-            self.symbolic_lu =
-                Some(SymbolicLu::try_new(self.sym.as_ref()).map_err(|e| format!("{e:?}"))?);
+        if self.lu.is_none() {
+            let symbolic = lu::factorize_symbolic_lu(self.sym.as_ref(), Default::default())
+                .map_err(|e| format!("{e:?}"))?;
+            let req = StackReq::any_of(&[
+                symbolic.factorize_numeric_lu_scratch::<f64>(par(), Default::default()),
+                symbolic.solve_in_place_scratch::<f64>(1, par()),
+            ]);
+            self.lu = Some(LuFactor {
+                numeric: lu::NumericLu::new(),
+                mem: MemBuffer::try_new(req).map_err(|e| format!("{e:?}"))?,
+                symbolic,
+            });
         }
-        let a = self.matrix(vals);
-        let f = Lu::try_new_with_symbolic(self.symbolic_lu.clone().unwrap(), a.as_ref())
+        let a = SparseColMatRef::new(self.sym.as_ref(), vals);
+        let f = self.lu.as_mut().expect("built");
+        let l = f
+            .symbolic
+            .factorize_numeric_lu(
+                &mut f.numeric,
+                a,
+                par(),
+                MemStack::new(&mut f.mem),
+                Default::default(),
+            )
             .map_err(|e| format!("{e:?}"))?;
-        solve_in_place(&f, b);
+        l.solve_in_place_with_conj(Conj::No, column(b), par(), MemStack::new(&mut f.mem));
         if b.iter().all(|v| v.is_finite()) {
             Ok(())
         } else {
@@ -261,13 +321,9 @@ impl Pattern {
     }
 }
 
-fn solve_in_place<S: faer::linalg::solvers::SolveCore<f64>>(f: &S, b: &mut [f64]) {
+fn column(b: &mut [f64]) -> MatMut<'_, f64> {
     let n = b.len();
-    let mut m = faer::Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
-    f.solve_in_place_with_conj(faer::Conj::No, m.as_mut());
-    for i in 0..n {
-        b[i] = m[(i, 0)];
-    }
+    MatMut::from_column_major_slice_mut(b, n, 1)
 }
 
 #[cfg(test)]
