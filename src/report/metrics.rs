@@ -341,7 +341,10 @@ pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
             free_edge_length_mm: length,
             leaflet_area_mm2: flat[l],
             cusp_area_closed_mm2: cusp[l],
-            billowing_mm: depth,
+            // The plane passes through each leaflet's lowest sutured point:
+            // when nothing lies lower the depth is zero up to round-off,
+            // which printed as −0 and −4e-16 in reports.
+            billowing_mm: if depth.abs() < 1e-9 { 0.0 } else { depth },
             central_free_edge_height_mm: best.map(|b| b.1),
             central_free_edge_radius_mm: best.map(|b| b.0),
             lowest_free_edge_mm: lowest_free,

@@ -132,7 +132,13 @@ fn parallel_sheets_coapt_over_their_whole_height_with_a_central_zone() {
         );
         assert!((l.cusp_area_closed_mm2 - 2.0 * W * (Z1 - Z0)).abs() < 1e-9);
         assert!((l.free_edge_length_mm - 2.0 * W).abs() < 1e-9);
-        assert!(l.billowing_mm.abs() < 1e-12);
+        // Exactly +0, not −0 or round-off: a report prints it.
+        assert_eq!(
+            l.billowing_mm.to_bits(),
+            0f64.to_bits(),
+            "{}",
+            l.billowing_mm
+        );
     }
     near(m.ncca, 1.0, 1e-12);
     near(m.h_avr_mm, Z1 - Z0, 1e-9);
