@@ -353,7 +353,28 @@ fn classify<T: Sample>(
 /// Extract the `iso` surface of `vol` (inside: value > iso) in world
 /// coordinates, closed at the grid border, outward-facing.
 pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
-    extract_with(vol, iso, Emit::Fast)
+    extract_with(vol, iso, Emit::Fast { hw: hw_popcount() })
+}
+
+/// Whether this CPU counts the bits of a word in one instruction. The build
+/// targets plain x86-64, where `count_ones` is a dozen instructions, so the
+/// two bit-counting passes come in a popcnt variant chosen at run time; both
+/// compute the same integers.
+fn hw_popcount() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("popcnt") && std::arch::is_x86_feature_detected!("bmi1")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// [`extract`] without the popcnt variants, as on a CPU without popcnt.
+#[cfg(test)]
+pub(super) fn extract_portable<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
+    extract_with(vol, iso, Emit::Fast { hw: false })
 }
 
 /// The same surface through the plain per-vertex emission loops that the
@@ -365,7 +386,9 @@ pub(super) fn extract_reference<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurf
 
 #[derive(Clone, Copy)]
 enum Emit {
-    Fast,
+    Fast {
+        hw: bool,
+    },
     #[cfg(test)]
     Reference,
 }
@@ -391,6 +414,11 @@ fn extract_with<T: Sample>(vol: &Volume<T>, iso: f64, how: Emit) -> Isosurface {
     let jk = |r: usize| (j0 + r % nj, k0 + r / nj);
     let nw = g.w1 - g.w0;
     let tab = table();
+    let hw = match how {
+        Emit::Fast { hw } => hw,
+        #[cfg(test)]
+        Emit::Reference => false,
+    };
 
     // Pass 2: vertices per node row, triangles per cell row.
     let counts: Vec<(u32, u32)> = (0..rows)
@@ -398,7 +426,7 @@ fn extract_with<T: Sample>(vol: &Volume<T>, iso: f64, how: Emit) -> Isosurface {
         .with_min_len(16)
         .map(|r| {
             let (j, k) = jk(r);
-            count_row(&g, tab, j, k)
+            count_row(&g, tab, j, k, hw)
         })
         .collect();
 
@@ -455,7 +483,9 @@ fn extract_with<T: Sample>(vol: &Volume<T>, iso: f64, how: Emit) -> Isosurface {
             if !vs.is_empty() {
                 let samples = [data_row(j, k), data_row(j + 1, k), data_row(j, k + 1)];
                 let n = match how {
-                    Emit::Fast => emit_vertices(&g, j, k, samples, dx, iso, weights, &mm, vs, bs),
+                    Emit::Fast { .. } => {
+                        emit_vertices(&g, j, k, samples, dx, iso, weights, &mm, vs, bs)
+                    }
                     #[cfg(test)]
                     Emit::Reference => {
                         emit_vertices_reference(&g, j, k, samples, dx, iso, &mm, vs, bs)
@@ -467,7 +497,7 @@ fn extract_with<T: Sample>(vol: &Volume<T>, iso: f64, how: Emit) -> Isosurface {
                 // A cell row with triangles has all four node rows in the box.
                 let firsts = [r, r + 1, r + nj, r + nj + 1].map(|q| voff[q] as u32);
                 let w = match how {
-                    Emit::Fast => emit_triangles(&g, j, k, nw, firsts, flip, ts),
+                    Emit::Fast { hw } => emit_triangles(&g, j, k, nw, firsts, flip, ts, hw),
                     #[cfg(test)]
                     Emit::Reference => {
                         emit_triangles_reference(&g, tab, j, k, nw, firsts, flip, ts)
@@ -648,10 +678,62 @@ fn edges4(
 
 /// Triangles of cell row (j, k) (padded) into `ts`; `firsts` are the first
 /// vertex ids of its node rows (y, z) = (0,0), (1,0), (0,1), (1,1). Returns
-/// how many were written.
+/// how many were written. `hw`: see [`hw_popcount`].
+#[allow(clippy::too_many_arguments)]
+fn emit_triangles(
+    g: &BitGrid,
+    j: usize,
+    k: usize,
+    nw: usize,
+    firsts: [u32; 4],
+    flip: bool,
+    ts: &mut [[u32; 3]],
+    hw: bool,
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if hw {
+        // SAFETY: `hw` comes from `hw_popcount`, which saw popcnt and bmi1.
+        return unsafe { emit_triangles_popcnt(g, j, k, nw, firsts, flip, ts) };
+    }
+    let _ = hw;
+    emit_triangles_portable(g, j, k, nw, firsts, flip, ts)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "popcnt,bmi1")]
 #[allow(clippy::too_many_arguments)]
 #[inline(never)] // one symbol per pass in profiles
-fn emit_triangles(
+fn emit_triangles_popcnt(
+    g: &BitGrid,
+    j: usize,
+    k: usize,
+    nw: usize,
+    firsts: [u32; 4],
+    flip: bool,
+    ts: &mut [[u32; 3]],
+) -> usize {
+    emit_triangles_with::<true>(g, j, k, nw, firsts, flip, ts)
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(never)] // one symbol per pass in profiles
+fn emit_triangles_portable(
+    g: &BitGrid,
+    j: usize,
+    k: usize,
+    nw: usize,
+    firsts: [u32; 4],
+    flip: bool,
+    ts: &mut [[u32; 3]],
+) -> usize {
+    emit_triangles_with::<false>(g, j, k, nw, firsts, flip, ts)
+}
+
+/// [`emit_triangles`]; `HW`: count bits with `count_ones` (one instruction
+/// where inlined into a popcnt function) instead of bytes of prefix counts.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn emit_triangles_with<const HW: bool>(
     g: &BitGrid,
     j: usize,
     k: usize,
@@ -672,12 +754,16 @@ fn emit_triangles(
     for x in 0..nw {
         let next = edges(x + 1);
         let (mut m, lo, hi) = mixed_cells(&node, x);
-        let prefix = [
-            prefix_counts3(&cur[0]),
-            prefix_counts3(&cur[1]),
-            prefix_counts3(&cur[2]),
-            prefix_counts3(&cur[3]),
-        ];
+        let prefix = if HW {
+            [0; 4]
+        } else {
+            [
+                prefix_counts3(&cur[0]),
+                prefix_counts3(&cur[1]),
+                prefix_counts3(&cur[2]),
+                prefix_counts3(&cur[3]),
+            ]
+        };
         while m != 0 {
             let p = m.trailing_zeros();
             m &= m - 1;
@@ -688,7 +774,15 @@ fn emit_triangles(
             let mut ids = [0u32; 32];
             for q in 0..4 {
                 let e = &cur[q];
-                let pre = base[q] + count_below(e, prefix[q], p);
+                let below = if HW {
+                    let low = (1u64 << p) - 1;
+                    (e[0] & low).count_ones()
+                        + (e[1] & low).count_ones()
+                        + (e[2] & low).count_ones()
+                } else {
+                    count_below(e, prefix[q], p)
+                };
+                let pre = base[q] + below;
                 let at = |e: &[u64; 3], b: u32| -> [u32; 3] {
                     let x = (e[0] >> b & 1) as u32;
                     [0, x, x + (e[1] >> b & 1) as u32]
@@ -731,7 +825,11 @@ fn emit_triangles(
             w += n;
         }
         for q in 0..4 {
-            base[q] += (prefix[q] >> 56) as u32;
+            base[q] += if HW {
+                cur[q].iter().map(|e| e.count_ones()).sum::<u32>()
+            } else {
+                (prefix[q] >> 56) as u32
+            };
         }
         cur = next;
     }
@@ -798,14 +896,41 @@ fn emit_vertices_reference<T: Sample>(
 }
 
 /// Pass 2 for node row (j, k) and the cell row above it (padded
-/// coordinates): (vertices, triangles).
+/// coordinates): (vertices, triangles). `hw`: see [`hw_popcount`].
+fn count_row(g: &BitGrid, tab: &CaseTable, j: usize, k: usize, hw: bool) -> (u32, u32) {
+    #[cfg(target_arch = "x86_64")]
+    if hw {
+        // SAFETY: `hw` comes from `hw_popcount`, which saw popcnt and bmi1.
+        return unsafe { count_row_popcnt(g, tab, j, k) };
+    }
+    let _ = hw;
+    count_row_portable(g, tab, j, k)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "popcnt,bmi1")]
 #[inline(never)] // one symbol per pass in profiles
-fn count_row(g: &BitGrid, tab: &CaseTable, j: usize, k: usize) -> (u32, u32) {
+fn count_row_popcnt(g: &BitGrid, tab: &CaseTable, j: usize, k: usize) -> (u32, u32) {
+    count_row_with::<true>(g, tab, j, k)
+}
+
+#[inline(never)] // one symbol per pass in profiles
+fn count_row_portable(g: &BitGrid, tab: &CaseTable, j: usize, k: usize) -> (u32, u32) {
+    count_row_with::<false>(g, tab, j, k)
+}
+
+#[inline(always)]
+fn count_row_with<const HW: bool>(g: &BitGrid, tab: &CaseTable, j: usize, k: usize) -> (u32, u32) {
     let a = g.row(j, k);
     let (ay, az, ayz) = (g.row(j + 1, k), g.row(j, k + 1), g.row(j + 1, k + 1));
     let (mut nv, mut nt) = (0, 0);
     for x in 0..a.len() {
-        nv += (prefix_counts3(&cut_edges(a, ay, az, x)) >> 56) as u32;
+        let e = cut_edges(a, ay, az, x);
+        nv += if HW {
+            e[0].count_ones() + e[1].count_ones() + e[2].count_ones()
+        } else {
+            (prefix_counts3(&e) >> 56) as u32
+        };
         let (mut m, lo, hi) = mixed_cells(&[a, ay, az, ayz], x);
         while m != 0 {
             nt += tab.count(case_of(&lo, &hi, m.trailing_zeros()));

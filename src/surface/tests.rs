@@ -835,10 +835,11 @@ fn integer_classification_equals_float_classification() {
 /// in 0/1 volumes) must write exactly what the plain per-edge loops wrote:
 /// same vertex bits, border flags and triangles, for 0/1 masks, other uint8
 /// values, int16 and float volumes, grids touching the border on every
-/// side, rows shorter and longer than a word, plain and mirrored affines.
+/// side, rows shorter and longer than a word, plain and mirrored affines;
+/// and the portable bit counts (CPUs without popcnt) give the same output.
 #[test]
 fn branch_free_emission_equals_the_plain_loops() {
-    use super::marching_cubes::extract_reference;
+    use super::marching_cubes::{extract_portable, extract_reference};
     let mut rng = Rng::new(29);
     let same = |a: &Isosurface, b: &Isosurface, what: &str| {
         assert_eq!(a.triangles, b.triangles, "{what}");
@@ -883,6 +884,7 @@ fn branch_free_emission_equals_the_plain_loops() {
             let what = format!("0/1 case {case} dims {dims:?} iso {iso}");
             let fast = extract(&binary, iso);
             same(&fast, &extract_reference(&binary, iso), &what);
+            same(&extract_portable(&binary, iso), &fast, &what);
             // The float copy takes the path that reads samples.
             same(&fast, &extract(&binary_f, iso), &what);
             meshed += fast.triangles.len();
@@ -898,6 +900,11 @@ fn branch_free_emission_equals_the_plain_loops() {
         for iso in [150.5, 0.0, -100.0, 399.0] {
             let what = format!("int16 case {case} dims {dims:?} iso {iso}");
             same(&extract(&ct, iso), &extract_reference(&ct, iso), &what);
+            same(
+                &extract_portable(&ct, iso),
+                &extract_reference(&ct, iso),
+                &what,
+            );
         }
         for iso in [0.5, 0.1] {
             let what = format!("float case {case} dims {dims:?} iso {iso}");
