@@ -712,6 +712,25 @@ fn remeshing_keeps_caps_flat_and_rims_closed() {
             assert!(d < 1e-6, "rim vertex {v} is {d} mm off the input rim");
         }
     }
+    // No ear: a triangle with two rim edges spans three nearly collinear rim
+    // vertices (a sliver; 7° on the full phantom's caps before flips removed
+    // them).
+    let rim_edges = |t: usize| {
+        adj.tri_edges[t]
+            .iter()
+            .filter(|&&e| {
+                let ts = adj.triangles_of_edge(e as usize);
+                ra[ts[0] as usize] != ra[ts[1] as usize]
+            })
+            .count()
+    };
+    let ears: Vec<usize> = (0..m.triangles.len())
+        .filter(|&t| rim_edges(t) >= 2)
+        .collect();
+    assert!(
+        ears.is_empty(),
+        "triangles with two rim edges: {ears:?} ({rr:?})"
+    );
 }
 
 #[test]
