@@ -712,24 +712,46 @@ fn remeshing_keeps_caps_flat_and_rims_closed() {
             assert!(d < 1e-6, "rim vertex {v} is {d} mm off the input rim");
         }
     }
-    // No ear: a triangle with two rim edges spans three nearly collinear rim
-    // vertices (a sliver; 7° on the full phantom's caps before flips removed
-    // them).
+    assert_eq!(ears(&m), Vec::<usize>::new(), "{rr:?}");
+}
+
+/// Triangles with two rim edges: three nearly collinear rim vertices, a
+/// sliver (7° on the full phantom's caps before the remesher flipped them).
+fn ears(m: &TriMesh) -> Vec<usize> {
+    let (adj, r) = (m.adjacency(), region_of(m));
     let rim_edges = |t: usize| {
         adj.tri_edges[t]
             .iter()
             .filter(|&&e| {
                 let ts = adj.triangles_of_edge(e as usize);
-                ra[ts[0] as usize] != ra[ts[1] as usize]
+                r[ts[0] as usize] != r[ts[1] as usize]
             })
             .count()
     };
-    let ears: Vec<usize> = (0..m.triangles.len())
+    (0..m.triangles.len())
         .filter(|&t| rim_edges(t) >= 2)
-        .collect();
+        .collect()
+}
+
+#[test]
+fn remeshing_leaves_no_ears_on_the_rims() {
+    let (vol, ..) = cut_tube();
+    let mut found = Vec::new();
+    for l in [0.6, 0.7, 0.8, 0.9, 1.1, 1.2, 1.3, 1.5, 1.7] {
+        let params = SurfaceParams {
+            remesh: Some(RemeshParams::new(l)),
+            ..SurfaceParams::default()
+        };
+        let (m, rep) = surface_from_mask(&vol, &params).unwrap();
+        assert_eq!(rep.euler_characteristic, 2);
+        let e = ears(&m);
+        if !e.is_empty() {
+            found.push((l, e.len(), rep.remesh.unwrap().min_angle_deg));
+        }
+    }
     assert!(
-        ears.is_empty(),
-        "triangles with two rim edges: {ears:?} ({rr:?})"
+        found.is_empty(),
+        "(target edge, ears, smallest angle): {found:?}"
     );
 }
 
