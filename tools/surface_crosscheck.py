@@ -3,6 +3,7 @@
 
     tools/surface_crosscheck.py PHANTOM_DIR [--coapt BIN] [--threads 1,2]
                                 [--repeat 5] [--hu 150] [--json OUT]
+                                [--speed-only]
 
 PHANTOM_DIR is what `coapt phantom` writes (truth_mask.nii.gz, ct.nii.gz,
 truth_surface.vtp). Two masks are meshed, unsmoothed, at iso 0.5:
@@ -25,6 +26,9 @@ threads it really kept busy. A third input times both on the int16 CT
 itself at iso HU + 0.5 (same inside set as the mask; coapt classifies with
 16-bit integer compares): counts only, since VTK's padding value moves the
 border vertices. The table at the end has the ratios.
+
+--speed-only keeps the timings (and the comparison of VTK's vertex set with
+coapt's) and skips vtkMarchingCubes, scikit-image and the accuracy part.
 
 VTK and scikit-image get the mask padded by one voxel of zeros (outside the
 timing), as coapt pads internally, so that surfaces cut by the grid border
@@ -129,6 +133,7 @@ def time_both(a, path, iso, img_vtk, threads):
         fe_min, fe_med, fe_out = run_vtk(vtk.vtkFlyingEdges3D, img_vtk, iso, a.repeat)
         row = {
             "threads": t,
+            "vtk_smp_backend": vtk.vtkSMPTools.GetBackend(),
             "vtk_smp_threads": vtk.vtkSMPTools.GetEstimatedNumberOfThreads(),
             "vtk_flying_edges_s": {"min": fe_min, "median": fe_med},
             "vtk_cpu_over_wall": run_vtk.cpu_over_wall,
@@ -229,6 +234,7 @@ def main():
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--hu", type=float, default=150.0)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--speed-only", action="store_true", help="timings only (see above)")
     a = ap.parse_args()
     threads = [int(t) for t in a.threads.split(",")]
     tmp = Path(tempfile.mkdtemp(prefix="surface-xcheck-"))
@@ -257,12 +263,22 @@ def main():
             [a.coapt, "surface", "--mask", str(path), "--out", str(raw), "--smooth", "0",
              "--keep-all", "--quiet"], check=True)
         c_pts, c_tris = read_vtp(raw)
-        r["coapt"] = {"vertices": len(c_pts), "triangles": len(c_tris), "open_or_nonmanifold_edges": open_edges(c_tris)}
+        r["coapt"] = {"vertices": len(c_pts), "triangles": len(c_tris)}
+        if not a.speed_only:
+            r["coapt"]["open_or_nonmanifold_edges"] = open_edges(c_tris)
         img_vtk = image_data(padded)
         speed = time_both(a, path, 0.5, img_vtk, threads)
         fe_pts, fe_tris = speed.pop("vtk_output")
         r["speed"] = speed
         fe_pts = to_world(fe_pts, aff)
+        if a.speed_only:
+            d_ab, _ = cKDTree(fe_pts).query(c_pts)
+            d_ba, _ = cKDTree(c_pts).query(fe_pts)
+            r["vtkFlyingEdges3D"] = {"vertices": len(fe_pts), "triangles": len(fe_tris),
+                                     "hausdorff_mm": float(max(d_ab.max(), d_ba.max()))}
+            results["masks"][name] = r
+            print(json.dumps({name: r}, indent=1), flush=True)
+            continue
         r["vtkFlyingEdges3D"] = {"vertices": len(fe_pts), "triangles": len(fe_tris), "open_or_nonmanifold_edges": open_edges(fe_tris),
                                  **compare(fe_pts, fe_tris, c_pts, c_tris)}
         mc_min, _, (mc_pts, mc_tris) = run_vtk(vtk.vtkMarchingCubes, img_vtk, 0.5, min(a.repeat, 3))
@@ -290,6 +306,10 @@ def main():
     results["masks"][f"ct int16 iso {iso:g}"] = {"speed": speed}
     print(json.dumps({f"ct int16 iso {iso:g}": speed}, indent=1), flush=True)
     print_speed_table(results)
+    if a.speed_only:
+        if a.json:
+            a.json.write_text(json.dumps(results, indent=1) + "\n")
+        return
 
     # Accuracy of the default (smoothed) surface against the analytic truth.
     smooth = tmp / "aorta.vtp"

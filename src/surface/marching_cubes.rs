@@ -20,6 +20,8 @@
 //! Rows are independent, so every pass runs in parallel with rayon and the
 //! output does not depend on the thread count.
 
+use std::sync::OnceLock;
+
 use rayon::prelude::*;
 
 use super::tables::{CaseTable, EDGE_CORNERS, table};
@@ -38,6 +40,13 @@ pub trait Sample: Copy + Send + Sync {
     #[inline]
     fn bits(s: &[Self], t: Self::Threshold) -> u64 {
         pack(s, |v| v.above(t))
+    }
+    /// Whether every sample of `s` is 0 or 1 (then an edge's interpolation
+    /// weight follows from its lower node's bit and the samples need not be
+    /// read again). Types without a cheap test say no.
+    #[inline]
+    fn zero_one(_s: &[Self]) -> bool {
+        false
     }
 }
 
@@ -87,6 +96,10 @@ impl Sample for u8 {
             Err(_) if t < 0 => low_bits(s.len()),
             Err(_) => 0,
         }
+    }
+    #[inline]
+    fn zero_one(s: &[u8]) -> bool {
+        s.iter().fold(0, |m, &v| m | v) <= 1
     }
 }
 
@@ -179,7 +192,7 @@ fn cut_edges(a: &[u64], ay: &[u64], az: &[u64], x: usize) -> [u64; 3] {
 
 /// Cells of word `x` of a cell row (node rows (y, z) = (0,0), (1,0), (0,1),
 /// (1,1)) with both inside and outside corners: the only ones with triangles.
-#[inline]
+#[inline(always)] // out of line it cost a call per word in two hot loops
 fn mixed_cells(rows: &[&[u64]; 4], x: usize) -> (u64, [u64; 4], [u64; 4]) {
     // Written out: `array::map` stayed an out-of-line call in the hot loops.
     let lo = [rows[0][x], rows[1][x], rows[2][x], rows[3][x]];
@@ -265,29 +278,31 @@ fn bit_extent(row: &[u64]) -> (u32, u32) {
 }
 
 #[inline(never)] // one symbol per pass in profiles
-/// Pass 1: the padded bit grid and the box of inside nodes, in padded
-/// coordinates ([lo, hi] per axis, bit / row index), or `None` when empty.
+/// Pass 1: the padded bit grid, the box of inside nodes in padded
+/// coordinates ([lo, hi] per axis, bit / row index), and whether every sample
+/// is 0 or 1 ([`Sample::zero_one`]); `None` when nothing is inside.
 fn classify<T: Sample>(
     data: &[T],
     dims: [usize; 3],
     thr: T::Threshold,
-) -> Option<(BitGrid, [[usize; 2]; 3])> {
+) -> Option<(BitGrid, [[usize; 2]; 3], bool)> {
     let [dx, dy, dz] = dims;
     let (ny, nz) = (dy + 2, dz + 2);
     let w = (dx + 2).div_ceil(64);
     let mut words = vec![0u64; w * ny * nz];
-    let extent: Vec<(u32, u32)> = words
+    let extent: Vec<(u32, u32, bool)> = words
         .par_chunks_mut(w)
         .with_min_len(64)
         .enumerate()
         .map(|(r, out)| {
             let (jp, kp) = (r % ny, r / ny);
             if jp == 0 || kp == 0 || jp > dy || kp > dz {
-                return (0, 0);
+                return (0, 0, true);
             }
             let vr = (jp - 1) + dy * (kp - 1);
+            let row = &data[vr * dx..(vr + 1) * dx];
             let mut any = 0;
-            for (c, s) in data[vr * dx..(vr + 1) * dx].chunks(64).enumerate() {
+            for (c, s) in row.chunks(64).enumerate() {
                 let m = T::bits(s, thr);
                 any |= m;
                 out[c] |= m << 1;
@@ -295,12 +310,20 @@ fn classify<T: Sample>(
                     out[c + 1] |= 1;
                 }
             }
-            if any == 0 { (0, 0) } else { bit_extent(out) }
+            // The row is in L1 now: the 0/1 test costs no memory traffic.
+            let zero_one = T::zero_one(row);
+            if any == 0 {
+                (0, 0, zero_one)
+            } else {
+                let (f, l) = bit_extent(out);
+                (f, l, zero_one)
+            }
         })
         .collect();
+    let zero_one = extent.iter().all(|e| e.2);
     let mut lo = [usize::MAX; 3];
     let mut hi = [0usize; 3];
-    for (r, &(f, l)) in extent.iter().enumerate() {
+    for (r, &(f, l, _)) in extent.iter().enumerate() {
         if l > f {
             let (jp, kp) = (r % ny, r / ny);
             lo = [lo[0].min(f as usize), lo[1].min(jp), lo[2].min(kp)];
@@ -324,21 +347,65 @@ fn classify<T: Sample>(
         w1,
         zeros: vec![0; w1 - w0],
     };
-    Some((grid, [0, 1, 2].map(|a| [lo[a] - 1, hi[a] + 1])))
+    Some((grid, [0, 1, 2].map(|a| [lo[a] - 1, hi[a] + 1]), zero_one))
 }
 
 /// Extract the `iso` surface of `vol` (inside: value > iso) in world
 /// coordinates, closed at the grid border, outward-facing.
 pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
+    extract_with(vol, iso, Emit::Fast { hw: hw_popcount() })
+}
+
+/// Whether this CPU counts the bits of a word in one instruction. The build
+/// targets plain x86-64, where `count_ones` is a dozen instructions, so the
+/// two bit-counting passes come in a popcnt variant chosen at run time; both
+/// compute the same integers.
+fn hw_popcount() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("popcnt") && std::arch::is_x86_feature_detected!("bmi1")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// [`extract`] without the popcnt variants, as on a CPU without popcnt.
+#[cfg(test)]
+pub(super) fn extract_portable<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
+    extract_with(vol, iso, Emit::Fast { hw: false })
+}
+
+/// The same surface through the plain per-vertex emission loops that the
+/// branch-free ones replaced: the tests' reference for them.
+#[cfg(test)]
+pub(super) fn extract_reference<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
+    extract_with(vol, iso, Emit::Reference)
+}
+
+#[derive(Clone, Copy)]
+enum Emit {
+    Fast {
+        hw: bool,
+    },
+    #[cfg(test)]
+    Reference,
+}
+
+fn extract_with<T: Sample>(vol: &Volume<T>, iso: f64, how: Emit) -> Isosurface {
     let thr = T::threshold(iso);
     let dims = vol.dims();
     let data = vol.as_slice();
     if data.is_empty() {
         return Isosurface::default();
     }
-    let Some((g, bx)) = classify(data, dims, thr) else {
+    let Some((g, bx, zero_one)) = classify(data, dims, thr) else {
         return Isosurface::default();
     };
+    // In a 0/1 volume an edge's weight is that of (lower node out, in):
+    // the same expression on the same values as for any other volume.
+    let weights = zero_one.then(|| [(iso - 0.0) / (1.0 - 0.0), (iso - 1.0) / (0.0 - 1.0)]);
     let [dx, dy, dz] = dims;
     // Node rows of the box (one node of outside around the inside nodes).
     let (j0, k0) = (bx[1][0], bx[2][0]);
@@ -347,6 +414,11 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
     let jk = |r: usize| (j0 + r % nj, k0 + r / nj);
     let nw = g.w1 - g.w0;
     let tab = table();
+    let hw = match how {
+        Emit::Fast { hw } => hw,
+        #[cfg(test)]
+        Emit::Reference => false,
+    };
 
     // Pass 2: vertices per node row, triangles per cell row.
     let counts: Vec<(u32, u32)> = (0..rows)
@@ -354,7 +426,7 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
         .with_min_len(16)
         .map(|r| {
             let (j, k) = jk(r);
-            count_row(&g, tab, j, k)
+            count_row(&g, tab, j, k, hw)
         })
         .collect();
 
@@ -369,7 +441,11 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
     voff.push(sv);
     assert!(sv <= u32::MAX as usize, "more than 2³² vertices");
 
-    let mut vertices = vec![Point3::origin(); sv];
+    // The output's first touch (page faults, zeroing) is most of its cost:
+    // spread it over the pool. `on_border` and `triangles` are zero bytes,
+    // which the allocator hands out untouched; the emission touches them.
+    let mut vertices = Vec::with_capacity(sv);
+    vertices.par_extend(rayon::iter::repeat_n(Point3::origin(), sv));
     let mut on_border = vec![false; sv];
     let mut triangles = vec![[0u32; 3]; st];
     let mut slices = Vec::with_capacity(rows);
@@ -406,13 +482,27 @@ pub fn extract<T: Sample>(vol: &Volume<T>, iso: f64) -> Isosurface {
             let (j, k) = jk(r);
             if !vs.is_empty() {
                 let samples = [data_row(j, k), data_row(j + 1, k), data_row(j, k + 1)];
-                let n = emit_vertices(&g, j, k, samples, dx, iso, &mm, vs, bs);
+                let n = match how {
+                    Emit::Fast { .. } => {
+                        emit_vertices(&g, j, k, samples, dx, iso, weights, &mm, vs, bs)
+                    }
+                    #[cfg(test)]
+                    Emit::Reference => {
+                        emit_vertices_reference(&g, j, k, samples, dx, iso, &mm, vs, bs)
+                    }
+                };
                 debug_assert_eq!(n, vs.len());
             }
             if !ts.is_empty() {
                 // A cell row with triangles has all four node rows in the box.
                 let firsts = [r, r + 1, r + nj, r + nj + 1].map(|q| voff[q] as u32);
-                let w = emit_triangles(&g, tab, j, k, nw, firsts, flip, ts);
+                let w = match how {
+                    Emit::Fast { hw } => emit_triangles(&g, j, k, nw, firsts, flip, ts, hw),
+                    #[cfg(test)]
+                    Emit::Reference => {
+                        emit_triangles_reference(&g, tab, j, k, nw, firsts, flip, ts)
+                    }
+                };
                 debug_assert_eq!(w, ts.len());
             }
         });
@@ -438,11 +528,318 @@ const EDGE_SLOT: [(u8, u8); 12] = {
 };
 
 /// Vertices of node row (j, k) (padded) into `vs` and `bs`, from the samples
-/// of the node row and its +y and +z neighbours (`None`: padding). Returns
-/// how many were written.
+/// of the node row and its +y and +z neighbours (`None`: padding), or from
+/// `weights` (lower node outside, inside) in a 0/1 volume. Returns how many
+/// were written.
+///
+/// Which of a node's three edges are cut is a coin toss to the branch
+/// predictor, so every node with a cut writes all three candidates at the
+/// next free slot and advances by the edge's cut bit: an uncut edge's
+/// candidate is overwritten by the next one. Only nodes next to the padding
+/// take a branch (rare and predictable).
 #[inline(never)] // one symbol per pass in profiles
 #[allow(clippy::too_many_arguments)]
 fn emit_vertices<T: Sample>(
+    g: &BitGrid,
+    j: usize,
+    k: usize,
+    samples: [Option<&[T]>; 3],
+    dx: usize,
+    iso: f64,
+    weights: Option<[f64; 2]>,
+    mm: &[[f64; 4]; 3],
+    vs: &mut [Point3],
+    bs: &mut [bool],
+) -> usize {
+    let (a, ay, az) = (g.row(j, k), g.row(j + 1, k), g.row(j, k + 1));
+    let world = |p: [f64; 3]| {
+        let row = |r: usize| mm[r][0] * p[0] + mm[r][1] * p[1] + mm[r][2] * p[2] + mm[r][3];
+        Point3::new(row(0), row(1), row(2))
+    };
+    let (vj, vk) = (j as f64 - 1.0, k as f64 - 1.0);
+    let (len, mut n) = (vs.len(), 0);
+    for x in 0..a.len() {
+        let e = cut_edges(a, ay, az, x);
+        let mut any = e[0] | e[1] | e[2];
+        while any != 0 {
+            let p = any.trailing_zeros();
+            any &= any - 1;
+            let vi = (64 * (g.w0 + x) + p as usize) as i64 - 1;
+            let inside = (a[x] >> p & 1) as usize;
+            // Weight along each axis, and whether the edge reaches the padding.
+            let (t, border) = match (samples, vi >= 0 && (vi as usize) + 1 < dx) {
+                // Node and all three far ends are samples.
+                ([Some(s0), Some(s1), Some(s2)], true) => {
+                    let i = vi as usize;
+                    let t = match weights {
+                        Some(w) => [w[inside]; 3],
+                        None => {
+                            let f0 = s0[i].value();
+                            let f = [s0[i + 1].value(), s1[i].value(), s2[i].value()];
+                            f.map(|f1| (iso - f0) / (f1 - f0))
+                        }
+                    };
+                    (t, [false; 3])
+                }
+                _ => {
+                    // Beside the padding: as the plain loop, edge by edge. A
+                    // padding node sits just outside: the vertex goes
+                    // half-way, as if the mask continued to the border.
+                    let sample = |q: usize, i: i64| -> Option<f64> {
+                        let row = samples[q]?;
+                        (i >= 0 && (i as usize) < dx).then(|| row[i as usize].value())
+                    };
+                    let f0 = sample(0, vi);
+                    let f = [sample(0, vi + 1), sample(1, vi), sample(2, vi)];
+                    let t = f.map(|f1| match (f0, f1) {
+                        (Some(u), Some(v)) => weights.map_or((iso - u) / (v - u), |w| w[inside]),
+                        _ => 0.5,
+                    });
+                    (t, f.map(|f1| f0.is_none() || f1.is_none()))
+                }
+            };
+            for (axis, ea) in e.iter().enumerate() {
+                let mut pt = [vi as f64, vj, vk];
+                pt[axis] += t[axis];
+                if n < len {
+                    vs[n] = world(pt);
+                    bs[n] = border[axis];
+                }
+                n += (ea >> p & 1) as usize;
+            }
+        }
+    }
+    n
+}
+
+/// The case table as [`emit_triangles`] reads it: triangle corners as
+/// indices 6·q + slot into the 24 vertex ids a cell reads from its four node
+/// rows (see [`EDGE_SLOT`]), the first [`FIRST`] triangles of every case
+/// padded to a fixed count, and the rest in [`CaseTable::tris`] order.
+struct SlotTable {
+    first: [[[u8; 3]; FIRST]; 256],
+    count: [u8; 256],
+    start: [u16; 257],
+    all: Vec<[u8; 3]>,
+}
+
+/// Triangles every mixed cell writes whether it has them or not: a loop of
+/// varying length per cell would mispredict its exit about once a cell.
+const FIRST: usize = 4;
+
+fn slot_table() -> &'static SlotTable {
+    static T: OnceLock<SlotTable> = OnceLock::new();
+    T.get_or_init(|| {
+        let tab = table();
+        let slot = |e: u8| {
+            let (q, slot) = EDGE_SLOT[e as usize];
+            6 * q + slot
+        };
+        let all: Vec<[u8; 3]> = tab.tris.iter().map(|t| t.map(slot)).collect();
+        let mut first = [[[0u8; 3]; FIRST]; 256];
+        let mut count = [0u8; 256];
+        for c in 0..256 {
+            let tris = &all[tab.start[c] as usize..tab.start[c + 1] as usize];
+            count[c] = tris.len() as u8;
+            for (f, t) in first[c].iter_mut().zip(tris) {
+                *f = *t;
+            }
+        }
+        SlotTable {
+            first,
+            count,
+            start: tab.start,
+            all,
+        }
+    })
+}
+
+/// Cut edges of the four node rows of a cell row at word `x` (none past the
+/// span: the word after it is all outside).
+#[inline(always)] // out of line it was a call per word
+fn edges4(
+    node: &[&[u64]; 4],
+    ny: &[&[u64]; 4],
+    nz: &[&[u64]; 4],
+    nw: usize,
+    x: usize,
+) -> [[u64; 3]; 4] {
+    if x < nw {
+        [
+            cut_edges(node[0], ny[0], nz[0], x),
+            cut_edges(node[1], ny[1], nz[1], x),
+            cut_edges(node[2], ny[2], nz[2], x),
+            cut_edges(node[3], ny[3], nz[3], x),
+        ]
+    } else {
+        [[0; 3]; 4]
+    }
+}
+
+/// Triangles of cell row (j, k) (padded) into `ts`; `firsts` are the first
+/// vertex ids of its node rows (y, z) = (0,0), (1,0), (0,1), (1,1). Returns
+/// how many were written. `hw`: see [`hw_popcount`].
+#[allow(clippy::too_many_arguments)]
+fn emit_triangles(
+    g: &BitGrid,
+    j: usize,
+    k: usize,
+    nw: usize,
+    firsts: [u32; 4],
+    flip: bool,
+    ts: &mut [[u32; 3]],
+    hw: bool,
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if hw {
+        // SAFETY: `hw` comes from `hw_popcount`, which saw popcnt and bmi1.
+        return unsafe { emit_triangles_popcnt(g, j, k, nw, firsts, flip, ts) };
+    }
+    let _ = hw;
+    emit_triangles_portable(g, j, k, nw, firsts, flip, ts)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "popcnt,bmi1")]
+#[allow(clippy::too_many_arguments)]
+#[inline(never)] // one symbol per pass in profiles
+fn emit_triangles_popcnt(
+    g: &BitGrid,
+    j: usize,
+    k: usize,
+    nw: usize,
+    firsts: [u32; 4],
+    flip: bool,
+    ts: &mut [[u32; 3]],
+) -> usize {
+    emit_triangles_with::<true>(g, j, k, nw, firsts, flip, ts)
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(never)] // one symbol per pass in profiles
+fn emit_triangles_portable(
+    g: &BitGrid,
+    j: usize,
+    k: usize,
+    nw: usize,
+    firsts: [u32; 4],
+    flip: bool,
+    ts: &mut [[u32; 3]],
+) -> usize {
+    emit_triangles_with::<false>(g, j, k, nw, firsts, flip, ts)
+}
+
+/// [`emit_triangles`]; `HW`: count bits with `count_ones` (one instruction
+/// where inlined into a popcnt function) instead of bytes of prefix counts.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn emit_triangles_with<const HW: bool>(
+    g: &BitGrid,
+    j: usize,
+    k: usize,
+    nw: usize,
+    firsts: [u32; 4],
+    flip: bool,
+    ts: &mut [[u32; 3]],
+) -> usize {
+    let st = slot_table();
+    // Node rows of the cell row, and each one's +y and +z neighbours.
+    let node = [(j, k), (j + 1, k), (j, k + 1), (j + 1, k + 1)].map(|(a, b)| g.row(a, b));
+    let ny = [(j + 1, k), (j + 2, k), (j + 1, k + 1), (j + 2, k + 1)].map(|(a, b)| g.row(a, b));
+    let nz = [(j, k + 1), (j + 1, k + 1), (j, k + 2), (j + 1, k + 2)].map(|(a, b)| g.row(a, b));
+    let edges = |x: usize| edges4(&node, &ny, &nz, nw, x);
+    let mut base = firsts;
+    let mut cur = edges(0);
+    let mut w = 0;
+    for x in 0..nw {
+        let next = edges(x + 1);
+        let (mut m, lo, hi) = mixed_cells(&node, x);
+        let prefix = if HW {
+            [0; 4]
+        } else {
+            [
+                prefix_counts3(&cur[0]),
+                prefix_counts3(&cur[1]),
+                prefix_counts3(&cur[2]),
+                prefix_counts3(&cur[3]),
+            ]
+        };
+        while m != 0 {
+            let p = m.trailing_zeros();
+            m &= m - 1;
+            // Vertex ids of the six edges (node 0/1 of the cell × axis) each
+            // node row owns: the cut edges of the earlier nodes of the row,
+            // then the lower axes at the node. 32 entries so that a 5-bit
+            // index needs no bounds check.
+            let mut ids = [0u32; 32];
+            for q in 0..4 {
+                let e = &cur[q];
+                let below = if HW {
+                    let low = (1u64 << p) - 1;
+                    (e[0] & low).count_ones()
+                        + (e[1] & low).count_ones()
+                        + (e[2] & low).count_ones()
+                } else {
+                    count_below(e, prefix[q], p)
+                };
+                let pre = base[q] + below;
+                let at = |e: &[u64; 3], b: u32| -> [u32; 3] {
+                    let x = (e[0] >> b & 1) as u32;
+                    [0, x, x + (e[1] >> b & 1) as u32]
+                };
+                let a0 = at(e, p);
+                let n0 = a0[2] + (e[2] >> p & 1) as u32;
+                let a1 = if p < 63 {
+                    at(e, p + 1)
+                } else {
+                    at(&next[q], 0)
+                };
+                ids[6 * q..6 * q + 6].copy_from_slice(&[
+                    pre + a0[0],
+                    pre + a0[1],
+                    pre + a0[2],
+                    pre + n0 + a1[0],
+                    pre + n0 + a1[1],
+                    pre + n0 + a1[2],
+                ]);
+            }
+            let c = case_of(&lo, &hi, p) as usize;
+            let corners = |t: &[u8; 3]| {
+                let v = t.map(|s| ids[s as usize & 31]);
+                if flip { [v[0], v[2], v[1]] } else { v }
+            };
+            // Padding triangles land where the next cell's go (or past the
+            // row's end, not written).
+            for (i, t) in st.first[c].iter().enumerate() {
+                if let Some(o) = ts.get_mut(w + i) {
+                    *o = corners(t);
+                }
+            }
+            let n = st.count[c] as usize;
+            if n > FIRST {
+                let rest = st.start[c] as usize + FIRST..st.start[c + 1] as usize;
+                for (i, t) in st.all[rest].iter().enumerate() {
+                    ts[w + FIRST + i] = corners(t);
+                }
+            }
+            w += n;
+        }
+        for q in 0..4 {
+            base[q] += if HW {
+                cur[q].iter().map(|e| e.count_ones()).sum::<u32>()
+            } else {
+                (prefix[q] >> 56) as u32
+            };
+        }
+        cur = next;
+    }
+    w
+}
+
+/// [`emit_vertices`] one vertex at a time, with a branch per edge.
+#[cfg(test)]
+#[allow(clippy::too_many_arguments)]
+fn emit_vertices_reference<T: Sample>(
     g: &BitGrid,
     j: usize,
     k: usize,
@@ -499,14 +896,41 @@ fn emit_vertices<T: Sample>(
 }
 
 /// Pass 2 for node row (j, k) and the cell row above it (padded
-/// coordinates): (vertices, triangles).
+/// coordinates): (vertices, triangles). `hw`: see [`hw_popcount`].
+fn count_row(g: &BitGrid, tab: &CaseTable, j: usize, k: usize, hw: bool) -> (u32, u32) {
+    #[cfg(target_arch = "x86_64")]
+    if hw {
+        // SAFETY: `hw` comes from `hw_popcount`, which saw popcnt and bmi1.
+        return unsafe { count_row_popcnt(g, tab, j, k) };
+    }
+    let _ = hw;
+    count_row_portable(g, tab, j, k)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "popcnt,bmi1")]
 #[inline(never)] // one symbol per pass in profiles
-fn count_row(g: &BitGrid, tab: &CaseTable, j: usize, k: usize) -> (u32, u32) {
+fn count_row_popcnt(g: &BitGrid, tab: &CaseTable, j: usize, k: usize) -> (u32, u32) {
+    count_row_with::<true>(g, tab, j, k)
+}
+
+#[inline(never)] // one symbol per pass in profiles
+fn count_row_portable(g: &BitGrid, tab: &CaseTable, j: usize, k: usize) -> (u32, u32) {
+    count_row_with::<false>(g, tab, j, k)
+}
+
+#[inline(always)]
+fn count_row_with<const HW: bool>(g: &BitGrid, tab: &CaseTable, j: usize, k: usize) -> (u32, u32) {
     let a = g.row(j, k);
     let (ay, az, ayz) = (g.row(j + 1, k), g.row(j, k + 1), g.row(j + 1, k + 1));
     let (mut nv, mut nt) = (0, 0);
     for x in 0..a.len() {
-        nv += (prefix_counts3(&cut_edges(a, ay, az, x)) >> 56) as u32;
+        let e = cut_edges(a, ay, az, x);
+        nv += if HW {
+            e[0].count_ones() + e[1].count_ones() + e[2].count_ones()
+        } else {
+            (prefix_counts3(&e) >> 56) as u32
+        };
         let (mut m, lo, hi) = mixed_cells(&[a, ay, az, ayz], x);
         while m != 0 {
             nt += tab.count(case_of(&lo, &hi, m.trailing_zeros()));
@@ -516,12 +940,10 @@ fn count_row(g: &BitGrid, tab: &CaseTable, j: usize, k: usize) -> (u32, u32) {
     (nv, nt)
 }
 
-/// Triangles of cell row (j, k) (padded) into `ts`; `firsts` are the first
-/// vertex ids of its node rows (y, z) = (0,0), (1,0), (0,1), (1,1). Returns
-/// how many were written.
+/// [`emit_triangles`] looking each triangle corner up through [`EDGE_SLOT`].
+#[cfg(test)]
 #[allow(clippy::too_many_arguments)]
-#[inline(never)] // one symbol per pass in profiles
-fn emit_triangles(
+fn emit_triangles_reference(
     g: &BitGrid,
     tab: &CaseTable,
     j: usize,

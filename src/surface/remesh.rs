@@ -529,10 +529,21 @@ impl Work {
             if c == d || val(a) <= 3 || val(b) <= 3 {
                 continue;
             }
+            // An ear is a triangle with two rim edges: three nearly collinear
+            // rim vertices, angles down to 7° on the phantom's caps, which
+            // the valence count (blind to which side of a rim an edge lies)
+            // kept. Its third edge is flipped whatever the valences, and no
+            // flip may make one.
+            let f = |g: u32| self.is_feature(g);
+            let ear = (f(nx(h)) && f(pv(h))) || (f(nx(t)) && f(pv(t)));
+            let makes_ear = (f(nx(t)) && f(pv(h))) || (f(pv(t)) && f(nx(h)));
+            if makes_ear {
+                continue;
+            }
             let dev = |x: i64| (x - 6) * (x - 6);
             let before = dev(val(a)) + dev(val(b)) + dev(val(c)) + dev(val(d));
             let after = dev(val(a) - 1) + dev(val(b) - 1) + dev(val(c) + 1) + dev(val(d) + 1);
-            if after >= before {
+            if after >= before && !ear {
                 continue;
             }
             // c and d must not be joined already.
