@@ -15,7 +15,8 @@ use std::time::Instant;
 
 use coapt::leaflet::aft::{self, shape};
 use coapt::leaflet::seed001::Seed001;
-use coapt::leaflet::template::{ArcTemplate, OzakiTemplate, Template};
+use coapt::leaflet::template::{ArcTemplate, OZAKI_SIZES, OzakiTemplate, Template, TemplateSpec};
+use coapt::units::{Angle, Length};
 use serde_json::json;
 use spade::{
     AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation,
@@ -68,6 +69,40 @@ fn spade_mesh(bpts: &[[f64; 2]], h: f64) -> Vec<[[f64; 2]; 3]> {
         .collect()
 }
 
+/// The 18 templates of the quality test (src/leaflet/tests.rs): four
+/// seed 000 templates, the twelve Ozaki sizer presets, the parametric
+/// Ozaki template and the seed 001 §3.1 case.
+fn all_templates() -> Vec<Template> {
+    let mut v = Vec::new();
+    for (r, a, b) in [
+        (11.0, 11.0, 11.0),
+        (12.0, 13.0, 13.0),
+        (13.0, 13.0, 14.0),
+        (14.5, 15.8, 13.5),
+    ] {
+        v.push(
+            TemplateSpec::FourParameter {
+                r: Length(r),
+                alpha: Angle(160f64.to_radians()),
+                a: Length(a),
+                b: Length(b),
+            }
+            .build()
+            .unwrap(),
+        );
+    }
+    for &(size, ..) in &OZAKI_SIZES {
+        v.push(Template::Arc(ArcTemplate::ozaki_size(size).unwrap()));
+    }
+    v.push(Template::Ozaki(
+        OzakiTemplate::new(19.0, 11.0, 2.0, 24.0).unwrap(),
+    ));
+    v.push(Template::Seed001(
+        Seed001::new(15.0, 2.0 * PI / 3.0 - 0.4, 1.5, 15.0, -2.0 * PI / 9.0).unwrap(),
+    ));
+    v
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let dir = args
@@ -79,15 +114,7 @@ fn main() {
         std::fs::create_dir_all(d).expect("create --outlines-dir");
     }
     let h = 0.5;
-    let templates = vec![
-        Template::Ozaki(OzakiTemplate::new(19.0, 11.0, 2.0, 24.0).unwrap()),
-        Template::Arc(ArcTemplate::ozaki_size(21).unwrap()),
-        Template::Arc(ArcTemplate::ozaki_size(35).unwrap()),
-        Template::Arc(ArcTemplate::new(12.0, 10f64.to_radians(), 13.0, 13.0).unwrap()),
-        Template::Seed001(
-            Seed001::new(15.0, 2.0 * PI / 3.0 - 0.4, 1.5, 15.0, -2.0 * PI / 9.0).unwrap(),
-        ),
-    ];
+    let templates = all_templates();
     println!(
         "{:<44} {:>6} {:>8} {:>6} {:>6} | {:>6} {:>8} {:>6} {:>6} | {:>6}",
         "template (h = 0.5 mm)", "tris", "ms", "minang", "q", "tris", "ms", "minang", "q", "ratio"

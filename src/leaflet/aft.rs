@@ -277,6 +277,12 @@ impl Front {
             }
             let [p, q] = self.edges[e as usize];
             let (pp, pq) = (self.nodes[p as usize], self.nodes[q as usize]);
+            // An edge whose box misses the (padded) triangle box can
+            // neither cross AC, CB nor come within 0.45 δ < pad of C.
+            let (elo, ehi) = bbox(pp, pq);
+            if elo[0] > hi[0] || elo[1] > hi[1] || ehi[0] < lo[0] || ehi[1] < lo[1] {
+                continue;
+            }
             let cn = c_id.unwrap_or(u32::MAX);
             if crosses(a, cn, pa, c, p, q, pp, pq) || crosses(cn, b, c, pb, p, q, pp, pq) {
                 ok = false;
@@ -294,6 +300,11 @@ impl Front {
                     continue;
                 }
                 let pk = self.nodes[k as usize];
+                // Outside the padded box: neither inside ABC nor within
+                // 0.6 δ = pad of a new C.
+                if pk[0] < lo[0] || pk[0] > hi[0] || pk[1] < lo[1] || pk[1] > hi[1] {
+                    continue;
+                }
                 if orient(pa, pb, pk) >= 0.0 && orient(pb, c, pk) >= 0.0 && orient(c, pa, pk) >= 0.0
                 {
                     ok = false;
@@ -473,26 +484,40 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
             }
         }
         cand.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        cand.truncate(12);
         let qmin = [0.5, 0.3, 0.15, 0.02][attempt.min(3) as usize];
+        // The best-scoring valid candidate wins, ties to the nearer one: try
+        // them best score first (stable sort keeps distance order on ties)
+        // and stop at the first valid one — `valid` is the expensive part.
+        for c in cand.iter_mut() {
+            // Existing nodes close the front: favour them.
+            c.0 = shape(pa, pb, f.nodes[c.1 as usize]) * 1.3;
+        }
+        cand.sort_by(|x, y| y.0.total_cmp(&x.0));
         let mut best: Option<(f64, Option<u32>, P2)> = None;
-        for &(_, k) in cand.iter().take(12) {
+        for &(score, k) in &cand {
             let pk = f.nodes[k as usize];
             if f.valid(e, pk, Some(k), delta, qmin) {
-                // Existing nodes close the front: favour them.
-                let score = shape(pa, pb, pk) * 1.3;
-                if best.as_ref().is_none_or(|b| score > b.0) {
-                    best = Some((score, Some(k), pk));
-                }
+                best = Some((score, Some(k), pk));
+                break;
             }
         }
         if best.as_ref().is_none_or(|b| b.0 < 1.3 * 0.75) {
-            for s in [1.0, 0.8, 0.6, 0.4] {
-                let p = [mid[0] + nrm[0] * ht * s, mid[1] + nrm[1] * ht * s];
+            // The first valid new point is compared with the best existing
+            // node; once no remaining scale can beat it, validity no longer
+            // matters.
+            let floor = best.as_ref().map_or(f64::NEG_INFINITY, |b| b.0);
+            let scales = [1.0, 0.8, 0.6, 0.4];
+            let pts = scales.map(|s| [mid[0] + nrm[0] * ht * s, mid[1] + nrm[1] * ht * s]);
+            let scores = [0, 1, 2, 3].map(|i| shape(pa, pb, pts[i]) * scales[i]);
+            for (i, &s) in scales.iter().enumerate() {
+                if scores[i..].iter().all(|&x| x <= floor) {
+                    break;
+                }
                 let d = if s == 1.0 { delta } else { delta * s.max(0.5) };
-                if f.valid(e, p, None, d, qmin) {
-                    let score = shape(pa, pb, p) * s;
-                    if best.as_ref().is_none_or(|b| score > b.0) {
-                        best = Some((score, None, p));
+                if f.valid(e, pts[i], None, d, qmin) {
+                    if scores[i] > floor {
+                        best = Some((scores[i], None, pts[i]));
                     }
                     break;
                 }
@@ -546,24 +571,48 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
     Ok(m)
 }
 
+/// Interior edges as ([p, q], [t1, t2]) with p < q and t1 < t2, in
+/// (p, q) order: the order of a global sort of (edge key, triangle), which
+/// fixes the flip order. Bucketing by p first leaves only tiny per-node
+/// sorts (the global sort was half of the flip pass's time).
+fn interior_edge_pairs(tris: &[[u32; 3]], n_nodes: usize, out: &mut Vec<([u32; 2], [u32; 2])>) {
+    out.clear();
+    let mut start = vec![0u32; n_nodes + 1];
+    for tri in tris {
+        for k in 0..3 {
+            let (p, q) = (tri[k], tri[(k + 1) % 3]);
+            start[p.min(q) as usize + 1] += 1;
+        }
+    }
+    for i in 0..n_nodes {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut qt = vec![0u64; 3 * tris.len()];
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (p, q) = (tri[k], tri[(k + 1) % 3]);
+            let slot = &mut fill[p.min(q) as usize];
+            qt[*slot as usize] = ((p.max(q) as u64) << 32) | t as u64;
+            *slot += 1;
+        }
+    }
+    for p in 0..n_nodes {
+        let seg = &mut qt[start[p] as usize..start[p + 1] as usize];
+        seg.sort_unstable();
+        for w in seg.windows(2) {
+            if w[0] >> 32 == w[1] >> 32 {
+                out.push(([p as u32, (w[0] >> 32) as u32], [w[0] as u32, w[1] as u32]));
+            }
+        }
+    }
+}
+
 /// One sweep of quality-improving Lawson flips (deterministic order).
 /// Returns the number of flips.
 fn flip_pass(m: &mut FlatMesh) -> usize {
-    // Edge → triangles by sorting (edge key, triangle): interior edges are
-    // the equal-key neighbours, in key order, lower triangle first.
-    let mut et: Vec<(u64, u32)> = Vec::with_capacity(3 * m.tris.len());
-    for (t, tri) in m.tris.iter().enumerate() {
-        for k in 0..3 {
-            let (p, q) = (tri[k], tri[(k + 1) % 3]);
-            et.push((((p.min(q) as u64) << 32) | p.max(q) as u64, t as u32));
-        }
-    }
-    et.sort_unstable();
-    let pairs: Vec<([u32; 2], [u32; 2])> = et
-        .windows(2)
-        .filter(|w| w[0].0 == w[1].0)
-        .map(|w| ([(w[0].0 >> 32) as u32, w[0].0 as u32], [w[0].1, w[1].1]))
-        .collect();
+    let mut pairs = Vec::with_capacity(2 * m.tris.len());
+    interior_edge_pairs(&m.tris, m.nodes.len(), &mut pairs);
     let mut touched = vec![false; m.tris.len()];
     let mut flips = 0;
     for (key, ts) in pairs {
@@ -575,7 +624,7 @@ fn flip_pass(m: &mut FlatMesh) -> usize {
         let opp = |t: usize| *m.tris[t].iter().find(|&&v| v != p && v != q).unwrap();
         let (r, s) = (opp(t1), opp(t2));
         let n = &m.nodes;
-        let [pp, pq, pr, ps] = [n[p as usize], n[q as usize], n[r as usize], n[s as usize]];
+        let [pp, pr, ps] = [n[p as usize], n[r as usize], n[s as usize]];
         let old = shape_abs(&m.tris[t1], n).min(shape_abs(&m.tris[t2], n));
         // New triangles r-s-? oriented counter-clockwise.
         let (x1, x2) = if orient(pr, ps, pp) > 0.0 {
@@ -587,7 +636,6 @@ fn flip_pass(m: &mut FlatMesh) -> usize {
         if !(ok(&x1) && ok(&x2)) {
             continue;
         }
-        let _ = (pq, pp);
         let new = shape_abs(&x1, n).min(shape_abs(&x2, n));
         if new > old + 1e-9 {
             m.tris[t1] = x1;
@@ -604,74 +652,140 @@ fn shape_abs(t: &[u32; 3], n: &[P2]) -> f64 {
     shape(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize])
 }
 
+/// Shape of triangle `t`, or −1 when it is not strictly counter-clockwise.
+/// A shape clearly above rounding level already proves the orientation,
+/// so the robust predicate runs only for near-degenerate triangles.
+fn signed_shape(t: &[u32; 3], n: &[P2]) -> f64 {
+    let (a, b, c) = (n[t[0] as usize], n[t[1] as usize], n[t[2] as usize]);
+    let q = shape(a, b, c);
+    if q > 1e-6 || orient(a, b, c) > 0.0 {
+        q
+    } else {
+        -1.0
+    }
+}
+
+/// Compressed rows: row i is `idx[start[i]..start[i + 1]]`.
+struct Rows {
+    start: Vec<u32>,
+    idx: Vec<u32>,
+}
+
+impl Rows {
+    fn row(&self, i: usize) -> &[u32] {
+        &self.idx[self.start[i] as usize..self.start[i + 1] as usize]
+    }
+}
+
+/// Incident triangles (ascending) and neighbour nodes (ascending, once
+/// each) of every node, in two flat arrays instead of a Vec per node.
+fn incidence(m: &FlatMesh) -> (Rows, Rows) {
+    let nn = m.nodes.len();
+    let mut start = vec![0u32; nn + 1];
+    for tri in &m.tris {
+        for &v in tri {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..nn {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut inc = vec![0u32; 3 * m.tris.len()];
+    let mut nb = vec![0u32; 6 * m.tris.len()];
+    for (t, tri) in m.tris.iter().enumerate() {
+        for k in 0..3 {
+            let v = tri[k] as usize;
+            let f = fill[v] as usize;
+            inc[f] = t as u32;
+            // Each incidence brings this triangle's other two corners.
+            nb[2 * f] = tri[(k + 1) % 3];
+            nb[2 * f + 1] = tri[(k + 2) % 3];
+            fill[v] += 1;
+        }
+    }
+    let mut nstart = vec![0u32; nn + 1];
+    let mut w = 0usize;
+    for i in 0..nn {
+        let (s0, s1) = (2 * start[i] as usize, 2 * start[i + 1] as usize);
+        nb[s0..s1].sort_unstable();
+        let mut last = u32::MAX;
+        for r in s0..s1 {
+            if nb[r] != last {
+                last = nb[r];
+                nb[w] = last;
+                w += 1;
+            }
+        }
+        nstart[i + 1] = w as u32;
+    }
+    nb.truncate(w);
+    (
+        Rows { start, idx: inc },
+        Rows {
+            start: nstart,
+            idx: nb,
+        },
+    )
+}
+
 /// Laplacian smoothing of interior nodes; a move is kept only if no
 /// incident triangle inverts and the worst incident quality does not drop.
 fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
     let nn = m.nodes.len();
-    let mut inc: Vec<Vec<u32>> = vec![Vec::new(); nn];
-    for (t, tri) in m.tris.iter().enumerate() {
-        for &v in tri {
-            inc[v as usize].push(t as u32);
-        }
-    }
-    let mut nbr: Vec<Vec<u32>> = vec![Vec::new(); nn];
-    for tri in &m.tris {
-        for k in 0..3 {
-            let (p, q) = (tri[k] as usize, tri[(k + 1) % 3]);
-            nbr[p].push(q);
-            nbr[q as usize].push(tri[k]);
-        }
-    }
-    for v in nbr.iter_mut() {
-        v.sort_unstable();
-        v.dedup();
-    }
+    let (inc, nbr) = incidence(m);
+    // A node's move depends only on its own and its ring's positions: when
+    // none of them changed since it was last tried, trying again repeats
+    // the same decision, so it is skipped (same result, bit for bit).
+    let mut changed = vec![0u32; nn];
+    let mut tried = vec![0u32; nn];
+    let mut clock = 0u32;
     for _ in 0..sweeps {
         for i in m.n_boundary..nn {
-            if nbr[i].is_empty() {
+            let ring = nbr.row(i);
+            if ring.is_empty() {
                 continue;
             }
+            clock += 1;
+            let t0 = tried[i];
+            if t0 != 0 && changed[i] < t0 && ring.iter().all(|&j| changed[j as usize] < t0) {
+                continue;
+            }
+            tried[i] = clock;
             let mut c = [0.0, 0.0];
-            for &j in &nbr[i] {
+            for &j in ring {
                 c[0] += m.nodes[j as usize][0];
                 c[1] += m.nodes[j as usize][1];
             }
-            let k = nbr[i].len() as f64;
+            let k = ring.len() as f64;
             let target = [c[0] / k, c[1] / k];
             let old_p = m.nodes[i];
-            let worst = |m: &FlatMesh| {
-                inc[i]
-                    .iter()
-                    .map(|&t| {
-                        let tri = &m.tris[t as usize];
-                        let (a, b, c) = (
-                            m.nodes[tri[0] as usize],
-                            m.nodes[tri[1] as usize],
-                            m.nodes[tri[2] as usize],
-                        );
-                        if orient(a, b, c) > 0.0 {
-                            shape(a, b, c)
-                        } else {
-                            -1.0
-                        }
-                    })
-                    .fold(f64::INFINITY, f64::min)
-            };
-            let before = worst(m);
+            let tris = inc.row(i);
+            let before = tris
+                .iter()
+                .map(|&t| signed_shape(&m.tris[t as usize], &m.nodes))
+                .fold(f64::INFINITY, f64::min);
+            // Accept iff every incident triangle stays positive and at or
+            // above both floors; the first failure decides.
+            let floor = (before.min(0.8) - 1e-12).max(before - 0.05);
             let mut accepted = false;
             for w in [1.0, 0.5, 0.25] {
                 m.nodes[i] = [
                     old_p[0] + w * (target[0] - old_p[0]),
                     old_p[1] + w * (target[1] - old_p[1]),
                 ];
-                let after = worst(m);
-                if after > 0.0 && after >= before.min(0.8) - 1e-12 && after >= before - 0.05 {
+                if tris.iter().all(|&t| {
+                    let q = signed_shape(&m.tris[t as usize], &m.nodes);
+                    q > 0.0 && q >= floor
+                }) {
                     accepted = true;
                     break;
                 }
             }
             if !accepted {
                 m.nodes[i] = old_p;
+            } else if m.nodes[i].map(f64::to_bits) != old_p.map(f64::to_bits) {
+                changed[i] = clock;
             }
         }
     }
@@ -743,5 +857,88 @@ impl FlatMesh {
                 0.5 * (a[0] * b[1] - a[1] * b[0])
             })
             .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::leaflet::template::{ArcTemplate, Template};
+
+    fn sample_mesh() -> FlatMesh {
+        let t = Template::Arc(ArcTemplate::ozaki_size(21).unwrap());
+        mesh(&t.outline(), 0.8).unwrap()
+    }
+
+    /// The bucketed pairing lists exactly the interior edges of a global
+    /// sort of (edge key, triangle), in that order.
+    #[test]
+    fn edge_pairs_equal_global_sort() {
+        let m = sample_mesh();
+        let mut et: Vec<(u64, u32)> = Vec::new();
+        for (t, tri) in m.tris.iter().enumerate() {
+            for k in 0..3 {
+                let (p, q) = (tri[k], tri[(k + 1) % 3]);
+                et.push((((p.min(q) as u64) << 32) | p.max(q) as u64, t as u32));
+            }
+        }
+        et.sort_unstable();
+        let want: Vec<([u32; 2], [u32; 2])> = et
+            .windows(2)
+            .filter(|w| w[0].0 == w[1].0)
+            .map(|w| ([(w[0].0 >> 32) as u32, w[0].0 as u32], [w[0].1, w[1].1]))
+            .collect();
+        let mut got = Vec::new();
+        interior_edge_pairs(&m.tris, m.nodes.len(), &mut got);
+        assert!(want.len() > 1000);
+        assert_eq!(got, want);
+        // Euler on a disc: interior edges = (3T − boundary edges) / 2.
+        assert_eq!(2 * got.len(), 3 * m.tris.len() - m.n_boundary);
+    }
+
+    /// Flat incidence rows equal the per-node lists built the plain way.
+    #[test]
+    fn incidence_rows_equal_brute_force() {
+        let m = sample_mesh();
+        let (inc, nbr) = incidence(&m);
+        for v in 0..m.nodes.len() as u32 {
+            let tris: Vec<u32> = (0..m.tris.len() as u32)
+                .filter(|&t| m.tris[t as usize].contains(&v))
+                .collect();
+            let mut ring: Vec<u32> = tris
+                .iter()
+                .flat_map(|&t| m.tris[t as usize])
+                .filter(|&w| w != v)
+                .collect();
+            ring.sort_unstable();
+            ring.dedup();
+            assert_eq!(inc.row(v as usize), &tris[..], "node {v}");
+            assert_eq!(nbr.row(v as usize), &ring[..], "node {v}");
+        }
+    }
+
+    /// The orientation shortcut never disagrees with the robust predicate,
+    /// down to triangles flattened to rounding level.
+    #[test]
+    fn signed_shape_agrees_with_orient() {
+        let mut rng = crate::rng::SplitMix64::new(11);
+        for i in 0..20_000 {
+            let a = [rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)];
+            let b = [rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)];
+            // c near the line ab, at offsets from 1 down to 1e-15 of |ab|.
+            let t = rng.range(-1.0, 2.0);
+            let off = rng.range(-1.0, 1.0) * 10f64.powi(-((i % 16) as i32));
+            let c = [
+                a[0] + t * (b[0] - a[0]) - off * (b[1] - a[1]),
+                a[1] + t * (b[1] - a[1]) + off * (b[0] - a[0]),
+            ];
+            let n = [a, b, c];
+            let s = signed_shape(&[0, 1, 2], &n);
+            if orient(a, b, c) > 0.0 {
+                assert_eq!(s, shape(a, b, c));
+            } else {
+                assert_eq!(s, -1.0);
+            }
+        }
     }
 }
