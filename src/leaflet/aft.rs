@@ -448,7 +448,8 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
     // A valid outline encloses at most area/(0.2 h²) triangles' worth of
     // nodes; more means the front escaped a self-intersecting outline.
     let cap = (outline.area().abs() / (0.2 * h * h)) as usize + 4 * bpts.len() + 16;
-    let mut tries: HashMap<u32, u32> = HashMap::default();
+    // Failed attempts per front edge id (edges only ever get new ids).
+    let mut tries: Vec<u8> = Vec::new();
     let mut cand: Vec<(f64, u32)> = Vec::new();
     let mut near: Vec<u32> = Vec::new();
     while let Some(Reverse((_, e))) = f.heap.pop() {
@@ -463,7 +464,7 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
         let delta = h.clamp(0.55 * l, 2.0 * l);
         let ht = (delta * delta - l * l / 4.0).max(0.25 * l * l).sqrt();
         let pstar = [mid[0] + nrm[0] * ht, mid[1] + nrm[1] * ht];
-        let attempt = *tries.get(&e).unwrap_or(&0);
+        let attempt = tries.get(e as usize).copied().unwrap_or(0) as u32;
         // Existing front nodes around P*, wider on later attempts.
         let rs = delta * [1.1, 2.0, 3.5, 6.0][attempt.min(3) as usize];
         f.node_grid.query(
@@ -543,7 +544,10 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
                         mid[0], mid[1]
                     ));
                 }
-                tries.insert(e, attempt + 1);
+                if tries.len() <= e as usize {
+                    tries.resize(e as usize + 1, 0);
+                }
+                tries[e as usize] = (attempt + 1) as u8;
                 // Postpone: later edges may open the way.
                 let key = (l * (2.0 + attempt as f64)).to_bits();
                 f.heap.push(Reverse((key, e)));
@@ -614,6 +618,9 @@ fn flip_pass(m: &mut FlatMesh) -> usize {
     let mut pairs = Vec::with_capacity(2 * m.tris.len());
     interior_edge_pairs(&m.tris, m.nodes.len(), &mut pairs);
     let mut touched = vec![false; m.tris.len()];
+    // A flipped triangle is never read again in this pass (touched), so
+    // the shapes of the start suffice.
+    let qs: Vec<f64> = m.tris.iter().map(|t| shape_abs(t, &m.nodes)).collect();
     let mut flips = 0;
     for (key, ts) in pairs {
         let (t1, t2) = (ts[0] as usize, ts[1] as usize);
@@ -625,19 +632,20 @@ fn flip_pass(m: &mut FlatMesh) -> usize {
         let (r, s) = (opp(t1), opp(t2));
         let n = &m.nodes;
         let [pp, pr, ps] = [n[p as usize], n[r as usize], n[s as usize]];
-        let old = shape_abs(&m.tris[t1], n).min(shape_abs(&m.tris[t2], n));
+        let old = qs[t1].min(qs[t2]);
         // New triangles r-s-? oriented counter-clockwise.
         let (x1, x2) = if orient(pr, ps, pp) > 0.0 {
             ([r, s, p], [s, r, q])
         } else {
             ([s, r, p], [r, s, q])
         };
-        let ok = |t: &[u32; 3]| orient(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize]) > 0.0;
-        if !(ok(&x1) && ok(&x2)) {
+        // Most flips do not improve: test that before the robust predicates.
+        let new = shape_abs(&x1, n).min(shape_abs(&x2, n));
+        if !(new > old + 1e-9) {
             continue;
         }
-        let new = shape_abs(&x1, n).min(shape_abs(&x2, n));
-        if new > old + 1e-9 {
+        let ok = |t: &[u32; 3]| orient(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize]) > 0.0;
+        if ok(&x1) && ok(&x2) {
             m.tris[t1] = x1;
             m.tris[t2] = x2;
             touched[t1] = true;
@@ -740,6 +748,10 @@ fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
     let mut changed = vec![0u32; nn];
     let mut tried = vec![0u32; nn];
     let mut clock = 0u32;
+    // Incident qualities before a move are those after the last accepted
+    // one: keep them per triangle instead of recomputing (a division each).
+    let mut qc: Vec<f64> = m.tris.iter().map(|t| signed_shape(t, &m.nodes)).collect();
+    let mut trial: Vec<f64> = Vec::new();
     for _ in 0..sweeps {
         for i in m.n_boundary..nn {
             let ring = nbr.row(i);
@@ -763,7 +775,7 @@ fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
             let tris = inc.row(i);
             let before = tris
                 .iter()
-                .map(|&t| signed_shape(&m.tris[t as usize], &m.nodes))
+                .map(|&t| qc[t as usize])
                 .fold(f64::INFINITY, f64::min);
             // Accept iff every incident triangle stays positive and at or
             // above both floors; the first failure decides.
@@ -774,11 +786,16 @@ fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
                     old_p[0] + w * (target[0] - old_p[0]),
                     old_p[1] + w * (target[1] - old_p[1]),
                 ];
+                trial.clear();
                 if tris.iter().all(|&t| {
                     let q = signed_shape(&m.tris[t as usize], &m.nodes);
+                    trial.push(q);
                     q > 0.0 && q >= floor
                 }) {
                     accepted = true;
+                    for (&t, &q) in tris.iter().zip(&trial) {
+                        qc[t as usize] = q;
+                    }
                     break;
                 }
             }
