@@ -479,9 +479,16 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
                 continue;
             }
             let pk = f.nodes[k as usize];
-            let dk = dist(pk, pstar);
-            if dk < rs && orient(pa, pb, pk) > 0.0 {
-                cand.push((dk, k));
+            // hypot ≥ |dx|, |dy| (faithful rounding): nodes outside the
+            // square cannot pass `dk < rs`, so skip the costly hypot.
+            if (pk[0] - pstar[0]).abs() >= rs || (pk[1] - pstar[1]).abs() >= rs {
+                continue;
+            }
+            if orient(pa, pb, pk) > 0.0 {
+                let dk = dist(pk, pstar);
+                if dk < rs {
+                    cand.push((dk, k));
+                }
             }
         }
         cand.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
