@@ -92,7 +92,7 @@ fn d2(a: P2, b: P2) -> f64 {
 struct Grid {
     x0: f64,
     y0: f64,
-    cell: f64,
+    inv_cell: f64,
     nx: usize,
     ny: usize,
     buckets: Vec<Vec<u32>>,
@@ -105,7 +105,7 @@ impl Grid {
         Grid {
             x0: lo[0] - cell,
             y0: lo[1] - cell,
-            cell,
+            inv_cell: 1.0 / cell,
             nx,
             ny,
             buckets: vec![Vec::new(); nx * ny],
@@ -113,8 +113,10 @@ impl Grid {
     }
 
     fn range(&self, lo: P2, hi: P2) -> (usize, usize, usize, usize) {
-        let f =
-            |v: f64, o: f64, n: usize| (((v - o) / self.cell).floor().max(0.0) as usize).min(n - 1);
+        // `as usize` truncates (= floor for x ≥ 0) and saturates negatives
+        // and NaN to 0. Cells only pre-select: every consumer filters
+        // exactly, so rounding at a cell border cannot change a mesh.
+        let f = |v: f64, o: f64, n: usize| (((v - o) * self.inv_cell) as usize).min(n - 1);
         (
             f(lo[0], self.x0, self.nx),
             f(hi[0], self.x0, self.nx),
@@ -182,7 +184,11 @@ struct Front {
     deg: Vec<u32>,
     edges: Vec<[u32; 2]>,
     alive: Vec<bool>,
-    map: HashMap<[u32; 2], u32>,
+    /// Live front edges leaving each node, as a list linked through
+    /// `out_next` (u32::MAX ends it): a front node has one or two, so a
+    /// walk beats hashing the pair.
+    out_first: Vec<u32>,
+    out_next: Vec<u32>,
     edge_grid: Grid,
     heap: BinaryHeap<Reverse<(u64, u32)>>,
     tris: Vec<[u32; 3]>,
@@ -196,6 +202,7 @@ impl Front {
         let id = self.nodes.len() as u32;
         self.nodes.push(p);
         self.deg.push(0);
+        self.out_first.push(u32::MAX);
         self.node_grid.insert(id, p, p);
         id
     }
@@ -205,7 +212,8 @@ impl Front {
         let (pa, pb) = (self.nodes[a as usize], self.nodes[b as usize]);
         self.edges.push([a, b]);
         self.alive.push(true);
-        self.map.insert([a, b], id);
+        self.out_next.push(self.out_first[a as usize]);
+        self.out_first[a as usize] = id;
         self.deg[a as usize] += 1;
         self.deg[b as usize] += 1;
         self.edge_seen.push(0);
@@ -220,7 +228,16 @@ impl Front {
     fn kill_edge(&mut self, id: u32) {
         let [a, b] = self.edges[id as usize];
         self.alive[id as usize] = false;
-        self.map.remove(&[a, b]);
+        let next = self.out_next[id as usize];
+        if self.out_first[a as usize] == id {
+            self.out_first[a as usize] = next;
+        } else {
+            let mut e = self.out_first[a as usize];
+            while self.out_next[e as usize] != id {
+                e = self.out_next[e as usize];
+            }
+            self.out_next[e as usize] = next;
+        }
         let (pa, pb) = (self.nodes[a as usize], self.nodes[b as usize]);
         let (lo, hi) = bbox(pa, pb);
         self.edge_grid.remove(id, lo, hi);
@@ -231,6 +248,18 @@ impl Front {
                 self.node_grid.remove(v, p, p);
             }
         }
+    }
+
+    /// The live front edge a → b, if any.
+    fn find(&self, a: u32, b: u32) -> Option<u32> {
+        let mut e = self.out_first[a as usize];
+        while e != u32::MAX {
+            if self.edges[e as usize][1] == b {
+                return Some(e);
+            }
+            e = self.out_next[e as usize];
+        }
+        None
     }
 
     fn query_edges(&mut self, lo: P2, hi: P2, out: &mut Vec<u32>) {
@@ -251,11 +280,7 @@ impl Front {
             return false;
         }
         if let Some(ci) = c_id {
-            if ci == a
-                || ci == b
-                || self.map.contains_key(&[a, ci])
-                || self.map.contains_key(&[ci, b])
-            {
+            if ci == a || ci == b || self.find(a, ci).is_some() || self.find(ci, b).is_some() {
                 return false;
             }
         }
@@ -288,7 +313,16 @@ impl Front {
                 ok = false;
                 break;
             }
-            if c_id.is_none() && seg_dist(c, pp, pq) < 0.45 * delta {
+            // The box gap bounds the distance from below (the margin covers
+            // seg_dist's rounding), so far edges skip the hypot.
+            let gap = (elo[0] - c[0])
+                .max(c[0] - ehi[0])
+                .max(elo[1] - c[1])
+                .max(c[1] - ehi[1]);
+            if c_id.is_none()
+                && gap < 0.45 * delta * (1.0 + 1e-9)
+                && seg_dist(c, pp, pq) < 0.45 * delta
+            {
                 ok = false;
                 break;
             }
@@ -310,7 +344,11 @@ impl Front {
                     ok = false;
                     break;
                 }
-                if c_id.is_none() && dist(c, pk) < 0.6 * delta {
+                if c_id.is_none()
+                    && (pk[0] - c[0]).abs() < 0.6 * delta
+                    && (pk[1] - c[1]).abs() < 0.6 * delta
+                    && dist(c, pk) < 0.6 * delta
+                {
                     ok = false;
                     break;
                 }
@@ -325,7 +363,7 @@ impl Front {
         self.kill_edge(ab);
         self.tris.push([a, b, c]);
         for (p, q) in [(a, c), (c, b)] {
-            if let Some(&rev) = self.map.get(&[q, p]) {
+            if let Some(rev) = self.find(q, p) {
                 self.kill_edge(rev);
             } else {
                 self.add_edge(p, q, 1.0);
@@ -430,7 +468,8 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
         deg: Vec::new(),
         edges: Vec::new(),
         alive: Vec::new(),
-        map: HashMap::default(),
+        out_first: Vec::new(),
+        out_next: Vec::new(),
         edge_grid: Grid::new(lo, hi, h),
         heap: BinaryHeap::new(),
         tris: Vec::new(),
