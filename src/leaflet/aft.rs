@@ -687,11 +687,8 @@ fn flip_pass(m: &mut FlatMesh) -> usize {
         };
         // Most flips do not improve: test that before the robust predicates.
         let new = shape_abs(&x1, n).min(shape_abs(&x2, n));
-        if !(new > old + 1e-9) {
-            continue;
-        }
         let ok = |t: &[u32; 3]| orient(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize]) > 0.0;
-        if ok(&x1) && ok(&x2) {
+        if new > old + 1e-9 && ok(&x1) && ok(&x2) {
             m.tris[t1] = x1;
             m.tris[t2] = x2;
             touched[t1] = true;
