@@ -92,7 +92,7 @@ fn d2(a: P2, b: P2) -> f64 {
 struct Grid {
     x0: f64,
     y0: f64,
-    cell: f64,
+    inv_cell: f64,
     nx: usize,
     ny: usize,
     buckets: Vec<Vec<u32>>,
@@ -105,7 +105,7 @@ impl Grid {
         Grid {
             x0: lo[0] - cell,
             y0: lo[1] - cell,
-            cell,
+            inv_cell: 1.0 / cell,
             nx,
             ny,
             buckets: vec![Vec::new(); nx * ny],
@@ -113,8 +113,10 @@ impl Grid {
     }
 
     fn range(&self, lo: P2, hi: P2) -> (usize, usize, usize, usize) {
-        let f =
-            |v: f64, o: f64, n: usize| (((v - o) / self.cell).floor().max(0.0) as usize).min(n - 1);
+        // `as usize` truncates (= floor for x ≥ 0) and saturates negatives
+        // and NaN to 0. Cells only pre-select: every consumer filters
+        // exactly, so rounding at a cell border cannot change a mesh.
+        let f = |v: f64, o: f64, n: usize| (((v - o) * self.inv_cell) as usize).min(n - 1);
         (
             f(lo[0], self.x0, self.nx),
             f(hi[0], self.x0, self.nx),
@@ -182,7 +184,11 @@ struct Front {
     deg: Vec<u32>,
     edges: Vec<[u32; 2]>,
     alive: Vec<bool>,
-    map: HashMap<[u32; 2], u32>,
+    /// Live front edges leaving each node, as a list linked through
+    /// `out_next` (u32::MAX ends it): a front node has one or two, so a
+    /// walk beats hashing the pair.
+    out_first: Vec<u32>,
+    out_next: Vec<u32>,
     edge_grid: Grid,
     heap: BinaryHeap<Reverse<(u64, u32)>>,
     tris: Vec<[u32; 3]>,
@@ -196,6 +202,7 @@ impl Front {
         let id = self.nodes.len() as u32;
         self.nodes.push(p);
         self.deg.push(0);
+        self.out_first.push(u32::MAX);
         self.node_grid.insert(id, p, p);
         id
     }
@@ -205,7 +212,8 @@ impl Front {
         let (pa, pb) = (self.nodes[a as usize], self.nodes[b as usize]);
         self.edges.push([a, b]);
         self.alive.push(true);
-        self.map.insert([a, b], id);
+        self.out_next.push(self.out_first[a as usize]);
+        self.out_first[a as usize] = id;
         self.deg[a as usize] += 1;
         self.deg[b as usize] += 1;
         self.edge_seen.push(0);
@@ -220,7 +228,16 @@ impl Front {
     fn kill_edge(&mut self, id: u32) {
         let [a, b] = self.edges[id as usize];
         self.alive[id as usize] = false;
-        self.map.remove(&[a, b]);
+        let next = self.out_next[id as usize];
+        if self.out_first[a as usize] == id {
+            self.out_first[a as usize] = next;
+        } else {
+            let mut e = self.out_first[a as usize];
+            while self.out_next[e as usize] != id {
+                e = self.out_next[e as usize];
+            }
+            self.out_next[e as usize] = next;
+        }
         let (pa, pb) = (self.nodes[a as usize], self.nodes[b as usize]);
         let (lo, hi) = bbox(pa, pb);
         self.edge_grid.remove(id, lo, hi);
@@ -231,6 +248,18 @@ impl Front {
                 self.node_grid.remove(v, p, p);
             }
         }
+    }
+
+    /// The live front edge a → b, if any.
+    fn find(&self, a: u32, b: u32) -> Option<u32> {
+        let mut e = self.out_first[a as usize];
+        while e != u32::MAX {
+            if self.edges[e as usize][1] == b {
+                return Some(e);
+            }
+            e = self.out_next[e as usize];
+        }
+        None
     }
 
     fn query_edges(&mut self, lo: P2, hi: P2, out: &mut Vec<u32>) {
@@ -251,11 +280,7 @@ impl Front {
             return false;
         }
         if let Some(ci) = c_id {
-            if ci == a
-                || ci == b
-                || self.map.contains_key(&[a, ci])
-                || self.map.contains_key(&[ci, b])
-            {
+            if ci == a || ci == b || self.find(a, ci).is_some() || self.find(ci, b).is_some() {
                 return false;
             }
         }
@@ -277,12 +302,27 @@ impl Front {
             }
             let [p, q] = self.edges[e as usize];
             let (pp, pq) = (self.nodes[p as usize], self.nodes[q as usize]);
+            // An edge whose box misses the (padded) triangle box can
+            // neither cross AC, CB nor come within 0.45 δ < pad of C.
+            let (elo, ehi) = bbox(pp, pq);
+            if elo[0] > hi[0] || elo[1] > hi[1] || ehi[0] < lo[0] || ehi[1] < lo[1] {
+                continue;
+            }
             let cn = c_id.unwrap_or(u32::MAX);
             if crosses(a, cn, pa, c, p, q, pp, pq) || crosses(cn, b, c, pb, p, q, pp, pq) {
                 ok = false;
                 break;
             }
-            if c_id.is_none() && seg_dist(c, pp, pq) < 0.45 * delta {
+            // The box gap bounds the distance from below (the margin covers
+            // seg_dist's rounding), so far edges skip the hypot.
+            let gap = (elo[0] - c[0])
+                .max(c[0] - ehi[0])
+                .max(elo[1] - c[1])
+                .max(c[1] - ehi[1]);
+            if c_id.is_none()
+                && gap < 0.45 * delta * (1.0 + 1e-9)
+                && seg_dist(c, pp, pq) < 0.45 * delta
+            {
                 ok = false;
                 break;
             }
@@ -294,12 +334,21 @@ impl Front {
                     continue;
                 }
                 let pk = self.nodes[k as usize];
+                // Outside the padded box: neither inside ABC nor within
+                // 0.6 δ = pad of a new C.
+                if pk[0] < lo[0] || pk[0] > hi[0] || pk[1] < lo[1] || pk[1] > hi[1] {
+                    continue;
+                }
                 if orient(pa, pb, pk) >= 0.0 && orient(pb, c, pk) >= 0.0 && orient(c, pa, pk) >= 0.0
                 {
                     ok = false;
                     break;
                 }
-                if c_id.is_none() && dist(c, pk) < 0.6 * delta {
+                if c_id.is_none()
+                    && (pk[0] - c[0]).abs() < 0.6 * delta
+                    && (pk[1] - c[1]).abs() < 0.6 * delta
+                    && dist(c, pk) < 0.6 * delta
+                {
                     ok = false;
                     break;
                 }
@@ -314,7 +363,7 @@ impl Front {
         self.kill_edge(ab);
         self.tris.push([a, b, c]);
         for (p, q) in [(a, c), (c, b)] {
-            if let Some(&rev) = self.map.get(&[q, p]) {
+            if let Some(rev) = self.find(q, p) {
                 self.kill_edge(rev);
             } else {
                 self.add_edge(p, q, 1.0);
@@ -419,7 +468,8 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
         deg: Vec::new(),
         edges: Vec::new(),
         alive: Vec::new(),
-        map: HashMap::default(),
+        out_first: Vec::new(),
+        out_next: Vec::new(),
         edge_grid: Grid::new(lo, hi, h),
         heap: BinaryHeap::new(),
         tris: Vec::new(),
@@ -437,7 +487,8 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
     // A valid outline encloses at most area/(0.2 h²) triangles' worth of
     // nodes; more means the front escaped a self-intersecting outline.
     let cap = (outline.area().abs() / (0.2 * h * h)) as usize + 4 * bpts.len() + 16;
-    let mut tries: HashMap<u32, u32> = HashMap::default();
+    // Failed attempts per front edge id (edges only ever get new ids).
+    let mut tries: Vec<u8> = Vec::new();
     let mut cand: Vec<(f64, u32)> = Vec::new();
     let mut near: Vec<u32> = Vec::new();
     while let Some(Reverse((_, e))) = f.heap.pop() {
@@ -452,7 +503,7 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
         let delta = h.clamp(0.55 * l, 2.0 * l);
         let ht = (delta * delta - l * l / 4.0).max(0.25 * l * l).sqrt();
         let pstar = [mid[0] + nrm[0] * ht, mid[1] + nrm[1] * ht];
-        let attempt = *tries.get(&e).unwrap_or(&0);
+        let attempt = tries.get(e as usize).copied().unwrap_or(0) as u32;
         // Existing front nodes around P*, wider on later attempts.
         let rs = delta * [1.1, 2.0, 3.5, 6.0][attempt.min(3) as usize];
         f.node_grid.query(
@@ -467,32 +518,53 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
                 continue;
             }
             let pk = f.nodes[k as usize];
-            let dk = dist(pk, pstar);
-            if dk < rs && orient(pa, pb, pk) > 0.0 {
-                cand.push((dk, k));
+            // hypot ≥ |dx|, |dy| (faithful rounding): nodes outside the
+            // square cannot pass `dk < rs`, so skip the costly hypot.
+            if (pk[0] - pstar[0]).abs() >= rs || (pk[1] - pstar[1]).abs() >= rs {
+                continue;
             }
-        }
-        cand.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-        let qmin = [0.5, 0.3, 0.15, 0.02][attempt.min(3) as usize];
-        let mut best: Option<(f64, Option<u32>, P2)> = None;
-        for &(_, k) in cand.iter().take(12) {
-            let pk = f.nodes[k as usize];
-            if f.valid(e, pk, Some(k), delta, qmin) {
-                // Existing nodes close the front: favour them.
-                let score = shape(pa, pb, pk) * 1.3;
-                if best.as_ref().is_none_or(|b| score > b.0) {
-                    best = Some((score, Some(k), pk));
+            if orient(pa, pb, pk) > 0.0 {
+                let dk = dist(pk, pstar);
+                if dk < rs {
+                    cand.push((dk, k));
                 }
             }
         }
+        cand.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        cand.truncate(12);
+        let qmin = [0.5, 0.3, 0.15, 0.02][attempt.min(3) as usize];
+        // The best-scoring valid candidate wins, ties to the nearer one: try
+        // them best score first (stable sort keeps distance order on ties)
+        // and stop at the first valid one — `valid` is the expensive part.
+        for c in cand.iter_mut() {
+            // Existing nodes close the front: favour them.
+            c.0 = shape(pa, pb, f.nodes[c.1 as usize]) * 1.3;
+        }
+        cand.sort_by(|x, y| y.0.total_cmp(&x.0));
+        let mut best: Option<(f64, Option<u32>, P2)> = None;
+        for &(score, k) in &cand {
+            let pk = f.nodes[k as usize];
+            if f.valid(e, pk, Some(k), delta, qmin) {
+                best = Some((score, Some(k), pk));
+                break;
+            }
+        }
         if best.as_ref().is_none_or(|b| b.0 < 1.3 * 0.75) {
-            for s in [1.0, 0.8, 0.6, 0.4] {
-                let p = [mid[0] + nrm[0] * ht * s, mid[1] + nrm[1] * ht * s];
+            // The first valid new point is compared with the best existing
+            // node; once no remaining scale can beat it, validity no longer
+            // matters.
+            let floor = best.as_ref().map_or(f64::NEG_INFINITY, |b| b.0);
+            let scales = [1.0, 0.8, 0.6, 0.4];
+            let pts = scales.map(|s| [mid[0] + nrm[0] * ht * s, mid[1] + nrm[1] * ht * s]);
+            let scores = [0, 1, 2, 3].map(|i| shape(pa, pb, pts[i]) * scales[i]);
+            for (i, &s) in scales.iter().enumerate() {
+                if scores[i..].iter().all(|&x| x <= floor) {
+                    break;
+                }
                 let d = if s == 1.0 { delta } else { delta * s.max(0.5) };
-                if f.valid(e, p, None, d, qmin) {
-                    let score = shape(pa, pb, p) * s;
-                    if best.as_ref().is_none_or(|b| score > b.0) {
-                        best = Some((score, None, p));
+                if f.valid(e, pts[i], None, d, qmin) {
+                    if scores[i] > floor {
+                        best = Some((scores[i], None, pts[i]));
                     }
                     break;
                 }
@@ -518,7 +590,10 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
                         mid[0], mid[1]
                     ));
                 }
-                tries.insert(e, attempt + 1);
+                if tries.len() <= e as usize {
+                    tries.resize(e as usize + 1, 0);
+                }
+                tries[e as usize] = (attempt + 1) as u8;
                 // Postpone: later edges may open the way.
                 let key = (l * (2.0 + attempt as f64)).to_bits();
                 f.heap.push(Reverse((key, e)));
@@ -546,25 +621,52 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
     Ok(m)
 }
 
+/// Interior edges as ([p, q], [t1, t2]) with p < q and t1 < t2, in
+/// (p, q) order: the order of a global sort of (edge key, triangle), which
+/// fixes the flip order. Bucketing by p first leaves only tiny per-node
+/// sorts (the global sort was half of the flip pass's time).
+fn interior_edge_pairs(tris: &[[u32; 3]], n_nodes: usize, out: &mut Vec<([u32; 2], [u32; 2])>) {
+    out.clear();
+    let mut start = vec![0u32; n_nodes + 1];
+    for tri in tris {
+        for k in 0..3 {
+            let (p, q) = (tri[k], tri[(k + 1) % 3]);
+            start[p.min(q) as usize + 1] += 1;
+        }
+    }
+    for i in 0..n_nodes {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut qt = vec![0u64; 3 * tris.len()];
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (p, q) = (tri[k], tri[(k + 1) % 3]);
+            let slot = &mut fill[p.min(q) as usize];
+            qt[*slot as usize] = ((p.max(q) as u64) << 32) | t as u64;
+            *slot += 1;
+        }
+    }
+    for p in 0..n_nodes {
+        let seg = &mut qt[start[p] as usize..start[p + 1] as usize];
+        seg.sort_unstable();
+        for w in seg.windows(2) {
+            if w[0] >> 32 == w[1] >> 32 {
+                out.push(([p as u32, (w[0] >> 32) as u32], [w[0] as u32, w[1] as u32]));
+            }
+        }
+    }
+}
+
 /// One sweep of quality-improving Lawson flips (deterministic order).
 /// Returns the number of flips.
 fn flip_pass(m: &mut FlatMesh) -> usize {
-    // Edge → triangles by sorting (edge key, triangle): interior edges are
-    // the equal-key neighbours, in key order, lower triangle first.
-    let mut et: Vec<(u64, u32)> = Vec::with_capacity(3 * m.tris.len());
-    for (t, tri) in m.tris.iter().enumerate() {
-        for k in 0..3 {
-            let (p, q) = (tri[k], tri[(k + 1) % 3]);
-            et.push((((p.min(q) as u64) << 32) | p.max(q) as u64, t as u32));
-        }
-    }
-    et.sort_unstable();
-    let pairs: Vec<([u32; 2], [u32; 2])> = et
-        .windows(2)
-        .filter(|w| w[0].0 == w[1].0)
-        .map(|w| ([(w[0].0 >> 32) as u32, w[0].0 as u32], [w[0].1, w[1].1]))
-        .collect();
+    let mut pairs = Vec::with_capacity(2 * m.tris.len());
+    interior_edge_pairs(&m.tris, m.nodes.len(), &mut pairs);
     let mut touched = vec![false; m.tris.len()];
+    // A flipped triangle is never read again in this pass (touched), so
+    // the shapes of the start suffice.
+    let qs: Vec<f64> = m.tris.iter().map(|t| shape_abs(t, &m.nodes)).collect();
     let mut flips = 0;
     for (key, ts) in pairs {
         let (t1, t2) = (ts[0] as usize, ts[1] as usize);
@@ -575,21 +677,18 @@ fn flip_pass(m: &mut FlatMesh) -> usize {
         let opp = |t: usize| *m.tris[t].iter().find(|&&v| v != p && v != q).unwrap();
         let (r, s) = (opp(t1), opp(t2));
         let n = &m.nodes;
-        let [pp, pq, pr, ps] = [n[p as usize], n[q as usize], n[r as usize], n[s as usize]];
-        let old = shape_abs(&m.tris[t1], n).min(shape_abs(&m.tris[t2], n));
+        let [pp, pr, ps] = [n[p as usize], n[r as usize], n[s as usize]];
+        let old = qs[t1].min(qs[t2]);
         // New triangles r-s-? oriented counter-clockwise.
         let (x1, x2) = if orient(pr, ps, pp) > 0.0 {
             ([r, s, p], [s, r, q])
         } else {
             ([s, r, p], [r, s, q])
         };
-        let ok = |t: &[u32; 3]| orient(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize]) > 0.0;
-        if !(ok(&x1) && ok(&x2)) {
-            continue;
-        }
-        let _ = (pq, pp);
+        // Most flips do not improve: test that before the robust predicates.
         let new = shape_abs(&x1, n).min(shape_abs(&x2, n));
-        if new > old + 1e-9 {
+        let ok = |t: &[u32; 3]| orient(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize]) > 0.0;
+        if new > old + 1e-9 && ok(&x1) && ok(&x2) {
             m.tris[t1] = x1;
             m.tris[t2] = x2;
             touched[t1] = true;
@@ -604,74 +703,149 @@ fn shape_abs(t: &[u32; 3], n: &[P2]) -> f64 {
     shape(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize])
 }
 
+/// Shape of triangle `t`, or −1 when it is not strictly counter-clockwise.
+/// A shape clearly above rounding level already proves the orientation,
+/// so the robust predicate runs only for near-degenerate triangles.
+fn signed_shape(t: &[u32; 3], n: &[P2]) -> f64 {
+    let (a, b, c) = (n[t[0] as usize], n[t[1] as usize], n[t[2] as usize]);
+    let q = shape(a, b, c);
+    if q > 1e-6 || orient(a, b, c) > 0.0 {
+        q
+    } else {
+        -1.0
+    }
+}
+
+/// Compressed rows: row i is `idx[start[i]..start[i + 1]]`.
+struct Rows {
+    start: Vec<u32>,
+    idx: Vec<u32>,
+}
+
+impl Rows {
+    fn row(&self, i: usize) -> &[u32] {
+        &self.idx[self.start[i] as usize..self.start[i + 1] as usize]
+    }
+}
+
+/// Incident triangles (ascending) and neighbour nodes (ascending, once
+/// each) of every node, in two flat arrays instead of a Vec per node.
+fn incidence(m: &FlatMesh) -> (Rows, Rows) {
+    let nn = m.nodes.len();
+    let mut start = vec![0u32; nn + 1];
+    for tri in &m.tris {
+        for &v in tri {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..nn {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut inc = vec![0u32; 3 * m.tris.len()];
+    let mut nb = vec![0u32; 6 * m.tris.len()];
+    for (t, tri) in m.tris.iter().enumerate() {
+        for k in 0..3 {
+            let v = tri[k] as usize;
+            let f = fill[v] as usize;
+            inc[f] = t as u32;
+            // Each incidence brings this triangle's other two corners.
+            nb[2 * f] = tri[(k + 1) % 3];
+            nb[2 * f + 1] = tri[(k + 2) % 3];
+            fill[v] += 1;
+        }
+    }
+    let mut nstart = vec![0u32; nn + 1];
+    let mut w = 0usize;
+    for i in 0..nn {
+        let (s0, s1) = (2 * start[i] as usize, 2 * start[i + 1] as usize);
+        nb[s0..s1].sort_unstable();
+        let mut last = u32::MAX;
+        for r in s0..s1 {
+            if nb[r] != last {
+                last = nb[r];
+                nb[w] = last;
+                w += 1;
+            }
+        }
+        nstart[i + 1] = w as u32;
+    }
+    nb.truncate(w);
+    (
+        Rows { start, idx: inc },
+        Rows {
+            start: nstart,
+            idx: nb,
+        },
+    )
+}
+
 /// Laplacian smoothing of interior nodes; a move is kept only if no
 /// incident triangle inverts and the worst incident quality does not drop.
 fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
     let nn = m.nodes.len();
-    let mut inc: Vec<Vec<u32>> = vec![Vec::new(); nn];
-    for (t, tri) in m.tris.iter().enumerate() {
-        for &v in tri {
-            inc[v as usize].push(t as u32);
-        }
-    }
-    let mut nbr: Vec<Vec<u32>> = vec![Vec::new(); nn];
-    for tri in &m.tris {
-        for k in 0..3 {
-            let (p, q) = (tri[k] as usize, tri[(k + 1) % 3]);
-            nbr[p].push(q);
-            nbr[q as usize].push(tri[k]);
-        }
-    }
-    for v in nbr.iter_mut() {
-        v.sort_unstable();
-        v.dedup();
-    }
+    let (inc, nbr) = incidence(m);
+    // A node's move depends only on its own and its ring's positions: when
+    // none of them changed since it was last tried, trying again repeats
+    // the same decision, so it is skipped (same result, bit for bit).
+    let mut changed = vec![0u32; nn];
+    let mut tried = vec![0u32; nn];
+    let mut clock = 0u32;
+    // Incident qualities before a move are those after the last accepted
+    // one: keep them per triangle instead of recomputing (a division each).
+    let mut qc: Vec<f64> = m.tris.iter().map(|t| signed_shape(t, &m.nodes)).collect();
+    let mut trial: Vec<f64> = Vec::new();
     for _ in 0..sweeps {
         for i in m.n_boundary..nn {
-            if nbr[i].is_empty() {
+            let ring = nbr.row(i);
+            if ring.is_empty() {
                 continue;
             }
+            clock += 1;
+            let t0 = tried[i];
+            if t0 != 0 && changed[i] < t0 && ring.iter().all(|&j| changed[j as usize] < t0) {
+                continue;
+            }
+            tried[i] = clock;
             let mut c = [0.0, 0.0];
-            for &j in &nbr[i] {
+            for &j in ring {
                 c[0] += m.nodes[j as usize][0];
                 c[1] += m.nodes[j as usize][1];
             }
-            let k = nbr[i].len() as f64;
+            let k = ring.len() as f64;
             let target = [c[0] / k, c[1] / k];
             let old_p = m.nodes[i];
-            let worst = |m: &FlatMesh| {
-                inc[i]
-                    .iter()
-                    .map(|&t| {
-                        let tri = &m.tris[t as usize];
-                        let (a, b, c) = (
-                            m.nodes[tri[0] as usize],
-                            m.nodes[tri[1] as usize],
-                            m.nodes[tri[2] as usize],
-                        );
-                        if orient(a, b, c) > 0.0 {
-                            shape(a, b, c)
-                        } else {
-                            -1.0
-                        }
-                    })
-                    .fold(f64::INFINITY, f64::min)
-            };
-            let before = worst(m);
+            let tris = inc.row(i);
+            let before = tris
+                .iter()
+                .map(|&t| qc[t as usize])
+                .fold(f64::INFINITY, f64::min);
+            // Accept iff every incident triangle stays positive and at or
+            // above both floors; the first failure decides.
+            let floor = (before.min(0.8) - 1e-12).max(before - 0.05);
             let mut accepted = false;
             for w in [1.0, 0.5, 0.25] {
                 m.nodes[i] = [
                     old_p[0] + w * (target[0] - old_p[0]),
                     old_p[1] + w * (target[1] - old_p[1]),
                 ];
-                let after = worst(m);
-                if after > 0.0 && after >= before.min(0.8) - 1e-12 && after >= before - 0.05 {
+                trial.clear();
+                if tris.iter().all(|&t| {
+                    let q = signed_shape(&m.tris[t as usize], &m.nodes);
+                    trial.push(q);
+                    q > 0.0 && q >= floor
+                }) {
                     accepted = true;
+                    for (&t, &q) in tris.iter().zip(&trial) {
+                        qc[t as usize] = q;
+                    }
                     break;
                 }
             }
             if !accepted {
                 m.nodes[i] = old_p;
+            } else if m.nodes[i].map(f64::to_bits) != old_p.map(f64::to_bits) {
+                changed[i] = clock;
             }
         }
     }
@@ -743,5 +917,88 @@ impl FlatMesh {
                 0.5 * (a[0] * b[1] - a[1] * b[0])
             })
             .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::leaflet::template::{ArcTemplate, Template};
+
+    fn sample_mesh() -> FlatMesh {
+        let t = Template::Arc(ArcTemplate::ozaki_size(21).unwrap());
+        mesh(&t.outline(), 0.8).unwrap()
+    }
+
+    /// The bucketed pairing lists exactly the interior edges of a global
+    /// sort of (edge key, triangle), in that order.
+    #[test]
+    fn edge_pairs_equal_global_sort() {
+        let m = sample_mesh();
+        let mut et: Vec<(u64, u32)> = Vec::new();
+        for (t, tri) in m.tris.iter().enumerate() {
+            for k in 0..3 {
+                let (p, q) = (tri[k], tri[(k + 1) % 3]);
+                et.push((((p.min(q) as u64) << 32) | p.max(q) as u64, t as u32));
+            }
+        }
+        et.sort_unstable();
+        let want: Vec<([u32; 2], [u32; 2])> = et
+            .windows(2)
+            .filter(|w| w[0].0 == w[1].0)
+            .map(|w| ([(w[0].0 >> 32) as u32, w[0].0 as u32], [w[0].1, w[1].1]))
+            .collect();
+        let mut got = Vec::new();
+        interior_edge_pairs(&m.tris, m.nodes.len(), &mut got);
+        assert!(want.len() > 1000);
+        assert_eq!(got, want);
+        // Euler on a disc: interior edges = (3T − boundary edges) / 2.
+        assert_eq!(2 * got.len(), 3 * m.tris.len() - m.n_boundary);
+    }
+
+    /// Flat incidence rows equal the per-node lists built the plain way.
+    #[test]
+    fn incidence_rows_equal_brute_force() {
+        let m = sample_mesh();
+        let (inc, nbr) = incidence(&m);
+        for v in 0..m.nodes.len() as u32 {
+            let tris: Vec<u32> = (0..m.tris.len() as u32)
+                .filter(|&t| m.tris[t as usize].contains(&v))
+                .collect();
+            let mut ring: Vec<u32> = tris
+                .iter()
+                .flat_map(|&t| m.tris[t as usize])
+                .filter(|&w| w != v)
+                .collect();
+            ring.sort_unstable();
+            ring.dedup();
+            assert_eq!(inc.row(v as usize), &tris[..], "node {v}");
+            assert_eq!(nbr.row(v as usize), &ring[..], "node {v}");
+        }
+    }
+
+    /// The orientation shortcut never disagrees with the robust predicate,
+    /// down to triangles flattened to rounding level.
+    #[test]
+    fn signed_shape_agrees_with_orient() {
+        let mut rng = crate::rng::SplitMix64::new(11);
+        for i in 0..20_000 {
+            let a = [rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)];
+            let b = [rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)];
+            // c near the line ab, at offsets from 1 down to 1e-15 of |ab|.
+            let t = rng.range(-1.0, 2.0);
+            let off = rng.range(-1.0, 1.0) * 10f64.powi(-((i % 16) as i32));
+            let c = [
+                a[0] + t * (b[0] - a[0]) - off * (b[1] - a[1]),
+                a[1] + t * (b[1] - a[1]) + off * (b[0] - a[0]),
+            ];
+            let n = [a, b, c];
+            let s = signed_shape(&[0, 1, 2], &n);
+            if orient(a, b, c) > 0.0 {
+                assert_eq!(s, shape(a, b, c));
+            } else {
+                assert_eq!(s, -1.0);
+            }
+        }
     }
 }
