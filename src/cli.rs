@@ -200,8 +200,9 @@ fn command() -> Command {
                             .long("cases")
                             .value_name("SET")
                             .default_value("quick")
-                            .help("quick: sample variations; grid: plus spacings and the full preset"),
+                            .help("quick: sample variations; grid: plus spacings and the full preset; factorial: tilt × noise × spacing × calcium × coronaries on the sample, a fraction on the full preset"),
                     )
+                    .arg(Arg::new("csv").long("csv").value_name("FILE").value_parser(clap::value_parser!(PathBuf)).help("one row per case"))
                     .arg(
                         Arg::new("baseline")
                             .long("baseline")
@@ -461,7 +462,8 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
             Some(("segment", b)) => {
                 let set = b.get_one::<String>("cases").expect("has default");
                 let baseline = b.get_one::<String>("baseline").map(String::as_str);
-                println!("{}", bench::segment::run(set, baseline)?);
+                let csv = b.get_one::<PathBuf>("csv").map(PathBuf::as_path);
+                println!("{}", bench::segment::run(set, baseline, csv)?);
                 Ok(())
             }
             _ => Err(Error::usage(

@@ -1,8 +1,10 @@
 //! `coapt bench segment`: accuracy against the phantom's truth (Dice, mean
 //! and 95 % surface distance, voxels leaked into neighbouring structures)
-//! and seconds per step, over a one-factor-at-a-time grid of phantoms.
+//! and seconds per step, over a one-factor-at-a-time grid of phantoms
+//! (`quick`, `grid`) or a factorial design (`factorial`).
 
 use std::collections::HashMap;
+use std::path::Path;
 use std::time::Instant;
 
 use crate::geom::{Point3, TriMesh, Volume};
@@ -26,9 +28,91 @@ fn case(label: &str, preset: Preset, f: impl FnOnce(&mut PhantomParams)) -> Case
     }
 }
 
-/// `quick`: the sample variations; `grid`: plus spacings and the full preset.
+/// The factors of the factorial design.
+const TILTS_DEG: [f64; 3] = [0.0, 35.0, 60.0];
+const NOISES_HU: [f64; 4] = [10.0, 25.0, 50.0, 80.0];
+const SPACINGS_MM: [Option<[f64; 3]>; 3] = [None, Some([0.44, 0.44, 0.6]), Some([0.4, 0.4, 1.0])];
+
+/// A case named by its factors, e.g. `full t60 n50 sp.4/1 ca co-`.
+fn factor_case(
+    preset: Preset,
+    tilt: f64,
+    noise: f64,
+    sp: Option<[f64; 3]>,
+    ca: bool,
+    co: bool,
+) -> Case {
+    let sp_label = match sp {
+        None => "sp def".to_string(),
+        Some(s) => format!("sp {}/{}", s[0], s[2]),
+    };
+    let label = format!(
+        "{} t{tilt:.0} n{noise:.0} {sp_label} {} {}",
+        preset.name(),
+        if ca { "ca+" } else { "ca-" },
+        if co { "co+" } else { "co-" }
+    );
+    case(&label, preset, |p| {
+        p.tilt_rad = tilt.to_radians();
+        p.noise_hu = noise;
+        p.spacing_mm = sp;
+        p.calcium = ca;
+        p.coronaries = co;
+    })
+}
+
+/// Why the full preset is run as a fraction; printed in the output header.
+pub const FULL_DESIGN: &str = "full preset: a 2^(4-1) fraction over tilt {0, 60} × noise {10, 50} × calcium × coronaries (calcium on where an odd number of the other three are at their high level: tilt 60, noise 50, coronaries off; main effects free of two-factor interactions) at the preset spacing, plus the default t35 n25, the degradation corner t60 n80 and both spacings at the hardest corner t60 n50 with calcium and coronaries; the whole 144-case factorial of the full preset would make the run twelve times longer on the shared 2-core machine (each full case generates a 79-Mvoxel phantom and segments it twice)";
+
+/// `quick`: the sample variations; `grid`: plus spacings and the full
+/// preset; `factorial`: the full factorial on the sample and a fraction on
+/// the full preset (see [`FULL_DESIGN`]).
 fn cases(set: &str) -> Result<Vec<Case>> {
     let s = Preset::Sample;
+    if set == "factorial" {
+        // The full preset first: its cases matter most and a long run may be
+        // cut short.
+        let f = Preset::Full;
+        let mut v = Vec::new();
+        for t in [0.0, 60.0] {
+            for n in [10.0, 50.0] {
+                for co in [true, false] {
+                    let high = (t > 0.0) as u8 + (n > 10.0) as u8 + (!co) as u8;
+                    v.push(factor_case(f, t, n, None, high % 2 == 1, co));
+                }
+            }
+        }
+        v.push(factor_case(f, 35.0, 25.0, None, false, true));
+        v.push(factor_case(f, 60.0, 80.0, None, true, true));
+        v.push(factor_case(
+            f,
+            60.0,
+            50.0,
+            Some([0.44, 0.44, 0.6]),
+            true,
+            true,
+        ));
+        v.push(factor_case(
+            f,
+            60.0,
+            50.0,
+            Some([0.4, 0.4, 1.0]),
+            true,
+            true,
+        ));
+        for &t in &TILTS_DEG {
+            for &n in &NOISES_HU {
+                for &sp in &SPACINGS_MM {
+                    for ca in [false, true] {
+                        for co in [true, false] {
+                            v.push(factor_case(s, t, n, sp, ca, co));
+                        }
+                    }
+                }
+            }
+        }
+        return Ok(v);
+    }
     let mut v = vec![
         case("sample t35 n25", s, |_| {}),
         case("sample t0", s, |p| p.tilt_rad = 0.0),
@@ -37,6 +121,7 @@ fn cases(set: &str) -> Result<Vec<Case>> {
         case("sample n50", s, |p| p.noise_hu = 50.0),
         case("sample n80", s, |p| p.noise_hu = 80.0),
         case("sample calcium", s, |p| p.calcium = true),
+        case("sample no coronaries", s, |p| p.coronaries = false),
         case("sample seed 2", s, |p| p.seed = 2),
         case("sample seed 3", s, |p| p.seed = 3),
     ];
@@ -57,7 +142,7 @@ fn cases(set: &str) -> Result<Vec<Case>> {
         }
         other => {
             return Err(Error::usage(format!(
-                "--cases {other}: expected quick or grid"
+                "--cases {other}: expected quick, grid or factorial"
             )));
         }
     }
@@ -303,24 +388,40 @@ fn accuracy(mask: &Volume<u8>, truth: &Volume<u8>, mesh: &TriMesh, st: &Structur
 }
 
 /// Run the benchmark; `baseline` names a command that runs the SimpleITK
-/// baseline (`tools/segment_baseline.py`), if wanted.
-pub fn run(set: &str, baseline: Option<&str>) -> Result<String> {
-    let mut rows = vec![format!(
-        "{:<18} {:>7} {:>7} {:>7} {:>10} {:>7} {:>8} {:>7} {:>7} {:>8}  {}",
+/// baseline (`tools/segment_baseline.py`), if wanted (in `factorial`, on
+/// the full-preset cases only). Rows are printed as they are measured (a
+/// factorial run is long); the returned text is the summary. `csv` gets one
+/// row per case.
+pub fn run(set: &str, baseline: Option<&str>, csv: Option<&Path>) -> Result<String> {
+    let cases = cases(set)?;
+    if set == "factorial" {
+        println!(
+            "# {} cases: sample preset, full factorial tilt {{0, 35, 60}} deg × noise {{10, 25, 50, 80}} HU × spacing {{preset 0.9/1.0, 0.44/0.6, 0.4/1.0 mm}} × calcium {{off, on}} × coronaries {{on, off}}; {FULL_DESIGN}",
+            cases.len()
+        );
+    }
+    println!(
+        "{:<32} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>6} {:>6} {:>6} {:>6}",
         "case",
         "Dice",
         "mean mm",
         "95% mm",
-        "leak vox",
-        "floor",
         "Dice noL",
+        "mean noL",
+        "95% noL",
+        "leak",
+        "floor",
         "seg s",
-        "Mvox",
-        "ROI %",
-        "slowest steps (s)"
-    )];
+        "noL s"
+    );
+    let mut csv_rows = vec![
+        "case,preset,tilt_deg,noise_hu,spacing_mm,calcium,coronaries,dice,mean_mm,p95_mm,dice_nol,mean_nol_mm,p95_nol_mm,leak_lv,leak_pa,leak_la,leak_da,leak_spine,floor_mm,seg_s,seg_nol_s,vaj_nol_method".to_string(),
+    ];
     let mut notes = Vec::new();
-    for c in cases(set)? {
+    let mut worst: [(f64, f64, String, String); 2] =
+        std::array::from_fn(|_| (f64::INFINITY, 0.0, String::new(), String::new()));
+    let mut leaky = 0usize;
+    for c in cases {
         let ph = generate(&c.params, &|_| {})?;
         let st = Structures::new(&c.params)?;
         let sp = SegmentParams::default();
@@ -328,44 +429,85 @@ pub fn run(set: &str, baseline: Option<&str>) -> Result<String> {
         let seg = segment(&ph.ct, Some(&ph.landmarks), &sp)?;
         let secs = t0.elapsed().as_secs_f64();
         let acc = accuracy(&seg.mask, &ph.truth_mask, &ph.truth_surface, &st);
+        let t1 = Instant::now();
         let no_lm = segment(&ph.ct, None, &sp)?;
+        let secs_n = t1.elapsed().as_secs_f64();
         let acc_n = accuracy(&no_lm.mask, &ph.truth_mask, &ph.truth_surface, &st);
         // The voxelisation floor: the truth mask's own surface distance.
         let (floor, _) = surface_distance(&ph.truth_mask, &ph.truth_surface);
-        let leak: usize = acc.leaks.iter().map(|l| l.1).sum::<usize>()
-            + acc_n.leaks.iter().map(|l| l.1).sum::<usize>();
-        let mut steps = seg.report.timings_s.clone();
-        steps.sort_by(|a, b| b.1.total_cmp(&a.1));
-        let steps: Vec<String> = steps
-            .iter()
-            .take(4)
-            .map(|(n, s)| format!("{n} {s:.2}"))
+        let per: Vec<usize> = (0..Structure::ALL.len())
+            .map(|i| acc.leaks[i].1 + acc_n.leaks[i].1)
             .collect();
-        rows.push(format!(
-            "{:<18} {:>7.4} {:>7.3} {:>7.3} {:>10} {:>7.3} {:>8.4} {:>7.2} {:>7.1} {:>8.1}  {}",
+        let leak: usize = per.iter().sum();
+        let row = format!(
+            "{:<32} {:>7.4} {:>7.3} {:>7.3} {:>8.4} {:>7.3} {:>7.3} {:>6} {:>6.3} {:>6.2} {:>6.2}",
             c.label,
             acc.dice,
             acc.mean_mm,
             acc.p95_mm,
+            acc_n.dice,
+            acc_n.mean_mm,
+            acc_n.p95_mm,
             leak,
             floor,
-            acc_n.dice,
             secs,
-            ph.ct.len() as f64 / 1e6,
-            100.0 * seg.report.roi.fraction_of_volume,
-            steps.join(", ")
+            secs_n
+        );
+        println!("{row}");
+        let p = &c.params;
+        let (_, spacing) = p.grid_shape();
+        csv_rows.push(format!(
+            "{},{},{},{},{}x{}x{},{},{},{:.5},{:.4},{:.4},{:.5},{:.4},{:.4},{},{},{},{},{},{:.4},{:.3},{:.3},\"{}\"",
+            c.label,
+            p.preset.name(),
+            p.tilt_rad.to_degrees().round(),
+            p.noise_hu,
+            spacing[0],
+            spacing[1],
+            spacing[2],
+            p.calcium,
+            p.coronaries,
+            acc.dice,
+            acc.mean_mm,
+            acc.p95_mm,
+            acc_n.dice,
+            acc_n.mean_mm,
+            acc_n.p95_mm,
+            per[0],
+            per[1],
+            per[2],
+            per[3],
+            per[4],
+            floor,
+            secs,
+            secs_n,
+            no_lm.report.vaj.method.replace('"', "'")
         ));
+        if p.noise_hu <= 50.0 {
+            for (w, a) in worst.iter_mut().zip([&acc, &acc_n]) {
+                if a.dice < w.0 {
+                    w.0 = a.dice;
+                    w.2 = c.label.clone();
+                }
+                if a.mean_mm > w.1 {
+                    w.1 = a.mean_mm;
+                    w.3 = c.label.clone();
+                }
+            }
+        }
         if leak > 0 {
-            let l: Vec<String> = acc
-                .leaks
+            leaky += 1;
+            let l: Vec<String> = Structure::ALL
                 .iter()
-                .chain(&acc_n.leaks)
-                .filter(|l| l.1 > 0)
+                .zip(&per)
+                .filter(|l| *l.1 > 0)
                 .map(|(s, n)| format!("{} {n}", s.name()))
                 .collect();
             notes.push(format!("{}: voxels inside {}", c.label, l.join(", ")));
         }
-        if let Some(cmd) = baseline {
+        if let Some(cmd) = baseline
+            && (set != "factorial" || p.preset == Preset::Full)
+        {
             notes.push(format!(
                 "{}: {}",
                 c.label,
@@ -373,13 +515,21 @@ pub fn run(set: &str, baseline: Option<&str>) -> Result<String> {
             ));
         }
     }
-    rows.push(
-        "Dice/mean/95%: with landmarks (nadir plane); Dice noL: without landmarks (measured VAJ)."
-            .into(),
-    );
-    rows.push("leak vox: mask voxels inside the LV, PA, LA, DA or spine (both runs). floor: mean surface distance of the truth mask itself (voxelisation).".into());
-    rows.extend(notes);
-    Ok(rows.join("\n"))
+    if let Some(path) = csv {
+        let text = csv_rows.join("\n") + "\n";
+        crate::io::write_atomic(path, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+    }
+    let n = csv_rows.len() - 1;
+    let mut out = vec![
+        "Dice/mean/95%: with landmarks (nadir plane); noL: without landmarks (measured VAJ). seg s / noL s: segmentation seconds with / without landmarks.".to_string(),
+        "leak: mask voxels inside the LV, PA, LA, DA or spine (both runs). floor: mean surface distance of the truth mask itself (voxelisation).".into(),
+        format!(
+            "summary over the cases with noise <= 50 HU: worst Dice with landmarks {:.4} ({}), without {:.4} ({}); worst mean surface distance with landmarks {:.3} mm ({}), without {:.3} mm ({}); cases with a leak: {leaky} of {n}",
+            worst[0].0, worst[0].2, worst[1].0, worst[1].2, worst[0].1, worst[0].3, worst[1].1, worst[1].3
+        ),
+    ];
+    out.extend(notes);
+    Ok(out.join("\n"))
 }
 
 /// Run the SimpleITK baseline on the same CT and seed; compare.

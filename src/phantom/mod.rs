@@ -172,6 +172,10 @@ pub struct PhantomParams {
     pub blood_hu: f64,
     /// Annular calcium blobs near the nadirs.
     pub calcium: bool,
+    /// Coronary arteries leaving the sinuses. Off, they are absent from the
+    /// CT and the truth record; the anatomy's random draws stay the same, so
+    /// everything else is the same phantom.
+    pub coronaries: bool,
 }
 
 pub const DEFAULT_NOISE_HU: f64 = 25.0;
@@ -189,6 +193,7 @@ impl PhantomParams {
             contrast: true,
             blood_hu: DEFAULT_BLOOD_HU,
             calcium: false,
+            coronaries: true,
         }
     }
 
@@ -264,7 +269,10 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
     progress(0.0);
     let (dims, spacing) = params.grid_shape();
     let fov = [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]);
-    let (an, needs) = anatomy::Anatomy::new(params.seed, params.tilt_rad, fov)?;
+    let (mut an, needs) = anatomy::Anatomy::new(params.seed, params.tilt_rad, fov)?;
+    if !params.coronaries {
+        an.coronaries.clear();
+    }
     let an = Arc::new(an);
     let cl = &an.lumen.centreline;
 

@@ -108,6 +108,12 @@ pub static SPEC: StageSpec = StageSpec {
             default: Some("false"),
             help: "add annular calcium near the nadirs",
         },
+        Param {
+            name: "coronaries",
+            kind: ParamKind::Bool,
+            default: Some("true"),
+            help: "draw the coronary arteries leaving the sinuses (--no-coronaries leaves them out of the CT and truth)",
+        },
     ],
     check: |p| params_from(p).map(|_| ()),
     run,
@@ -123,6 +129,7 @@ pub fn params_from(p: &Params) -> Result<PhantomParams> {
     pp.contrast = p.flag("contrast");
     pp.blood_hu = p.quantity("blood");
     pp.calcium = p.flag("calcium");
+    pp.coronaries = p.flag("coronaries");
     pp.validate()?;
     Ok(pp)
 }

@@ -527,3 +527,79 @@ fn truth_json_has_the_documented_keys() {
         assert!(v["definitions"].get(d).is_some());
     }
 }
+
+#[test]
+fn no_coronaries_removes_them_from_ct_and_truth_only() {
+    // Without noise so the ostium HU is unambiguous.
+    let mut p = PhantomParams::new(Preset::Sample, 7);
+    p.noise_hu = 0.0;
+    let with = generate(&p, &|_| {}).unwrap();
+    let mut q = p.clone();
+    q.coronaries = false;
+    let without = generate(&q, &|_| {}).unwrap();
+    let an = anatomy_of(&p);
+    assert_eq!(an.coronaries.len(), 2);
+    assert_eq!(with.truth.coronaries.len(), 2);
+    assert!(without.truth.coronaries.is_empty());
+    assert!(with.truth.layers.iter().any(|l| l.starts_with("coronary_")));
+    assert!(
+        !without
+            .truth
+            .layers
+            .iter()
+            .any(|l| l.starts_with("coronary_"))
+    );
+    // The truth mask excludes coronaries by construction: it, the surface
+    // and the landmarks are the same phantom's.
+    assert_eq!(with.truth_mask.as_slice(), without.truth_mask.as_slice());
+    assert_eq!(with.truth_surface.vertices, without.truth_surface.vertices);
+    assert_eq!(with.truth.nadirs_mm, without.truth.nadirs_mm);
+    // 2 mm beyond each ostium along the artery: blood with, tissue without.
+    let ct = &with.ct;
+    let mut changed_far = 0usize;
+    for cor in &an.coronaries {
+        let pts = cor.tubes[0].points();
+        let x = pts[1] + (pts[2] - pts[1]).normalize() * 2.0;
+        let i = ct.world_to_index(&x).map(|v| v.round() as usize);
+        let id = ct.linear_index(i[0], i[1], i[2]);
+        assert!(with.ct.as_slice()[id] as f64 > 0.6 * p.blood_hu);
+        assert!((without.ct.as_slice()[id] as f64) < 0.3 * p.blood_hu);
+    }
+    // Only voxels near the coronaries differ (the rest is bit for bit).
+    for (v, (a, b)) in with
+        .ct
+        .as_slice()
+        .iter()
+        .zip(without.ct.as_slice())
+        .enumerate()
+    {
+        if a != b {
+            let [ni, nj, _] = ct.dims();
+            let w = ct.index_to_world([
+                (v % ni) as f64,
+                ((v / ni) % nj) as f64,
+                (v / (ni * nj)) as f64,
+            ]);
+            let near = an
+                .coronaries
+                .iter()
+                .any(|c| c.tubes.iter().any(|t| t.eval(&w).0 < 3.0));
+            changed_far += (!near) as usize;
+        }
+    }
+    assert_eq!(changed_far, 0, "voxels changed away from the coronaries");
+}
+
+#[test]
+fn coronaries_switch_is_deterministic() {
+    let mut p = PhantomParams::new(Preset::Sample, 3);
+    p.spacing_mm = Some([1.5, 1.5, 1.6]);
+    p.coronaries = false;
+    let a = generate(&p, &|_| {}).unwrap();
+    let b = generate(&p, &|_| {}).unwrap();
+    assert_eq!(a.ct.as_slice(), b.ct.as_slice());
+    assert_eq!(
+        serde_json::to_string(&a.truth).unwrap(),
+        serde_json::to_string(&b.truth).unwrap()
+    );
+}

@@ -4,8 +4,9 @@
 //! 1. [`track`]: Hough circleness ([`hough`]) finds the ascending aorta on
 //!    the top slice and follows it toward the root; the blood-pool HU and the
 //!    threshold come from the found lumen.
-//! 2. [`roi`]: crop to a box around the tracked aorta (and the landmarks),
-//!    affine kept exact; everything heavy runs on the crop.
+//! 2. [`roi`]: crop to a box around the tracked aorta, the lumen followed
+//!    past the track on a coarse grid ([`reach`]) and the landmarks, affine
+//!    kept exact; everything heavy runs on the crop.
 //! 3. Smooth, threshold, flood fill from the seed; [`edt`] distances; the
 //!    isoperimetric distance tree ([`idt`]) orders the voxels and the
 //!    steepest-rise rule stops the region before it leaks into the LV.
@@ -18,6 +19,7 @@ pub mod filter;
 pub mod hough;
 pub mod idt;
 pub mod morphology;
+pub mod reach;
 pub mod roi;
 pub mod stage;
 pub mod track;
@@ -83,6 +85,8 @@ pub struct Report {
     pub wall_hu: f64,
     pub threshold_hu: f64,
     pub roi: roi::RoiReport,
+    /// The lumen followed on a coarse grid past the track (sets the ROI).
+    pub reach: Option<reach::Reach>,
     pub idt: IdtReport,
     pub vaj: VajReport,
     pub volumes_ml: Volumes,
@@ -197,7 +201,9 @@ pub fn segment(
     let lm_points: Vec<Point3> = landmarks
         .map(|l| l.points.iter().map(|(_, q)| *q).collect())
         .unwrap_or_default();
-    let box_ = roi::roi_box(ct, &found.track, found.dk, &lm_points);
+    let reach = reach::lumen_reach(ct, &found.track, threshold, blood);
+    clock.lap("lumen_reach");
+    let box_ = roi::roi_box(ct, &found.track, found.dk, &lm_points, reach.as_ref());
     let roi_vol = ct.crop(box_.lo, box_.hi)?;
     let dims = roi_vol.dims();
     let rsp = roi_vol.spacing();
@@ -287,13 +293,19 @@ pub fn segment(
     let sub = morphology::SubBox::around(&idt_region, dims, pad);
     let sd = sub.dims();
     let local = morphology::open_ball(&sub.extract(&idt_region, dims), sd, rsp, p.open_mm);
+    // Seed component and holes on the sub-box too: its padding (≥ 2 voxels,
+    // or the ROI border) is background connected to everything outside it,
+    // so both give the same voxels as on the whole ROI, without walking the
+    // ROI's background (most of its 10–20 M voxels on the full preset).
+    let local = match sub.to_inner(ground, dims) {
+        Some(g) => morphology::fill_holes(&morphology::flood_fill(&local, sd, g), sd),
+        None => vec![false; local.len()],
+    };
     let mut opened = vec![false; n];
     for (v, &m) in local.iter().enumerate() {
         opened[sub.to_outer(v, dims)] = m;
     }
     drop(local);
-    let opened = morphology::flood_fill(&opened, dims, ground);
-    let opened = morphology::fill_holes(&opened, dims);
     let opened_n = opened.iter().filter(|&&v| v).count();
     clock.lap("opening");
 
@@ -323,18 +335,15 @@ pub fn segment(
         vaj_report.method = "plane through the nadir landmarks N1–N3".into();
         vaj::plane_from_landmarks(&nd, &commissures)
     } else {
-        let top_k_roi = found.top_k - box_.lo[2];
-        let sources: Vec<usize> = (0..dims[0] * dims[1])
-            .map(|v| v + top_k_roi * dims[0] * dims[1])
-            .filter(|&v| opened[v])
-            .collect();
-        let dist = vaj::geodesic(&opened, dims, rsp, &sources);
-        let m = vaj::measure(&dist, &opened, roi_vol.voxel_volume(), world);
-        vaj_report.method = "narrowest section below the sinuses (geodesic area profile)".into();
-        m.map(|(pl, prof)| {
-            vaj_report.profile = Some(prof);
-            pl
-        })
+        let (start, dir, r0) = vaj::march_start(ct, &found.track);
+        let points: Vec<Point3> = (0..n).filter(|&v| opened[v]).map(world).collect();
+        let (pl, prof) = vaj::measure(points, roi_vol.voxel_volume(), start, dir, r0, rsp);
+        vaj_report.method = match pl {
+            Some(_) => "narrowest section below the sinuses (area profile perpendicular to the marched centreline)".into(),
+            None => "none: no LVOT plateau below a sinus rise was seen, the region is kept as the IDT stopped it".into(),
+        };
+        vaj_report.profile = prof;
+        pl
     };
     if let Some(pl) = plane {
         // Only the part near the plane is judged: far away the curved aorta
@@ -405,6 +414,7 @@ pub fn segment(
         wall_hu,
         threshold_hu: threshold,
         roi: box_.report(ct),
+        reach,
         idt: IdtReport {
             region_voxels: region_n,
             rule: p.rule,

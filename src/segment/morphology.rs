@@ -133,6 +133,21 @@ impl SubBox {
         (i + self.lo[0]) + outer[0] * ((j + self.lo[1]) + outer[1] * (k + self.lo[2]))
     }
 
+    /// Sub-box index of grid index `v`, if inside.
+    pub fn to_inner(&self, v: usize, outer: [usize; 3]) -> Option<usize> {
+        let q = [
+            v % outer[0],
+            (v / outer[0]) % outer[1],
+            v / (outer[0] * outer[1]),
+        ];
+        let d = self.dims();
+        (0..3)
+            .all(|a| q[a] >= self.lo[a] && q[a] < self.hi[a])
+            .then(|| {
+                (q[0] - self.lo[0]) + d[0] * ((q[1] - self.lo[1]) + d[1] * (q[2] - self.lo[2]))
+            })
+    }
+
     pub fn extract<T: Copy>(&self, data: &[T], outer: [usize; 3]) -> Vec<T> {
         (0..self.dims().iter().product::<usize>())
             .map(|v| data[self.to_outer(v, outer)])

@@ -22,6 +22,9 @@ const MIN_DEPTH_MM: f64 = 130.0;
 const BELOW_LATERAL_MM: f64 = 50.0;
 /// Margin around landmarks (mm).
 const LANDMARK_MARGIN_MM: f64 = 30.0;
+/// Margin around the box of the lumen reached on the coarse grid (mm): its
+/// blocks are 2 mm and the smoothing and opening need a few voxels more.
+const REACH_MARGIN_MM: f64 = 8.0;
 
 #[derive(Debug, Clone, Copy)]
 pub struct RoiBox {
@@ -37,7 +40,15 @@ pub struct RoiReport {
     pub fraction_of_volume: f64,
 }
 
-pub fn roi_box(ct: &Volume<i16>, track: &[TrackPoint], dk: isize, landmarks: &[Point3]) -> RoiBox {
+/// `reach`: index box of the lumen followed past the track
+/// ([`super::reach::lumen_reach`]), if found.
+pub fn roi_box(
+    ct: &Volume<i16>,
+    track: &[TrackPoint],
+    dk: isize,
+    landmarks: &[Point3],
+    reach: Option<&super::reach::Reach>,
+) -> RoiBox {
     let d = ct.dims();
     let sp = ct.spacing();
     let mut lo = [f64::INFINITY; 3];
@@ -77,6 +88,14 @@ pub fn roi_box(ct: &Volume<i16>, track: &[TrackPoint], dk: isize, landmarks: &[P
                 LANDMARK_MARGIN_MM / sp[2],
             ],
         );
+    }
+    if let Some(super::reach::Reach {
+        lo: rlo, hi: rhi, ..
+    }) = reach
+    {
+        let m = [0, 1, 2].map(|a| REACH_MARGIN_MM / sp[a]);
+        add([0, 1, 2].map(|a| rlo[a] as f64), m);
+        add([0, 1, 2].map(|a| rhi[a] as f64 - 1.0), m);
     }
     let mut b = RoiBox {
         lo: [0; 3],
