@@ -149,6 +149,11 @@ pub struct RiseLimits {
     pub span_min: usize,
     /// … and grows the volume by at least this factor.
     pub ratio_min: f64,
+    /// A chamber keeps the cut high: the rise is measured to the lowest
+    /// smoothed cut over this much volume past its top (10 ml), so a
+    /// transient bump (the sweep crossing the sinus level, 4–6 ml wide on
+    /// the sample phantom without coronaries) does not count as one.
+    pub hold: usize,
 }
 
 impl RiseLimits {
@@ -161,6 +166,7 @@ impl RiseLimits {
             j_min: ml(20.0),
             span_min: ml(20.0),
             ratio_min: 1.2,
+            hold: ml(10.0),
         }
     }
 }
@@ -169,7 +175,8 @@ impl RiseLimits {
 /// minimum then maximum (an opening over 1 ml, which removes the spikes of
 /// side branches entering the sweep), take its alternating extrema, find
 /// the extremum pair (i < j) of steepest rise (cut_j − cut_i)/(j − i) under
-/// the volume limits, and return the prefix size where that rise has
+/// the volume limits (cut_j held: its lowest value over `hold` past j), and
+/// return the prefix size where that rise has
 /// climbed a quarter of its height past its lowest point: the region stops
 /// as the cut starts growing fast (a leak into a larger chamber).
 pub fn steepest_rise(cut: &[u32], lim: &RiseLimits) -> Option<usize> {
@@ -204,7 +211,11 @@ pub fn steepest_rise(cut: &[u32], lim: &RiseLimits) -> Option<usize> {
             {
                 continue;
             }
-            let slope = (smooth[j] - smooth[i]) / (k_j - k_i) as f64;
+            let held = smooth[j..=(j + lim.hold).min(n - 1)]
+                .iter()
+                .cloned()
+                .fold(f64::INFINITY, f64::min);
+            let slope = (held - smooth[i]) / (k_j - k_i) as f64;
             if best.is_none_or(|(s, _, _)| slope > s) {
                 best = Some((slope, i, j));
             }

@@ -299,3 +299,33 @@ fn landmark_free_vaj_lies_on_the_truth_annulus_plane_of_a_tilted_root() {
         );
     }
 }
+
+/// The stop rule follows a chamber, not a bump: a cut that jumps fivefold
+/// for 4 ml (the sweep crossing the sinus level, as on the sample phantom
+/// without coronaries) and falls back is passed over; the sustained
+/// fourfold rise at 60 ml (the LVOT opening into the LV) is where the
+/// region stops.
+#[test]
+fn the_steepest_rise_is_held_not_a_transient_bump() {
+    use crate::segment::idt::{RiseLimits, steepest_rise};
+    // 1 voxel = 1 mm³, so 1 ml = 1000 entries of the cut curve.
+    let lim = RiseLimits::from_ml(1.0);
+    // A 3 ml ripple, as the real curve has, gives the rule its extrema.
+    let cut: Vec<u32> = (0..90_000)
+        .map(|k| {
+            let ripple = 30 * ((k / 1500) % 2) as u32;
+            ripple
+                + match k {
+                    34_000..38_000 => 4000,
+                    60_000.. => 3200,
+                    _ => 800,
+                }
+        })
+        .collect();
+    let stop = steepest_rise(&cut, &lim).expect("a rise");
+    assert!((59_000..61_000).contains(&stop), "stopped at {stop} voxels");
+    // Without the hold the bump's 20 ml rise is the steeper one.
+    let unheld = RiseLimits { hold: 0, ..lim };
+    let early = steepest_rise(&cut, &unheld).expect("a rise");
+    assert!(early < 40_000, "{early}");
+}
