@@ -176,9 +176,9 @@ impl RiseLimits {
 /// side branches entering the sweep), take its alternating extrema, find
 /// the extremum pair (i < j) of steepest rise (cut_j − cut_i)/(j − i) under
 /// the volume limits (cut_j held: its lowest value over `hold` past j), and
-/// return the prefix size where that rise has
-/// climbed a quarter of its height past its lowest point: the region stops
-/// as the cut starts growing fast (a leak into a larger chamber).
+/// return the prefix size where that rise has climbed a quarter of its
+/// height past its lowest point: the region stops as the cut starts growing
+/// fast (a leak into a larger chamber).
 pub fn steepest_rise(cut: &[u32], lim: &RiseLimits) -> Option<usize> {
     let n = cut.len();
     if n < 3 {
