@@ -12,13 +12,10 @@
 //! `tools/mesh_crosscheck.py`, which adds Triangle and gmsh to the table.
 
 use std::collections::HashSet;
-use std::f64::consts::PI;
 use std::time::Instant;
 
 use coapt::leaflet::aft::{self, shape};
-use coapt::leaflet::seed001::Seed001;
-use coapt::leaflet::template::{ArcTemplate, OZAKI_SIZES, OzakiTemplate, Template, TemplateSpec};
-use coapt::units::{Angle, Length};
+use coapt::leaflet::template::Template;
 use serde_json::json;
 use spade::{
     AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation,
@@ -103,38 +100,8 @@ fn spade_mesh(bpts: &[[f64; 2]], h: f64) -> Vec<[[f64; 2]; 3]> {
         .collect()
 }
 
-/// The 18 templates of the quality test (src/leaflet/tests.rs): four
-/// seed 000 templates, the twelve Ozaki sizer presets, the parametric
-/// Ozaki template and the seed 001 §3.1 case.
 fn all_templates() -> Vec<Template> {
-    let mut v = Vec::new();
-    for (r, a, b) in [
-        (11.0, 11.0, 11.0),
-        (12.0, 13.0, 13.0),
-        (13.0, 13.0, 14.0),
-        (14.5, 15.8, 13.5),
-    ] {
-        v.push(
-            TemplateSpec::FourParameter {
-                r: Length(r),
-                alpha: Angle(160f64.to_radians()),
-                a: Length(a),
-                b: Length(b),
-            }
-            .build()
-            .unwrap(),
-        );
-    }
-    for &(size, ..) in &OZAKI_SIZES {
-        v.push(Template::Arc(ArcTemplate::ozaki_size(size).unwrap()));
-    }
-    v.push(Template::Ozaki(
-        OzakiTemplate::new(19.0, 11.0, 2.0, 24.0).unwrap(),
-    ));
-    v.push(Template::Seed001(
-        Seed001::new(15.0, 2.0 * PI / 3.0 - 0.4, 1.5, 15.0, -2.0 * PI / 9.0).unwrap(),
-    ));
-    v
+    coapt::leaflet::template::reference_templates()
 }
 
 fn main() {

@@ -464,3 +464,40 @@ mod tests {
         assert!(e.contains("extra"), "{e}");
     }
 }
+
+/// The 18 templates the mesher is held to (quality test and `cargo bench
+/// --bench mesher`): four seed 000 templates, the twelve Ozaki sizer
+/// presets, the parametric Ozaki template and the seed 001 §3.1 case.
+pub fn reference_templates() -> Vec<Template> {
+    let mut v = Vec::new();
+    for (r, a, b) in [
+        (11.0, 11.0, 11.0),
+        (12.0, 13.0, 13.0),
+        (13.0, 13.0, 14.0),
+        (14.5, 15.8, 13.5),
+    ] {
+        v.push(
+            TemplateSpec::FourParameter {
+                r: Length(r),
+                alpha: Angle(160f64.to_radians()),
+                a: Length(a),
+                b: Length(b),
+            }
+            .build()
+            .expect("a valid four-parameter template"),
+        );
+    }
+    for &(size, ..) in &OZAKI_SIZES {
+        v.push(Template::Arc(
+            ArcTemplate::ozaki_size(size).expect("a sizer preset"),
+        ));
+    }
+    v.push(Template::Ozaki(
+        OzakiTemplate::new(19.0, 11.0, 2.0, 24.0).expect("the peer template"),
+    ));
+    v.push(Template::Seed001(
+        Seed001::new(15.0, 2.0 * PI / 3.0 - 0.4, 1.5, 15.0, -2.0 * PI / 9.0)
+            .expect("the seed 001 §3.1 case"),
+    ));
+    v
+}

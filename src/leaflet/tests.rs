@@ -7,39 +7,12 @@ use std::f64::consts::PI;
 use super::aft::{self, FlatMesh};
 use super::outline::Outline;
 use super::seed001::Seed001;
-use super::template::{ArcTemplate, OZAKI_SIZES, OzakiTemplate, Template, TemplateSpec};
+use super::template::{Template, TemplateSpec};
 use crate::rng::SplitMix64;
 use crate::units::{Angle, Length};
 
 fn all_templates() -> Vec<Template> {
-    let mut v = Vec::new();
-    for (r, a, b) in [
-        (11.0, 11.0, 11.0),
-        (12.0, 13.0, 13.0),
-        (13.0, 13.0, 14.0),
-        (14.5, 15.8, 13.5),
-    ] {
-        v.push(
-            TemplateSpec::FourParameter {
-                r: Length(r),
-                alpha: Angle(160f64.to_radians()),
-                a: Length(a),
-                b: Length(b),
-            }
-            .build()
-            .unwrap(),
-        );
-    }
-    for &(size, ..) in &OZAKI_SIZES {
-        v.push(Template::Arc(ArcTemplate::ozaki_size(size).unwrap()));
-    }
-    v.push(Template::Ozaki(
-        OzakiTemplate::new(19.0, 11.0, 2.0, 24.0).unwrap(),
-    ));
-    v.push(Template::Seed001(
-        Seed001::new(15.0, 2.0 * PI / 3.0 - 0.4, 1.5, 15.0, -2.0 * PI / 9.0).unwrap(),
-    ));
-    v
+    super::template::reference_templates()
 }
 
 /// Boundary nodes lie on the outline, in order, at equal arc length per piece.
