@@ -23,24 +23,9 @@ use spade::{
 
 const REPS: usize = 7;
 
-#[repr(C)]
-struct Timespec {
-    sec: i64,
-    nsec: i64,
-}
-
-unsafe extern "C" {
-    fn clock_gettime(clock: i32, ts: *mut Timespec) -> i32;
-}
-
-/// CPU time of the calling thread, ms (Linux CLOCK_THREAD_CPUTIME_ID = 3).
+/// CPU time of the calling thread, ms.
 fn thread_cpu_ms() -> f64 {
-    let mut ts = Timespec { sec: 0, nsec: 0 };
-    // SAFETY: clock_gettime writes one timespec (two longs on 64-bit
-    // Linux) into memory we own.
-    let rc = unsafe { clock_gettime(3, &mut ts) };
-    assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
-    ts.sec as f64 * 1e3 + ts.nsec as f64 * 1e-6
+    coapt::bench::cpu_time::thread_cpu_s().expect("thread CPU time (Linux, 64-bit)") * 1e3
 }
 
 /// Median (CPU ms, wall ms) of REPS runs of `f`.

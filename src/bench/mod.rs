@@ -5,6 +5,7 @@
 pub mod close;
 pub mod close_grid;
 pub mod close_grid_plot;
+pub mod cpu_time;
 pub mod displacement_error;
 pub mod phantom;
 pub mod pipeline;

@@ -8,6 +8,7 @@
 //! classified by integer compares at `--iso` (`--iso 150` on the CT gives the
 //! surface of the CT thresholded at 150 HU, interpolated on the HU values).
 
+use super::cpu_time;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -62,11 +63,11 @@ fn timed<T>(repeat: u32, mut f: impl FnMut() -> T) -> Timed<T> {
     let mut cpu: Option<f64> = None;
     let mut last = None;
     for _ in 0..repeat {
-        let c = thread_cpu_s();
+        let c = cpu_time::thread_cpu_s();
         let t = Instant::now();
         let r = std::hint::black_box(f());
         times.push(t.elapsed().as_secs_f64());
-        if let (Some(c0), Some(c1)) = (c, thread_cpu_s()) {
+        if let (Some(c0), Some(c1)) = (c, cpu_time::thread_cpu_s()) {
             cpu = Some(cpu.map_or(c1 - c0, |m| m.min(c1 - c0)));
         }
         last = Some(r);
@@ -78,33 +79,6 @@ fn timed<T>(repeat: u32, mut f: impl FnMut() -> T) -> Timed<T> {
         cpu_min: cpu,
         last: last.expect("repeat ≥ 1"),
     }
-}
-
-/// CPU seconds the calling thread has run. In a one-thread pool the worker
-/// does all the work, so this is the work's cost whatever else the machine
-/// runs (wall time on a shared machine includes the other processes' turns).
-#[cfg(all(target_os = "linux", target_pointer_width = "64"))]
-fn thread_cpu_s() -> Option<f64> {
-    #[repr(C)]
-    struct Timespec {
-        sec: i64,
-        nsec: i64,
-    }
-    unsafe extern "C" {
-        fn clock_gettime(clock: i32, ts: *mut Timespec) -> i32;
-    }
-    const CLOCK_THREAD_CPUTIME_ID: i32 = 3;
-    let mut ts = Timespec { sec: 0, nsec: 0 };
-    // SAFETY: `ts` is a valid, writable timespec in the 64-bit Linux layout
-    // (time_t and long are both 64 bits), and the clock id is a constant the
-    // kernel defines.
-    let rc = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    (rc == 0).then_some(ts.sec as f64 + ts.nsec as f64 * 1e-9)
-}
-
-#[cfg(not(all(target_os = "linux", target_pointer_width = "64")))]
-fn thread_cpu_s() -> Option<f64> {
-    None
 }
 
 /// Samples the bound pass reads: summed as i64 over chunks (so the compiler
