@@ -252,9 +252,11 @@ impl Term for Bending {
     }
 
     fn add_tangent(&self, x: &[V3], dofs: &Dofs, pat: &Pattern, vals: &mut [f64]) {
-        for h in &self.hinges {
+        let nodes: Vec<[u32; 4]> = self.hinges.iter().map(|h| h.nodes).collect();
+        let slots = pat.element_slots(dofs, &nodes);
+        for (h, s) in self.hinges.iter().zip(slots.chunks_exact(144)) {
             if let Some(e) = h.eval(&self.points(h, x), true, self.gauss_newton) {
-                pat.add_block(dofs, vals, &h.nodes, &e.hess.expect("asked for"));
+                Pattern::add_block_at(vals, s, &e.hess.expect("asked for"));
             }
         }
     }

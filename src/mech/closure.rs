@@ -250,7 +250,7 @@ fn stretches(x: &[V3], refs: &[RefTri], tris: &[[u32; 3]]) -> (Vec<f64>, Vec<f64
 /// run out: pseudo-transient continuation on the PSD part of the tangent
 /// (robust from the unloaded, out-of-plane-floppy state, and where the exact
 /// tangent is nearly singular) until the residual has dropped 100-fold, then
-/// Newton with the exact, non-symmetric tangent (LU), quadratic near the
+/// Newton with the exact, non-symmetric tangent (GMRES or LU), quadratic near the
 /// end; when that stalls, continuation takes over again.
 pub(super) fn newton_with_continuation(
     sys: &mut System,

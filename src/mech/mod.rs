@@ -5,7 +5,7 @@
 //! Hessian (`element`, `material`, `contact`); `system` sums them into a
 //! residual (nodal force) and a tangent. The seed's follower pressure has no
 //! potential on a leaflet (its free edge moves), so a valve is solved on the
-//! residual (`closure`: continuation, then Newton with LU); where every load
+//! residual (`closure`: continuation, then Newton on the non-symmetric tangent); where every load
 //! has a potential (`verify`: closed or clamped membranes) Newton uses the
 //! energy and Cholesky. `suture` sews the placed template to the wall
 //! first (seed 001 Algorithm 1). `stage` is the `close` stage, `config` its
@@ -14,6 +14,7 @@
 pub mod bending;
 pub mod contact;
 pub mod element;
+pub mod gmres;
 pub mod material;
 pub mod pressure;
 pub mod shapes;

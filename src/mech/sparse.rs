@@ -11,6 +11,7 @@ use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::{cholesky, lu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
+use std::sync::{Arc, Mutex};
 
 pub const NONE: u32 = u32::MAX;
 
@@ -57,6 +58,25 @@ pub struct Pattern {
     llt: Option<LltFactor>,
     lu: Option<LuFactor>,
     sym: SymbolicSparseColMat<u32>,
+    /// For each stored entry, the index of its transpose (the pattern is
+    /// structurally symmetric); built on the first non-symmetric solve.
+    transpose: Vec<u32>,
+    /// How the non-symmetric solves went.
+    pub stats: SolveStats,
+    /// Element lists seen by [`Pattern::element_slots`] (their nodes,
+    /// flattened) and their slot tables.
+    slot_tables: Mutex<Vec<(Vec<u32>, Arc<[u32]>)>>,
+}
+
+/// Counts of [`Pattern::solve_nonsymmetric`]'s paths.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct SolveStats {
+    /// Solved by GMRES preconditioned with the symmetric part's Cholesky.
+    pub gmres_solves: usize,
+    pub gmres_iterations: usize,
+    /// Solved by LU: the symmetric part was not positive definite, or
+    /// GMRES did not reach its tolerance.
+    pub lu_solves: usize,
 }
 
 /// Cholesky of one pattern: symbolic analysis, factor values and work space,
@@ -163,6 +183,9 @@ impl Pattern {
             llt: None,
             lu: None,
             sym,
+            transpose: Vec::new(),
+            stats: SolveStats::default(),
+            slot_tables: Mutex::new(Vec::new()),
         }
     }
 
@@ -213,6 +236,73 @@ impl Pattern {
         }
     }
 
+    /// Where each entry of each element's 3K×3K block goes in `vals`:
+    /// `slots[e·(3K)² + 3K·r + c]` for row r, column c of element e, or
+    /// [`NONE`] where the row or column is prescribed or the pair is not in
+    /// the pattern. Built once per element list and pattern: a Newton solve
+    /// assembles the same elements dozens of times, and finding the slots
+    /// was most of [`Pattern::add_block`]'s cost.
+    pub fn element_slots<const K: usize>(&self, dofs: &Dofs, elems: &[[u32; K]]) -> Arc<[u32]> {
+        let flat: Vec<u32> = elems.iter().flatten().copied().collect();
+        let mut cache = self.slot_tables.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, s)) = cache.iter().find(|(n, _)| *n == flat) {
+            return s.clone();
+        }
+        let n = 3 * K;
+        let mut slots = vec![NONE; elems.len() * n * n];
+        for (nodes, s) in elems.iter().zip(slots.chunks_exact_mut(n * n)) {
+            for (bi, &a) in nodes.iter().enumerate() {
+                let ea = [0, 1, 2].map(|r| dofs.eq[3 * a as usize + r]);
+                let mut before = [0usize; 3];
+                for r in 1..3 {
+                    before[r] = before[r - 1] + usize::from(ea[r - 1] != NONE);
+                }
+                for (bj, &b) in nodes.iter().enumerate() {
+                    let (lo, hi) = (
+                        self.nb_off[b as usize] as usize,
+                        self.nb_off[b as usize + 1] as usize,
+                    );
+                    let Ok(k) = self.nb[lo..hi].binary_search(&a) else {
+                        continue;
+                    };
+                    let off = self.row_off[lo + k] as usize;
+                    for r in 0..3 {
+                        if ea[r] == NONE {
+                            continue;
+                        }
+                        for c in 0..3 {
+                            let col = dofs.eq[3 * b as usize + c];
+                            if col != NONE {
+                                s[(3 * bi + r) * n + 3 * bj + c] =
+                                    (self.col_ptr[col as usize] + off + before[r]) as u32;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let slots: Arc<[u32]> = slots.into();
+        cache.push((flat, slots.clone()));
+        slots
+    }
+
+    /// Add an element's block at the slots [`Pattern::element_slots`] gave
+    /// for it: the same sums as [`Pattern::add_block`].
+    pub fn add_block_at<const N: usize>(
+        vals: &mut [f64],
+        slots: &[u32],
+        block: &nalgebra::SMatrix<f64, N, N>,
+    ) {
+        for r in 0..N {
+            for c in 0..N {
+                let s = slots[r * N + c];
+                if s != NONE {
+                    vals[s as usize] += block[(r, c)];
+                }
+            }
+        }
+    }
+
     /// Add `v` to every diagonal entry (a Levenberg shift).
     pub fn add_diagonal(&self, vals: &mut [f64], v: &[f64]) {
         for (col, w) in self.col_ptr.windows(2).enumerate() {
@@ -238,17 +328,26 @@ impl Pattern {
     /// y = A x (for residual checks and tests).
     pub fn mul(&self, vals: &[f64], x: &[f64]) -> Vec<f64> {
         let mut y = vec![0.0; x.len()];
-        for (col, w) in self.col_ptr.windows(2).enumerate() {
-            for k in w[0]..w[1] {
-                y[self.row_idx[k] as usize] += vals[k] * x[col];
-            }
-        }
+        mul_into(&self.col_ptr, &self.row_idx, vals, x, &mut y);
         y
     }
 
     /// Solve A x = b by Cholesky (A symmetric); `Err` when A is not
     /// positive definite.
     pub fn solve_llt(&mut self, vals: &[f64], b: &mut [f64]) -> Result<(), String> {
+        self.factor_llt(vals)?;
+        let f = self.llt.as_mut().expect("factored");
+        cholesky::LltRef::<'_, u32, f64>::new(&f.symbolic, &f.values).solve_in_place_with_conj(
+            Conj::No,
+            column(b),
+            par(),
+            MemStack::new(&mut f.mem),
+        );
+        Ok(())
+    }
+
+    /// Cholesky factorisation of `vals` into `self.llt`.
+    fn factor_llt(&mut self, vals: &[f64]) -> Result<(), String> {
         if self.llt.is_none() {
             let symbolic = cholesky::factorize_symbolic_cholesky(
                 self.sym.as_ref(),
@@ -269,8 +368,7 @@ impl Pattern {
         }
         let a = SparseColMatRef::new(self.sym.as_ref(), vals);
         let f = self.llt.as_mut().expect("built");
-        let l = f
-            .symbolic
+        f.symbolic
             .factorize_numeric_llt(
                 &mut f.values,
                 a,
@@ -281,8 +379,73 @@ impl Pattern {
                 Default::default(),
             )
             .map_err(|e| format!("{e:?}"))?;
-        l.solve_in_place_with_conj(Conj::No, column(b), par(), MemStack::new(&mut f.mem));
         Ok(())
+    }
+
+    /// Solve A x = b for a non-symmetric A whose asymmetry is small and
+    /// local (the follower pressure on the free edge, the suturing force on
+    /// the first row): GMRES preconditioned with the Cholesky factor of
+    /// (A + Aᵀ)/2, to a relative residual of [`NONSYMMETRIC_TOL`]; LU when
+    /// that part is not positive definite or GMRES has not converged after
+    /// [`NONSYMMETRIC_MAX_ITERATIONS`]. A Cholesky costs a third to a sixth
+    /// of the LU on these patterns, and the answer is the LU's to the
+    /// tolerance, so Newton takes the same steps.
+    pub fn solve_nonsymmetric(&mut self, vals: &[f64], b: &mut [f64]) -> Result<(), String> {
+        if self.transpose.len() != vals.len() {
+            self.transpose = self.transpose_map();
+        }
+        let sym: Vec<f64> = vals
+            .iter()
+            .zip(&self.transpose)
+            .map(|(v, &t)| 0.5 * (v + vals[t as usize]))
+            .collect();
+        if self.factor_llt(&sym).is_ok() {
+            let Pattern {
+                llt,
+                col_ptr,
+                row_idx,
+                ..
+            } = &mut *self;
+            let f = llt.as_mut().expect("factored");
+            let l = cholesky::LltRef::<'_, u32, f64>::new(&f.symbolic, &f.values);
+            let (x, out) = super::gmres::gmres(
+                b,
+                |v, y| mul_into(col_ptr, row_idx, vals, v, y),
+                |v| {
+                    l.solve_in_place_with_conj(
+                        Conj::No,
+                        column(v),
+                        par(),
+                        MemStack::new(&mut f.mem),
+                    )
+                },
+                NONSYMMETRIC_TOL,
+                NONSYMMETRIC_MAX_ITERATIONS,
+            );
+            self.stats.gmres_iterations += out.iterations;
+            if out.converged {
+                self.stats.gmres_solves += 1;
+                b.copy_from_slice(&x);
+                return Ok(());
+            }
+        }
+        self.stats.lu_solves += 1;
+        self.solve_lu(vals, b)
+    }
+
+    fn transpose_map(&self) -> Vec<u32> {
+        let mut t = vec![0u32; self.row_idx.len()];
+        for (col, w) in self.col_ptr.windows(2).enumerate() {
+            for k in w[0]..w[1] {
+                let row = self.row_idx[k] as usize;
+                let rows = &self.row_idx[self.col_ptr[row]..self.col_ptr[row + 1]];
+                let j = rows
+                    .binary_search(&(col as u32))
+                    .expect("the pattern is structurally symmetric");
+                t[k] = (self.col_ptr[row] + j) as u32;
+            }
+        }
+        t
     }
 
     /// Solve A x = b by LU with partial pivoting (A non-symmetric).
@@ -317,6 +480,22 @@ impl Pattern {
             Ok(())
         } else {
             Err("singular matrix".into())
+        }
+    }
+}
+
+/// Relative residual at which [`Pattern::solve_nonsymmetric`] takes GMRES's
+/// answer: about what LU with partial pivoting leaves on these systems.
+pub const NONSYMMETRIC_TOL: f64 = 1e-10;
+/// Past this many GMRES iterations the LU is cheaper.
+pub const NONSYMMETRIC_MAX_ITERATIONS: usize = 40;
+
+fn mul_into(col_ptr: &[usize], row_idx: &[u32], vals: &[f64], x: &[f64], y: &mut [f64]) {
+    y.iter_mut().for_each(|v| *v = 0.0);
+    for (col, w) in col_ptr.windows(2).enumerate() {
+        let xc = x[col];
+        for k in w[0]..w[1] {
+            y[row_idx[k] as usize] += vals[k] * xc;
         }
     }
 }
@@ -398,5 +577,86 @@ mod tests {
         let neg: Vec<f64> = vals.iter().map(|v| -v).collect();
         let mut z = rhs.clone();
         assert!(pat.solve_llt(&neg, &mut z).is_err());
+    }
+
+    /// A strip of triangles over a 2 × n grid with some coordinates fixed.
+    fn strip(n: u32) -> (Dofs, Vec<[u32; 3]>, Pattern) {
+        let nodes = 2 * n;
+        let mut fixed = vec![[false; 3]; nodes as usize];
+        fixed[0] = [true; 3];
+        fixed[3][1] = true;
+        let dofs = Dofs::new(&fixed);
+        let mut tris = Vec::new();
+        for i in 0..n - 1 {
+            tris.push([2 * i, 2 * i + 1, 2 * i + 2]);
+            tris.push([2 * i + 1, 2 * i + 3, 2 * i + 2]);
+        }
+        let mut pairs = Vec::new();
+        for t in &tris {
+            pairs.extend([[t[0], t[1]], [t[1], t[2]], [t[0], t[2]]]);
+        }
+        let pat = Pattern::new(nodes as usize, &dofs, &pairs);
+        (dofs, tris, pat)
+    }
+
+    #[test]
+    fn slot_tables_assemble_exactly_what_add_block_does() {
+        let (dofs, tris, pat) = strip(7);
+        let mut rng = crate::rng::SplitMix64::new(5);
+        let blocks: Vec<SMatrix<f64, 9, 9>> = tris
+            .iter()
+            .map(|_| SMatrix::from_fn(|_, _| rng.range(-1.0, 1.0)))
+            .collect();
+        let mut a = vec![0.0; pat.nnz()];
+        let mut b = vec![0.0; pat.nnz()];
+        for (t, k) in tris.iter().zip(&blocks) {
+            pat.add_block(&dofs, &mut a, t, k);
+        }
+        let slots = pat.element_slots(&dofs, &tris);
+        assert_eq!(slots.len(), 81 * tris.len());
+        for (s, k) in slots.chunks_exact(81).zip(&blocks) {
+            Pattern::add_block_at(&mut b, s, k);
+        }
+        assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+        // The same list again is served from the cache; another list is not.
+        assert!(Arc::ptr_eq(&slots, &pat.element_slots(&dofs, &tris)));
+        assert!(!Arc::ptr_eq(&slots, &pat.element_slots(&dofs, &tris[1..])));
+    }
+
+    #[test]
+    fn nearly_symmetric_systems_are_solved_by_gmres_to_the_lu_answer() {
+        let (dofs, tris, mut pat) = strip(40);
+        let mut rng = crate::rng::SplitMix64::new(9);
+        let mut vals = vec![0.0; pat.nnz()];
+        for t in &tris {
+            let m = SMatrix::<f64, 9, 9>::from_fn(|_, _| rng.range(-1.0, 1.0));
+            pat.add_block(&dofs, &mut vals, t, &(m * m.transpose()));
+        }
+        let diag = vec![0.1; dofs.n_eq];
+        pat.add_diagonal(&mut vals, &diag);
+        // A skew part on the last triangle only, as the follower pressure
+        // leaves on a free edge.
+        let skew = SMatrix::<f64, 9, 9>::from_fn(|i, j| (i as f64 - j as f64) * 0.05);
+        pat.add_block(&dofs, &mut vals, &tris[tris.len() - 1], &skew);
+        let rhs: Vec<f64> = (0..dofs.n_eq).map(|i| (0.3 * i as f64).cos()).collect();
+        let mut want = rhs.clone();
+        pat.solve_lu(&vals, &mut want).unwrap();
+        let mut got = rhs.clone();
+        pat.solve_nonsymmetric(&vals, &mut got).unwrap();
+        assert_eq!(pat.stats.gmres_solves, 1);
+        assert!(pat.stats.gmres_iterations <= 10, "{:?}", pat.stats);
+        let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g - w).abs() <= 1e-8 * scale, "{g} vs {w}");
+        }
+        // An indefinite symmetric part: LU answers.
+        let neg: Vec<f64> = vals.iter().map(|v| -v).collect();
+        let mut y = rhs.clone();
+        pat.solve_nonsymmetric(&neg, &mut y).unwrap();
+        assert_eq!(pat.stats.lu_solves, 1);
+        let ay = pat.mul(&neg, &y);
+        for (a, r) in ay.iter().zip(&rhs) {
+            assert!((a - r).abs() < 1e-9);
+        }
     }
 }

@@ -224,11 +224,11 @@ impl System {
     pub fn tangent(&self, x: &[V3], pat: &Pattern, vals: &mut [f64]) -> Result<(), Inadmissible> {
         vals.iter_mut().for_each(|v| *v = 0.0);
         let el = self.eval_elements(x, true)?;
+        let slots = pat.element_slots(&self.dofs, &self.tris);
         for (t, (_, _, h)) in el.iter().enumerate() {
-            pat.add_block(
-                &self.dofs,
+            Pattern::add_block_at(
                 vals,
-                &self.tris[t],
+                &slots[81 * t..81 * (t + 1)],
                 h.as_ref().expect("asked for"),
             );
         }
@@ -246,7 +246,7 @@ impl System {
                         .expect("asked for")
                 }
             };
-            pat.add_block(&self.dofs, vals, &self.tris[t], &k);
+            Pattern::add_block_at(vals, &slots[81 * t..81 * (t + 1)], &k);
         }
         for term in &self.terms {
             term.add_tangent(x, &self.dofs, pat, vals);

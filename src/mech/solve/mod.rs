@@ -50,6 +50,13 @@ pub struct Record {
     /// Levenberg shift relative to the mean diagonal (Newton).
     pub shift: f64,
     pub contact_pairs: usize,
+    /// Newton: how the step's linear system was solved: "cholesky"
+    /// (symmetric tangent), "gmres" (non-symmetric, preconditioned with
+    /// the symmetric part's Cholesky) or "lu" (GMRES's fallback); "" for
+    /// relaxation.
+    pub linear_solver: &'static str,
+    /// GMRES iterations of the step.
+    pub gmres_iterations: usize,
 }
 
 #[derive(Debug, Clone, Serialize)]

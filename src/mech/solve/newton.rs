@@ -1,6 +1,8 @@
 //! Newton with a Levenberg shift, a step cap and a backtracking line search:
 //! on the energy when every load has a potential (Cholesky of the projected
-//! tangent), on ½‖R‖² otherwise (LU of the exact, non-symmetric tangent).
+//! tangent), on ½‖R‖² otherwise (the exact, non-symmetric tangent, solved
+//! by GMRES preconditioned with its symmetric part's Cholesky, LU as the
+//! fallback: `Pattern::solve_nonsymmetric`).
 
 use std::time::Instant;
 
@@ -104,6 +106,8 @@ pub fn newton_reusing(
             step: 0.0,
             shift,
             contact_pairs: contact_pairs(sys),
+            linear_solver: "",
+            gmres_iterations: 0,
         };
         let pairs = sys.couplings();
         // Terms list their couplings in a fixed order, so an unchanged list
@@ -140,6 +144,7 @@ pub fn newton_reusing(
             shift = 1.0;
         }
         // Factorise, raising the shift until the factorisation succeeds.
+        let before = pat.stats;
         let mut d = None;
         for _ in 0..20 {
             let mut v = vals.clone();
@@ -154,7 +159,7 @@ pub fn newton_reusing(
             let ok = if symmetric {
                 pat.solve_llt(&v, &mut b)
             } else {
-                pat.solve_lu(&v, &mut b)
+                pat.solve_nonsymmetric(&v, &mut b)
             };
             if ok.is_ok() && b.iter().all(|z| z.is_finite()) {
                 d = Some(b);
@@ -162,6 +167,14 @@ pub fn newton_reusing(
             }
             shift = if shift == 0.0 { 1e-6 } else { shift * 10.0 };
         }
+        rec.linear_solver = if symmetric {
+            "cholesky"
+        } else if pat.stats.lu_solves > before.lu_solves {
+            "lu"
+        } else {
+            "gmres"
+        };
+        rec.gmres_iterations = pat.stats.gmres_iterations - before.gmres_iterations;
         let Some(mut d) = d else {
             out.reason =
                 format!("tangent could not be factorised even with a shift of {shift:.1e}");

@@ -111,6 +111,8 @@ pub fn relax(sys: &mut System, x: &mut Vec<V3>, opt: &RelaxOptions) -> Outcome {
                 step: li,
                 shift: 0.0,
                 contact_pairs: contact_pairs(sys),
+                linear_solver: "",
+                gmres_iterations: 0,
             });
         }
         let mut xn = x.clone();
