@@ -39,7 +39,7 @@ use super::element::{RefTri, V3};
 use super::material::NeoHookean;
 use super::solve::{self, NewtonOptions, Outcome, Stop};
 use super::sparse::{Dofs, Pattern};
-use super::system::{PressureMode, System, Term};
+use super::system::{PressureMode, System, Term, norm};
 use super::terms::PlaneContact;
 use crate::geom::bvh::Bvh;
 use crate::geom::closest_point::closest_point;
@@ -441,6 +441,42 @@ fn solve_round(
     closure::newton_with_continuation(sys, x, stop, nopt)
 }
 
+/// ‖R‖ (N) of the auxiliary problem at `x`, `None` when `x` is not
+/// admissible.
+fn round_residual(sys: &mut System, x: &[V3]) -> Option<f64> {
+    for term in sys.terms.iter_mut() {
+        term.update(x);
+    }
+    if !sys.terms.iter().all(|t| t.admissible(x)) {
+        return None;
+    }
+    sys.residual(x).ok().map(|r| norm(&r))
+}
+
+/// The next round's start extrapolated from the last three equilibria
+/// x₀, x₁, x₂ (K/4, K/2, K): each doubling of K moves the leaflet by a
+/// roughly constant fraction ρ of the move before (max sin φ falls
+/// geometrically), so x₂ + ρ (x₂ − x₁) with ρ = ‖x₂ − x₁‖ / ‖x₁ − x₀‖,
+/// capped at 1. `None` with fewer than three rounds.
+fn predict(states: &[Vec<V3>]) -> Option<Vec<V3>> {
+    let [x0, x1, x2] = states else {
+        return None;
+    };
+    let dist = |a: &[V3], b: &[V3]| {
+        a.iter()
+            .zip(b)
+            .map(|(p, q)| (p - q).norm_squared())
+            .sum::<f64>()
+            .sqrt()
+    };
+    let (d1, d0) = (dist(x2, x1), dist(x1, x0));
+    if d0 <= 0.0 || !(d1 / d0).is_finite() {
+        return None;
+    }
+    let rho = (d1 / d0).min(1.0);
+    Some(x2.iter().zip(x1).map(|(a, b)| a + (a - b) * rho).collect())
+}
+
 /// The seed's third plane (MN): facing away from the axis at 0.2 R in the
 /// middle of each leaflet's sector, so no leaflet reaches the axis while
 /// it is sewn. `sides` are the two planes through the axis per leaflet, in
@@ -534,6 +570,8 @@ pub fn suture(
     // The state of the last round whose solve converged.
     let mut kept: Option<Vec<V3>> = None;
     let mut stalled = None;
+    // The last (up to three) rounds' equilibria, oldest first.
+    let mut states: Vec<Vec<V3>> = Vec::new();
     for round in 0..s.max_rounds {
         let left = stop.max_seconds - t0.elapsed().as_secs_f64();
         if left <= 0.0 {
@@ -549,16 +587,28 @@ pub fn suture(
         // meets ε_sew is then solved to the closure's own tolerance,
         // relative to what this round started from (the seed: a 10⁷-fold
         // reduction).
-        let loose = Stop {
+        let mut loose = Stop {
             rel: stop.rel.max(1e-2),
             max_seconds: left,
             ..stop.clone()
         };
+        // What doubling K upset, and a start past it: the last two rounds'
+        // states extrapolated (see `predict`). The round's target stays a
+        // hundredth of the upset, so a good prediction saves Newton steps
+        // and a poor one is not taken.
+        let upset = round_residual(&mut sys, &x);
+        if let (Some(upset), Some(xp)) = (upset, predict(&states)) {
+            if let Some(rp) = round_residual(&mut sys, &xp).filter(|&r| r < upset) {
+                loose.rel *= upset / rp.max(1e-300);
+                x = xp;
+            }
+        }
         let mut o = solve_round(&mut sys, &mut x, &loose, nopt, round == 0, &mut pattern);
         let mut ms = force_of(&tris, k).max_sin(&x);
         if o.converged && ms < s.tolerance && loose.rel > stop.rel {
+            let start = upset.unwrap_or(o.initial_residual_n);
             let tight = Stop {
-                rel: stop.rel * o.initial_residual_n / o.residual_n.max(1e-300),
+                rel: stop.rel * start / o.residual_n.max(1e-300),
                 max_seconds: stop.max_seconds - t0.elapsed().as_secs_f64(),
                 ..stop.clone()
             };
@@ -585,6 +635,10 @@ pub fn suture(
             break;
         }
         kept = Some(x.clone());
+        states.push(x.clone());
+        if states.len() > 3 {
+            states.remove(0);
+        }
         if ms < s.tolerance {
             break;
         }
@@ -692,6 +746,20 @@ mod tests {
             last = v;
         }
         assert!((last + 1.0).abs() < 1e-12, "f(3π/2) = −1");
+    }
+
+    #[test]
+    fn prediction_is_exact_on_a_geometric_sequence_of_states() {
+        // x_n = c − v ρⁿ: each doubling moves by ρ times the move before.
+        let (c, v, rho) = (V3::new(1.0, -2.0, 0.5), V3::new(0.3, 0.1, -0.7), 0.72f64);
+        let at = |n: i32| vec![c - v * rho.powi(n), c + v * (2.0 * rho.powi(n))];
+        let p = predict(&[at(0), at(1), at(2)]).expect("three states");
+        for (a, b) in p.iter().zip(&at(3)) {
+            assert!((a - b).norm() < 1e-14);
+        }
+        assert!(predict(&[at(0), at(1)]).is_none());
+        // Standing still: nothing to extrapolate.
+        assert!(predict(&[at(0), at(0), at(0)]).is_none());
     }
 
     #[test]
