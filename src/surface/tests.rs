@@ -496,18 +496,15 @@ fn block_emission_is_thread_independent_and_equals_the_plain_loops() {
             .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
             .collect()
     };
-    let in_pool = |t: usize, f: &(dyn Fn() -> Isosurface + Sync)| {
+    type Extraction<'a> = &'a (dyn Fn() -> Isosurface + Sync);
+    let in_pool = |t: usize, f: Extraction| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(t)
             .build()
             .unwrap()
             .install(f)
     };
-    let cases: [(
-        &str,
-        &(dyn Fn() -> Isosurface + Sync),
-        &(dyn Fn() -> Isosurface + Sync),
-    ); 2] = [
+    let cases: [(&str, Extraction, Extraction); 2] = [
         ("0/1", &|| extract(&binary, 0.5), &|| {
             extract_reference(&binary, 0.5)
         }),
