@@ -167,6 +167,15 @@ def print_speed_table(results):
                   f"{1e3 * row['coapt_s']['min']:>10.1f}{row['coapt_over_one_pass']:>12.1f}"
                   f"{1e3 * row['vtk_flying_edges_s']['min']:>11.1f}{row['vtk_over_coapt']:>11.2f}"
                   f"{row['vtk_cpu_over_wall']:>14.2f}")
+    print("\nSpeed-up from 1 thread to the most threads (wall, min of --repeat):")
+    print(f"{'input':<22}{'threads':>8}{'coapt':>8}{'VTK FE':>8}")
+    for name, r in results["masks"].items():
+        rows = {row["threads"]: row for row in r["speed"]["per_threads"] if "coapt_s" in row}
+        if 1 in rows and len(rows) > 1:
+            one, top = rows[1], rows[max(rows)]
+            print(f"{name:<22}{'1→' + str(max(rows)):>8}"
+                  f"{one['coapt_s']['min'] / top['coapt_s']['min']:>8.2f}"
+                  f"{one['vtk_flying_edges_s']['min'] / top['vtk_flying_edges_s']['min']:>8.2f}")
     print("\nOne thread, CPU time (not inflated by other processes on the machine):")
     print(f"{'input':<22}{'one pass ms':>13}{'coapt ms':>10}{'coapt/pass':>12}{'VTK FE ms':>11}{'VTK/coapt':>11}")
     for name, r in results["masks"].items():

@@ -20,10 +20,12 @@
 //! Rows are independent, so every pass runs in parallel with rayon and the
 //! output does not depend on the thread count.
 
+use std::mem::MaybeUninit;
 use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
+use super::huge_pages::advise_huge_pages;
 use super::tables::{CaseTable, EDGE_CORNERS, table};
 use crate::geom::{Matrix4, Point3, Volume};
 
@@ -68,6 +70,55 @@ fn pack<T: Copy>(s: &[T], f: impl Fn(T) -> bool) -> u64 {
     m
 }
 
+/// [`pack`] for whole 64-sample chunks of the integer types: the pass that
+/// reads the volume is then bound by memory, not by the compares. SSE2 is
+/// part of x86-64, so no run-time test is needed.
+#[cfg(target_arch = "x86_64")]
+pub(super) mod simd {
+    use std::arch::x86_64::*;
+
+    /// Bit k set when `s[k] > t`; `s` has 64 samples.
+    #[inline]
+    pub fn bits_u8(s: &[u8], t: u8) -> u64 {
+        assert_eq!(s.len(), 64);
+        // SAFETY: SSE2 is part of every x86-64 CPU; the loads read bytes
+        // 16q..16q + 16 of `s`, which has 64 (checked), unaligned.
+        unsafe {
+            // SSE2 compares signed bytes: flipping the top bit of both sides
+            // turns the unsigned order into the signed one.
+            let bias = _mm_set1_epi8(i8::MIN);
+            let tv = _mm_xor_si128(_mm_set1_epi8(t as i8), bias);
+            let mut m = 0u64;
+            for q in 0..4 {
+                let v = _mm_loadu_si128(s.as_ptr().add(16 * q).cast());
+                let gt = _mm_cmpgt_epi8(_mm_xor_si128(v, bias), tv);
+                m |= (_mm_movemask_epi8(gt) as u32 as u64) << (16 * q);
+            }
+            m
+        }
+    }
+
+    /// Bit k set when `s[k] > t`; `s` has 64 samples.
+    #[inline]
+    pub fn bits_i16(s: &[i16], t: i16) -> u64 {
+        assert_eq!(s.len(), 64);
+        // SAFETY: SSE2 is part of every x86-64 CPU; the loads read samples
+        // 16q..16q + 16 of `s`, which has 64 (checked), unaligned.
+        unsafe {
+            let tv = _mm_set1_epi16(t);
+            let mut m = 0u64;
+            for q in 0..4 {
+                let p = s.as_ptr().add(16 * q);
+                let (a, b) = (_mm_loadu_si128(p.cast()), _mm_loadu_si128(p.add(8).cast()));
+                // 0 / -1 lanes saturate to 0 / -1 bytes, in sample order.
+                let gt = _mm_packs_epi16(_mm_cmpgt_epi16(a, tv), _mm_cmpgt_epi16(b, tv));
+                m |= (_mm_movemask_epi8(gt) as u32 as u64) << (16 * q);
+            }
+            m
+        }
+    }
+}
+
 /// All `n` ≤ 64 low bits.
 #[inline]
 fn low_bits(n: usize) -> u64 {
@@ -92,6 +143,8 @@ impl Sample for u8 {
     fn bits(s: &[u8], t: i16) -> u64 {
         // Compare bytes with a byte (no widening); t ∈ [-1, 255].
         match u8::try_from(t) {
+            #[cfg(target_arch = "x86_64")]
+            Ok(t) if s.len() == 64 => simd::bits_u8(s, t),
             Ok(t) => pack(s, |v| v > t),
             Err(_) if t < 0 => low_bits(s.len()),
             Err(_) => 0,
@@ -120,6 +173,8 @@ impl Sample for i16 {
     fn bits(s: &[i16], t: i32) -> u64 {
         // Compare 16-bit lanes with a 16-bit threshold; t ∈ [-32769, 32767].
         match i16::try_from(t) {
+            #[cfg(target_arch = "x86_64")]
+            Ok(t) if s.len() == 64 => simd::bits_i16(s, t),
             Ok(t) => pack(s, |v| v > t),
             Err(_) if t < 0 => low_bits(s.len()),
             Err(_) => 0,
@@ -266,17 +321,6 @@ const POP8: [u8; 256] = {
     t
 };
 
-/// [first, last + 1) of the set bits of a row; (0, 0) when none.
-fn bit_extent(row: &[u64]) -> (u32, u32) {
-    let Some(f) = row.iter().position(|&w| w != 0) else {
-        return (0, 0);
-    };
-    let l = row.iter().rposition(|&w| w != 0).expect("a word is set");
-    let first = 64 * f + row[f].trailing_zeros() as usize;
-    let last = 64 * l + 63 - row[l].leading_zeros() as usize;
-    (first as u32, last as u32 + 1)
-}
-
 #[inline(never)] // one symbol per pass in profiles
 /// Pass 1: the padded bit grid, the box of inside nodes in padded
 /// coordinates ([lo, hi] per axis, bit / row index), and whether every sample
@@ -289,37 +333,49 @@ fn classify<T: Sample>(
     let [dx, dy, dz] = dims;
     let (ny, nz) = (dy + 2, dz + 2);
     let w = (dx + 2).div_ceil(64);
-    let mut words = vec![0u64; w * ny * nz];
-    let extent: Vec<(u32, u32, bool)> = words
+    let n = w * ny * nz;
+    // Every word is written once below, so the grid is not zeroed first (a
+    // serial memset when the allocator reuses memory).
+    let mut words = Vec::with_capacity(n);
+    advise_huge_pages(&mut words.spare_capacity_mut()[..n]);
+    let extent: Vec<(u32, u32, bool)> = words.spare_capacity_mut()[..n]
         .par_chunks_mut(w)
         .with_min_len(64)
         .enumerate()
         .map(|(r, out)| {
             let (jp, kp) = (r % ny, r / ny);
             if jp == 0 || kp == 0 || jp > dy || kp > dz {
+                out.fill(MaybeUninit::new(0));
                 return (0, 0, true);
             }
             let vr = (jp - 1) + dy * (kp - 1);
             let row = &data[vr * dx..(vr + 1) * dx];
-            let mut any = 0;
-            for (c, s) in row.chunks(64).enumerate() {
-                let m = T::bits(s, thr);
-                any |= m;
-                out[c] |= m << 1;
-                if m >> 63 != 0 {
-                    out[c + 1] |= 1;
+            // Sample i is bit i + 1: each word takes its chunk shifted up by
+            // one and the top bit of the chunk before.
+            let mut chunks = row.chunks(64);
+            let (mut carry, mut first, mut last) = (0, None, 0);
+            for (c, o) in out.iter_mut().enumerate() {
+                let m = chunks.next().map_or(0, |s| T::bits(s, thr));
+                let word = m << 1 | carry;
+                carry = m >> 63;
+                o.write(word);
+                if word != 0 {
+                    let f = 64 * c + word.trailing_zeros() as usize;
+                    first.get_or_insert(f);
+                    last = 64 * c + 63 - word.leading_zeros() as usize;
                 }
             }
             // The row is in L1 now: the 0/1 test costs no memory traffic.
             let zero_one = T::zero_one(row);
-            if any == 0 {
-                (0, 0, zero_one)
-            } else {
-                let (f, l) = bit_extent(out);
-                (f, l, zero_one)
+            match first {
+                Some(f) => (f as u32, last as u32 + 1, zero_one),
+                None => (0, 0, zero_one),
             }
         })
         .collect();
+    // SAFETY: the chunks cover the first `n` slots and every slot of every
+    // chunk was written above.
+    unsafe { words.set_len(n) };
     let zero_one = extent.iter().all(|e| e.2);
     let mut lo = [usize::MAX; 3];
     let mut hi = [0usize; 3];
@@ -430,33 +486,53 @@ fn extract_with<T: Sample>(vol: &Volume<T>, iso: f64, how: Emit) -> Isosurface {
         })
         .collect();
 
-    // Pass 3: prefix sums → exact output sizes and each row's offsets.
+    // Pass 3: prefix sums → exact output sizes and each row's offsets, and
+    // blocks of consecutive rows of about equal counted work (rows differ by
+    // orders of magnitude), the unit of parallel emission.
     let mut voff = Vec::with_capacity(rows + 1);
-    let (mut sv, mut st) = (0usize, 0usize);
-    for &(v, t) in &counts {
+    let mut toff = Vec::with_capacity(rows + 1);
+    let mut blocks = vec![0];
+    let (mut sv, mut st, mut work) = (0usize, 0usize, 0usize);
+    for (r, &(v, t)) in counts.iter().enumerate() {
         voff.push(sv);
+        toff.push(st);
         sv += v as usize;
         st += t as usize;
+        work += v as usize + 2 * t as usize + 1;
+        if work >= BLOCK_WORK {
+            blocks.push(r + 1);
+            work = 0;
+        }
     }
     voff.push(sv);
+    toff.push(st);
+    if blocks.last() != Some(&rows) {
+        blocks.push(rows);
+    }
     assert!(sv <= u32::MAX as usize, "more than 2³² vertices");
 
-    // The output's first touch (page faults, zeroing) is most of its cost:
-    // spread it over the pool. `on_border` and `triangles` are zero bytes,
-    // which the allocator hands out untouched; the emission touches them.
-    let mut vertices = Vec::with_capacity(sv);
-    vertices.par_extend(rayon::iter::repeat_n(Point3::origin(), sv));
-    let mut on_border = vec![false; sv];
-    let mut triangles = vec![[0u32; 3]; st];
-    let mut slices = Vec::with_capacity(rows);
+    // The emission writes every slot once, so the outputs are not
+    // initialised first: their first touch (page faults, the kernel's
+    // zeroing) happens in the parallel emission, on huge pages where the
+    // kernel allows.
+    let mut vertices: Vec<Point3> = Vec::with_capacity(sv);
+    let mut on_border: Vec<bool> = Vec::with_capacity(sv);
+    let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(st);
+    let mut parts = Vec::with_capacity(blocks.len() - 1);
     {
-        let (mut vrest, mut brest, mut trest) =
-            (&mut vertices[..], &mut on_border[..], &mut triangles[..]);
-        for &(v, t) in &counts {
-            let (va, vb) = vrest.split_at_mut(v as usize);
-            let (ba, bb) = brest.split_at_mut(v as usize);
-            let (ta, tb) = trest.split_at_mut(t as usize);
-            slices.push((va, ba, ta));
+        let (mut vrest, mut brest, mut trest) = (
+            &mut vertices.spare_capacity_mut()[..sv],
+            &mut on_border.spare_capacity_mut()[..sv],
+            &mut triangles.spare_capacity_mut()[..st],
+        );
+        advise_huge_pages(vrest);
+        advise_huge_pages(trest);
+        for b in blocks.windows(2) {
+            let (v, t) = (voff[b[1]] - voff[b[0]], toff[b[1]] - toff[b[0]]);
+            let (va, vb) = std::mem::take(&mut vrest).split_at_mut(v);
+            let (ba, bb) = std::mem::take(&mut brest).split_at_mut(v);
+            let (ta, tb) = std::mem::take(&mut trest).split_at_mut(t);
+            parts.push((b[0]..b[1], va, ba, ta));
             (vrest, brest, trest) = (vb, bb, tb);
         }
     }
@@ -474,38 +550,61 @@ fn extract_with<T: Sample>(vol: &Volume<T>, iso: f64, how: Emit) -> Isosurface {
     };
 
     // Pass 4: emit vertices (node row) and triangles (cell row).
-    slices
+    let emit_row = |r: usize,
+                    vs: &mut [MaybeUninit<Point3>],
+                    bs: &mut [MaybeUninit<bool>],
+                    ts: &mut [MaybeUninit<[u32; 3]>]| {
+        let (j, k) = jk(r);
+        let mut n = 0;
+        if !vs.is_empty() {
+            let samples = [data_row(j, k), data_row(j + 1, k), data_row(j, k + 1)];
+            n = match how {
+                Emit::Fast { .. } => {
+                    emit_vertices(&g, j, k, samples, dx, iso, weights, &mm, vs, bs)
+                }
+                #[cfg(test)]
+                Emit::Reference => emit_vertices_reference(&g, j, k, samples, dx, iso, &mm, vs, bs),
+            };
+        }
+        let mut w = 0;
+        if !ts.is_empty() {
+            // A cell row with triangles has all four node rows in the box.
+            let firsts = [r, r + 1, r + nj, r + nj + 1].map(|q| voff[q] as u32);
+            w = match how {
+                Emit::Fast { hw } => emit_triangles(&g, j, k, nw, firsts, flip, ts, hw),
+                #[cfg(test)]
+                Emit::Reference => emit_triangles_reference(&g, tab, j, k, nw, firsts, flip, ts),
+            };
+        }
+        // The counts of pass 2 and the emission read the same bits, so they
+        // agree; were they ever not to, the slots left over must still hold
+        // values before the vectors take them as initialised.
+        debug_assert_eq!((n, w), (vs.len(), ts.len()));
+        let n = n.min(vs.len());
+        vs[n..].fill(MaybeUninit::new(Point3::origin()));
+        bs[n..].fill(MaybeUninit::new(false));
+        let w = w.min(ts.len());
+        ts[w..].fill(MaybeUninit::new([0; 3]));
+    };
+    parts
         .into_par_iter()
-        .with_min_len(16)
-        .enumerate()
-        .for_each(|(r, (vs, bs, ts))| {
-            let (j, k) = jk(r);
-            if !vs.is_empty() {
-                let samples = [data_row(j, k), data_row(j + 1, k), data_row(j, k + 1)];
-                let n = match how {
-                    Emit::Fast { .. } => {
-                        emit_vertices(&g, j, k, samples, dx, iso, weights, &mm, vs, bs)
-                    }
-                    #[cfg(test)]
-                    Emit::Reference => {
-                        emit_vertices_reference(&g, j, k, samples, dx, iso, &mm, vs, bs)
-                    }
-                };
-                debug_assert_eq!(n, vs.len());
-            }
-            if !ts.is_empty() {
-                // A cell row with triangles has all four node rows in the box.
-                let firsts = [r, r + 1, r + nj, r + nj + 1].map(|q| voff[q] as u32);
-                let w = match how {
-                    Emit::Fast { hw } => emit_triangles(&g, j, k, nw, firsts, flip, ts, hw),
-                    #[cfg(test)]
-                    Emit::Reference => {
-                        emit_triangles_reference(&g, tab, j, k, nw, firsts, flip, ts)
-                    }
-                };
-                debug_assert_eq!(w, ts.len());
+        .for_each(|(block, mut vs, mut bs, mut ts)| {
+            for r in block {
+                let (v, t) = (voff[r + 1] - voff[r], toff[r + 1] - toff[r]);
+                let (va, vb) = std::mem::take(&mut vs).split_at_mut(v);
+                let (ba, bb) = std::mem::take(&mut bs).split_at_mut(v);
+                let (ta, tb) = std::mem::take(&mut ts).split_at_mut(t);
+                emit_row(r, va, ba, ta);
+                (vs, bs, ts) = (vb, bb, tb);
             }
         });
+    // SAFETY: the blocks' slices partition the first `sv`, `sv` and `st`
+    // slots, and `emit_row` wrote every slot of every row's slice.
+    unsafe {
+        vertices.set_len(sv);
+        on_border.set_len(sv);
+        triangles.set_len(st);
+    }
 
     Isosurface {
         vertices,
@@ -513,6 +612,12 @@ fn extract_with<T: Sample>(vol: &Volume<T>, iso: f64, how: Emit) -> Isosurface {
         on_border,
     }
 }
+
+/// Counted work (vertices + 2 · triangles + 1 per row) of an emission
+/// block: a few hundred blocks for a CT's millions of triangles, so that
+/// threads stealing blocks end together, while a block's row loop and output
+/// slices stay long.
+const BLOCK_WORK: usize = 1 << 14;
 
 /// Of each cell edge: the node row (y, z) = (0,0), (1,0), (0,1), (1,1) that
 /// owns it, and its slot 3·node + axis there (node 0 or 1 along x).
@@ -548,8 +653,8 @@ fn emit_vertices<T: Sample>(
     iso: f64,
     weights: Option<[f64; 2]>,
     mm: &[[f64; 4]; 3],
-    vs: &mut [Point3],
-    bs: &mut [bool],
+    vs: &mut [MaybeUninit<Point3>],
+    bs: &mut [MaybeUninit<bool>],
 ) -> usize {
     let (a, ay, az) = (g.row(j, k), g.row(j + 1, k), g.row(j, k + 1));
     let world = |p: [f64; 3]| {
@@ -602,8 +707,8 @@ fn emit_vertices<T: Sample>(
                 let mut pt = [vi as f64, vj, vk];
                 pt[axis] += t[axis];
                 if n < len {
-                    vs[n] = world(pt);
-                    bs[n] = border[axis];
+                    vs[n] = MaybeUninit::new(world(pt));
+                    bs[n] = MaybeUninit::new(border[axis]);
                 }
                 n += (ea >> p & 1) as usize;
             }
@@ -612,10 +717,9 @@ fn emit_vertices<T: Sample>(
     n
 }
 
-/// The case table as [`emit_triangles`] reads it: triangle corners as
-/// indices 6·q + slot into the 24 vertex ids a cell reads from its four node
-/// rows (see [`EDGE_SLOT`]), the first [`FIRST`] triangles of every case
-/// padded to a fixed count, and the rest in [`CaseTable::tris`] order.
+/// The case table as [`emit_triangles`] reads it: the first [`FIRST`]
+/// triangles (corners are cell edges) of every case padded to a fixed count,
+/// and the rest in [`CaseTable::tris`] order.
 struct SlotTable {
     first: [[[u8; 3]; FIRST]; 256],
     count: [u8; 256],
@@ -631,11 +735,7 @@ fn slot_table() -> &'static SlotTable {
     static T: OnceLock<SlotTable> = OnceLock::new();
     T.get_or_init(|| {
         let tab = table();
-        let slot = |e: u8| {
-            let (q, slot) = EDGE_SLOT[e as usize];
-            6 * q + slot
-        };
-        let all: Vec<[u8; 3]> = tab.tris.iter().map(|t| t.map(slot)).collect();
+        let all = tab.tris.clone();
         let mut first = [[[0u8; 3]; FIRST]; 256];
         let mut count = [0u8; 256];
         for c in 0..256 {
@@ -687,7 +787,7 @@ fn emit_triangles(
     nw: usize,
     firsts: [u32; 4],
     flip: bool,
-    ts: &mut [[u32; 3]],
+    ts: &mut [MaybeUninit<[u32; 3]>],
     hw: bool,
 ) -> usize {
     #[cfg(target_arch = "x86_64")]
@@ -710,7 +810,7 @@ fn emit_triangles_popcnt(
     nw: usize,
     firsts: [u32; 4],
     flip: bool,
-    ts: &mut [[u32; 3]],
+    ts: &mut [MaybeUninit<[u32; 3]>],
 ) -> usize {
     emit_triangles_with::<true>(g, j, k, nw, firsts, flip, ts)
 }
@@ -724,7 +824,7 @@ fn emit_triangles_portable(
     nw: usize,
     firsts: [u32; 4],
     flip: bool,
-    ts: &mut [[u32; 3]],
+    ts: &mut [MaybeUninit<[u32; 3]>],
 ) -> usize {
     emit_triangles_with::<false>(g, j, k, nw, firsts, flip, ts)
 }
@@ -740,7 +840,7 @@ fn emit_triangles_with<const HW: bool>(
     nw: usize,
     firsts: [u32; 4],
     flip: bool,
-    ts: &mut [[u32; 3]],
+    ts: &mut [MaybeUninit<[u32; 3]>],
 ) -> usize {
     let st = slot_table();
     // Node rows of the cell row, and each one's +y and +z neighbours.
@@ -769,9 +869,8 @@ fn emit_triangles_with<const HW: bool>(
             m &= m - 1;
             // Vertex ids of the six edges (node 0/1 of the cell × axis) each
             // node row owns: the cut edges of the earlier nodes of the row,
-            // then the lower axes at the node. 32 entries so that a 5-bit
-            // index needs no bounds check.
-            let mut ids = [0u32; 32];
+            // then the lower axes at the node.
+            let mut six = [[0u32; 6]; 4];
             for q in 0..4 {
                 let e = &cur[q];
                 let below = if HW {
@@ -794,32 +893,39 @@ fn emit_triangles_with<const HW: bool>(
                 } else {
                     at(&next[q], 0)
                 };
-                ids[6 * q..6 * q + 6].copy_from_slice(&[
+                six[q] = [
                     pre + a0[0],
                     pre + a0[1],
                     pre + a0[2],
                     pre + n0 + a1[0],
                     pre + n0 + a1[1],
                     pre + n0 + a1[2],
-                ]);
+                ];
+            }
+            // The cell's twelve edges, picked at constant indices (the loop
+            // unrolls), so the compiler drops the ids no edge uses. 16
+            // entries so that a 4-bit index needs no bounds check.
+            let mut ids = [0u32; 16];
+            for (id, &(q, slot)) in ids.iter_mut().zip(&EDGE_SLOT) {
+                *id = six[q as usize][slot as usize];
             }
             let c = case_of(&lo, &hi, p) as usize;
             let corners = |t: &[u8; 3]| {
-                let v = t.map(|s| ids[s as usize & 31]);
+                let v = t.map(|e| ids[e as usize & 15]);
                 if flip { [v[0], v[2], v[1]] } else { v }
             };
             // Padding triangles land where the next cell's go (or past the
             // row's end, not written).
             for (i, t) in st.first[c].iter().enumerate() {
                 if let Some(o) = ts.get_mut(w + i) {
-                    *o = corners(t);
+                    *o = MaybeUninit::new(corners(t));
                 }
             }
             let n = st.count[c] as usize;
             if n > FIRST {
                 let rest = st.start[c] as usize + FIRST..st.start[c + 1] as usize;
                 for (i, t) in st.all[rest].iter().enumerate() {
-                    ts[w + FIRST + i] = corners(t);
+                    ts[w + FIRST + i] = MaybeUninit::new(corners(t));
                 }
             }
             w += n;
@@ -847,8 +953,8 @@ fn emit_vertices_reference<T: Sample>(
     dx: usize,
     iso: f64,
     mm: &[[f64; 4]; 3],
-    vs: &mut [Point3],
-    bs: &mut [bool],
+    vs: &mut [MaybeUninit<Point3>],
+    bs: &mut [MaybeUninit<bool>],
 ) -> usize {
     let (a, ay, az) = (g.row(j, k), g.row(j + 1, k), g.row(j, k + 1));
     let sample = |q: usize, i: i64| -> Option<f64> {
@@ -886,8 +992,8 @@ fn emit_vertices_reference<T: Sample>(
                 };
                 let mut pt = [vi as f64, vj, vk];
                 pt[axis] += t;
-                vs[n] = world(pt);
-                bs[n] = f0.is_none() || f1.is_none();
+                vs[n] = MaybeUninit::new(world(pt));
+                bs[n] = MaybeUninit::new(f0.is_none() || f1.is_none());
                 n += 1;
             }
         }
@@ -951,7 +1057,7 @@ fn emit_triangles_reference(
     nw: usize,
     firsts: [u32; 4],
     flip: bool,
-    ts: &mut [[u32; 3]],
+    ts: &mut [MaybeUninit<[u32; 3]>],
 ) -> usize {
     // Node rows of the cell row, and each one's +y and +z neighbours.
     let node = [(j, k), (j + 1, k), (j, k + 1), (j + 1, k + 1)].map(|(a, b)| g.row(a, b));
@@ -1017,7 +1123,7 @@ fn emit_triangles_reference(
                     ids[q as usize][slot as usize]
                 };
                 let v = [id(t[0]), id(t[1]), id(t[2])];
-                ts[w] = if flip { [v[0], v[2], v[1]] } else { v };
+                ts[w] = MaybeUninit::new(if flip { [v[0], v[2], v[1]] } else { v });
                 w += 1;
             }
         }
@@ -1027,4 +1133,65 @@ fn emit_triangles_reference(
         cur = next;
     }
     w
+}
+
+#[cfg(test)]
+mod simd_tests {
+    use super::pack;
+    use crate::rng::SplitMix64 as Rng;
+
+    /// The SSE2 compares give the bits of the byte-array packing for every
+    /// threshold, on random samples and on runs of the extremes.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn simd_bits_equal_the_packed_compares() {
+        use super::simd::{bits_i16, bits_u8};
+        let mut rng = Rng::new(7);
+        for round in 0..40 {
+            let r: Vec<u64> = (0..64).map(|_| rng.next_u64()).collect();
+            let u: Vec<u8> = match round % 4 {
+                0 => r
+                    .iter()
+                    .map(|&x| [0, 255, 127, 128][x as usize % 4])
+                    .collect(),
+                _ => r.iter().map(|&x| x as u8).collect(),
+            };
+            for t in 0..=255u8 {
+                assert_eq!(
+                    bits_u8(&u, t),
+                    pack(&u, |v| v > t),
+                    "u8 round {round} t {t}"
+                );
+            }
+            let i: Vec<i16> = match round % 4 {
+                0 => r
+                    .iter()
+                    .map(|&x| [i16::MIN, i16::MAX, -1, 0][x as usize % 4])
+                    .collect(),
+                1 => r.iter().map(|&x| (x % 400) as i16 - 200).collect(),
+                _ => r.iter().map(|&x| x as i16).collect(),
+            };
+            for t in [
+                i16::MIN,
+                i16::MIN + 1,
+                -1001,
+                -1,
+                0,
+                1,
+                150,
+                151,
+                i16::MAX - 1,
+                i16::MAX,
+            ]
+            .into_iter()
+            .chain((0..64).map(|k| i[k]))
+            {
+                assert_eq!(
+                    bits_i16(&i, t),
+                    pack(&i, |v| v > t),
+                    "i16 round {round} t {t}"
+                );
+            }
+        }
+    }
 }

@@ -9,6 +9,7 @@
 
 pub mod blur;
 pub mod components;
+mod huge_pages;
 pub mod marching_cubes;
 pub mod regions;
 pub mod remesh;

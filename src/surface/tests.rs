@@ -466,6 +466,71 @@ fn output_is_bit_identical_with_one_or_two_threads() {
     assert_eq!(a.cell_data, b.cell_data);
 }
 
+/// The emission runs over blocks of rows cut by counted work, into
+/// uninitialised outputs: on volumes big enough for dozens of blocks (0/1
+/// noise, int16 noise, a mirrored affine) the raw surface must not depend on
+/// the pool size, must equal the plain per-edge loops, and must be closed.
+#[test]
+fn block_emission_is_thread_independent_and_equals_the_plain_loops() {
+    use super::marching_cubes::extract_reference;
+    let mut rng = Rng::new(41);
+    let dims = [150, 40, 36];
+    let n = dims[0] * dims[1] * dims[2];
+    let raw: Vec<u64> = (0..n).map(|_| rng.next_u64()).collect();
+    let aff = affine_from_parts([-0.6, 0.9, 1.3], &rotation(), Point3::new(-4.0, 0.5, 2.0));
+    let binary = Volume::from_fortran_vec(
+        dims,
+        aff,
+        raw.iter().map(|&r| (r % 100 < 30) as u8).collect(),
+    )
+    .unwrap();
+    let ct = Volume::from_fortran_vec(
+        dims,
+        aff,
+        raw.iter().map(|&r| (r >> 8) as i16 % 400).collect(),
+    )
+    .unwrap();
+    let bits = |s: &Isosurface| -> Vec<[u64; 3]> {
+        s.vertices
+            .iter()
+            .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+            .collect()
+    };
+    type Extraction<'a> = &'a (dyn Fn() -> Isosurface + Sync);
+    let in_pool = |t: usize, f: Extraction| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .unwrap()
+            .install(f)
+    };
+    let cases: [(&str, Extraction, Extraction); 2] = [
+        ("0/1", &|| extract(&binary, 0.5), &|| {
+            extract_reference(&binary, 0.5)
+        }),
+        ("int16", &|| extract(&ct, 150.5), &|| {
+            extract_reference(&ct, 150.5)
+        }),
+    ];
+    for (what, fast, reference) in cases {
+        let one = in_pool(1, fast);
+        // Counted work per block is 2¹⁴: this surface needs dozens.
+        let work = one.vertices.len() + 2 * one.triangles.len();
+        assert!(work > 40 << 14, "{what}: {work} units of work");
+        for t in [2, 3] {
+            let s = in_pool(t, fast);
+            assert_eq!(s.triangles, one.triangles, "{what} at {t} threads");
+            assert_eq!(bits(&s), bits(&one), "{what} at {t} threads");
+            assert_eq!(s.on_border, one.on_border, "{what} at {t} threads");
+        }
+        let r = in_pool(2, reference);
+        assert_eq!(r.triangles, one.triangles, "{what}");
+        assert_eq!(bits(&r), bits(&one), "{what}");
+        assert_eq!(r.on_border, one.on_border, "{what}");
+        assert_closed_manifold(&mesh_of(&one));
+    }
+}
+
 // ---- Isotropic remeshing -------------------------------------------------
 
 use super::remesh::{RemeshParams, remesh};
