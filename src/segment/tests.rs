@@ -329,3 +329,43 @@ fn the_steepest_rise_is_held_not_a_transient_bump() {
     let early = steepest_rise(&cut, &unheld).expect("a rise");
     assert!(early < 40_000, "{early}");
 }
+
+#[test]
+fn radix_order_equals_a_comparison_sort_with_ties() {
+    // Ties, zeros of both signs, tiny and huge values: the order must be
+    // total_cmp then position, as a comparison sort gives it.
+    let mut x: Vec<f64> = (0..5000)
+        .map(|i| {
+            let h = hash_normal(7, i as u64);
+            match i % 5 {
+                0 => (h * 4.0).round(),
+                1 => h.abs() * 1e-300,
+                2 => h.abs() * 1e12,
+                3 => h,
+                _ => h.abs(),
+            }
+        })
+        .collect();
+    x[10] = -0.0;
+    x[11] = 0.0;
+    let mut want: Vec<u32> = (0..x.len() as u32).collect();
+    want.sort_by(|&a, &b| x[a as usize].total_cmp(&x[b as usize]).then(a.cmp(&b)));
+    assert_eq!(idt::order_by_potential(&x), want);
+}
+
+#[test]
+fn forward_min_equals_the_window_scan() {
+    let f: Vec<f64> = (0..700)
+        .map(|i| (hash_normal(3, i) * 5.0).round())
+        .collect();
+    for w in [0, 1, 7, 50, 699, 1000] {
+        let got = idt::forward_min(&f, w);
+        for j in 0..f.len() {
+            let want = f[j..=(j + w).min(f.len() - 1)]
+                .iter()
+                .cloned()
+                .fold(f64::INFINITY, f64::min);
+            assert_eq!(got[j], want, "w {w} j {j}");
+        }
+    }
+}
