@@ -26,64 +26,100 @@ const BUCKET_MM: f64 = 0.05;
 /// `region`, edge weight DT_i + DT_j. Prim with a bucket queue (O(E));
 /// within a bucket, last in first out: deterministic.
 pub fn max_spanning_tree(region: &[bool], dt: &[f32], dims: [usize; 3], ground: usize) -> Tree {
-    // Bucket of every region voxel, once (not per pushed edge), and one
-    // state word per voxel: its tree position, FREE (region, not yet in the
-    // tree) or OUT (not region), so a neighbour costs one load.
+    // Per voxel, in one record so that looking at a neighbour costs one
+    // cache miss: its state (tree position, FREE: region not yet in the
+    // tree, OUT: not region), its bucket (computed once, not per pushed
+    // edge) and its distance.
     const FREE: u32 = u32::MAX;
     const OUT: u32 = u32::MAX - 1;
-    let mut qd = vec![0u32; region.len()];
-    let mut pos = vec![OUT; region.len()];
-    let mut max_b = 0u32;
-    let mut count = 0usize;
-    for (v, &r) in region.iter().enumerate() {
-        if r {
-            let b = (dt[v] as f64 / BUCKET_MM).round().min(1e6) as u32;
-            qd[v] = b;
-            max_b = max_b.max(b);
-            pos[v] = FREE;
-            count += 1;
-        }
+    #[derive(Clone, Copy)]
+    struct Node {
+        pos: u32,
+        q: u32,
+        dt: f32,
     }
-    let mut buckets: Vec<Vec<(u32, u32)>> = vec![Vec::new(); 2 * max_b as usize + 2];
+    let mut node: Vec<Node> = region
+        .iter()
+        .zip(dt)
+        .map(|(&r, &d)| {
+            if r {
+                Node {
+                    pos: FREE,
+                    q: (d as f64 / BUCKET_MM).round().min(1e6) as u32,
+                    dt: d,
+                }
+            } else {
+                Node {
+                    pos: OUT,
+                    q: 0,
+                    dt: d,
+                }
+            }
+        })
+        .collect();
+    let count = node.iter().filter(|n| n.pos == FREE).count();
+    let max_b = node.iter().map(|n| n.q).max().unwrap_or(0);
+    // A queued edge carries what accepting it needs (the parent's tree
+    // position and both distances): popped long after it was pushed, it
+    // then costs one cache miss (the state of u), not four.
+    let mut buckets: Vec<Vec<Edge>> = vec![Vec::new(); 2 * max_b as usize + 2];
     let mut tree = Tree {
         order: Vec::with_capacity(count),
         parent: Vec::with_capacity(count),
         weight: Vec::with_capacity(count),
     };
-    pos[ground] = 0;
+    node[ground].pos = 0;
     tree.order.push(ground as u32);
     tree.parent.push(0);
     tree.weight.push(0.0);
     let mut top = 0usize;
-    let push = |v: usize, buckets: &mut Vec<Vec<(u32, u32)>>, top: &mut usize, pos: &Vec<u32>| {
-        let qv = qd[v];
-        neighbours6(v, dims, |u| {
-            if pos[u] == FREE {
-                let b = (qd[u] + qv) as usize;
-                buckets[b].push((u as u32, v as u32));
-                *top = (*top).max(b);
-            }
-        });
-    };
-    push(ground, &mut buckets, &mut top, &pos);
+    let push =
+        |v: usize, pv: u32, buckets: &mut Vec<Vec<Edge>>, top: &mut usize, node: &Vec<Node>| {
+            let (qv, dv) = (node[v].q, node[v].dt);
+            neighbours6(v, dims, |u| {
+                let nu = node[u];
+                if nu.pos == FREE {
+                    let b = (nu.q + qv) as usize;
+                    buckets[b].push(Edge {
+                        u: u as u32,
+                        parent: pv,
+                        du: nu.dt,
+                        dp: dv,
+                    });
+                    *top = (*top).max(b);
+                }
+            });
+        };
+    push(ground, 0, &mut buckets, &mut top, &node);
     loop {
         while top > 0 && buckets[top].is_empty() {
             top -= 1;
         }
-        let Some((u, p)) = buckets[top].pop() else {
+        let Some(e) = buckets[top].pop() else {
             break;
         };
-        let (u, p) = (u as usize, p as usize);
-        if pos[u] != FREE {
+        let u = e.u as usize;
+        if node[u].pos != FREE {
             continue;
         }
-        pos[u] = tree.order.len() as u32;
-        tree.order.push(u as u32);
-        tree.parent.push(pos[p]);
-        tree.weight.push(dt[u] as f64 + dt[p] as f64);
-        push(u, &mut buckets, &mut top, &pos);
+        let pu = tree.order.len() as u32;
+        node[u].pos = pu;
+        tree.order.push(e.u);
+        tree.parent.push(e.parent);
+        tree.weight.push(e.du as f64 + e.dp as f64);
+        push(u, pu, &mut buckets, &mut top, &node);
     }
     tree
+}
+
+/// An edge waiting in the bucket queue.
+#[derive(Clone, Copy)]
+struct Edge {
+    u: u32,
+    /// Tree position of the end already in the tree.
+    parent: u32,
+    du: f32,
+    dp: f32,
 }
 
 /// Closed-form solve of L₀ x₀ = d₀ on a tree (ground x = 0, unit node

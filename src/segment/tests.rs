@@ -369,3 +369,28 @@ fn forward_min_equals_the_window_scan() {
         }
     }
 }
+
+#[test]
+fn radius_tests_answer_as_hypot_does() {
+    use super::track::{in_ring, within};
+    // Pixel offsets on 0.3–0.9 mm grids against radii, many of them on or a
+    // hair off the boundary (3-4-5 and the like).
+    for t in 0..20000u64 {
+        let (sx, sy) = (0.3 + 0.6 * hash_normal(1, t).abs().min(1.0), 0.4);
+        let (i, j) = ((t % 97) as f64 - 48.0, (t / 97 % 89) as f64 - 44.0);
+        let (a, b) = (i * sx, j * sy);
+        let exact = a.hypot(b);
+        for r in [
+            exact,
+            exact * (1.0 + 1e-15),
+            exact * (1.0 - 1e-15),
+            5.0,
+            12.5 * sx,
+        ] {
+            assert_eq!(within(a, b, r), exact <= r, "{a} {b} {r}");
+            assert_eq!(in_ring(a, b, 0.0, r), exact < r);
+            assert_eq!(in_ring(a, b, r, r + 1.0), exact >= r && exact < r + 1.0);
+        }
+    }
+    assert!(within(3.0, 4.0, 5.0) && !in_ring(3.0, 4.0, 0.0, 5.0) && in_ring(3.0, 4.0, 5.0, 6.0));
+}
