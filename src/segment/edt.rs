@@ -87,8 +87,8 @@ fn binary_transform(row: &mut [f32], h: f64) {
         let dx = q as f64 * h - r as f64 * h;
         (dx * dx) as f32
     };
-    for q in 0..first {
-        row[q] = sq(q, first);
+    for (q, x) in row[..first].iter_mut().enumerate() {
+        *x = sq(q, first);
     }
     let mut l = first;
     while l < n {
@@ -98,17 +98,17 @@ fn binary_transform(row: &mut [f32], h: f64) {
             .position(|&x| x == 0.0)
             .map(|o| l + 1 + o)
         else {
-            for q in l + 1..n {
-                row[q] = sq(q, l);
+            for (q, x) in row.iter_mut().enumerate().skip(l + 1) {
+                *x = sq(q, l);
             }
             return;
         };
         if r > l + 1 {
             let (pl, pr) = (l as f64 * h, r as f64 * h);
             let s = (pr * pr - pl * pl) / (2.0 * (pr - pl));
-            for q in l + 1..r {
+            for (q, v) in row.iter_mut().enumerate().take(r).skip(l + 1) {
                 let x = q as f64 * h;
-                row[q] = if s < x { sq(q, r) } else { sq(q, l) };
+                *v = if s < x { sq(q, r) } else { sq(q, l) };
             }
         }
         l = r;

@@ -166,7 +166,7 @@ pub fn order_by_potential(x: &[f64]) -> Vec<u32> {
             count[digit(k)] += 1;
         }
         // A digit all keys share moves nothing: skip the pass.
-        if count.iter().any(|&c| c == a.len()) {
+        if count.contains(&a.len()) {
             shift += BITS;
             continue;
         }
