@@ -17,37 +17,49 @@ pub fn kernel(sigma_px: f64) -> Vec<f32> {
     k.into_iter().map(|v| v as f32).collect()
 }
 
-/// Convolve `n` samples at `stride` starting at `base` (clamped border).
-fn line(src: &[f32], dst: &mut [f32], n: usize, k: &[f32]) {
-    let r = (k.len() / 2) as isize;
-    for (x, d) in dst.iter_mut().enumerate().take(n) {
-        let mut acc = 0f32;
-        for (t, &w) in k.iter().enumerate() {
-            let y = (x as isize + t as isize - r).clamp(0, n as isize - 1) as usize;
-            acc += w * src[y];
+/// Convolve one line with clamped borders into `dst`. Taps outermost, so
+/// the inner loop runs along the line and vectorises; every sample still
+/// sums its taps in kernel order from zero, the same f32 operations as a
+/// per-sample loop (results do not depend on the loop order).
+fn line(src: &[f32], dst: &mut [f32], k: &[f32], pad: &mut Vec<f32>) {
+    let n = src.len();
+    let r = k.len() / 2;
+    pad.clear();
+    pad.extend(std::iter::repeat_n(src[0], r));
+    pad.extend_from_slice(src);
+    pad.extend(std::iter::repeat_n(src[n - 1], r));
+    dst.fill(0.0);
+    for (t, &w) in k.iter().enumerate() {
+        for (d, &x) in dst.iter_mut().zip(&pad[t..t + n]) {
+            *d += w * x;
         }
-        *d = acc;
     }
 }
 
 /// Smooth a 2-D image (i fastest) in place.
 pub fn smooth2(img: &mut [f32], ni: usize, nj: usize, kx: &[f32], ky: &[f32]) {
-    let mut buf = vec![0f32; ni.max(nj)];
-    let mut col = vec![0f32; nj];
+    if ni == 0 || nj == 0 {
+        return;
+    }
+    let mut pad = Vec::with_capacity(ni + kx.len());
+    let mut buf = vec![0f32; ni];
     if kx.len() > 1 {
-        for j in 0..nj {
-            line(&img[j * ni..(j + 1) * ni], &mut buf, ni, kx);
-            img[j * ni..(j + 1) * ni].copy_from_slice(&buf[..ni]);
+        for row in img.chunks_exact_mut(ni) {
+            line(row, &mut buf, kx, &mut pad);
+            row.copy_from_slice(&buf);
         }
     }
     if ky.len() > 1 {
-        for i in 0..ni {
-            for j in 0..nj {
-                col[j] = img[i + j * ni];
-            }
-            line(&col, &mut buf, nj, ky);
-            for j in 0..nj {
-                img[i + j * ni] = buf[j];
+        // Along j a row at a time: out_j = Σ_t w_t · row(clamp(j + t − r)).
+        let src = img.to_vec();
+        let r = (ky.len() / 2) as isize;
+        for (j, out) in img.chunks_exact_mut(ni).enumerate() {
+            out.fill(0.0);
+            for (t, &w) in ky.iter().enumerate() {
+                let jj = (j as isize + t as isize - r).clamp(0, nj as isize - 1) as usize;
+                for (o, &x) in out.iter_mut().zip(&src[jj * ni..(jj + 1) * ni]) {
+                    *o += w * x;
+                }
             }
         }
     }

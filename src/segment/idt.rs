@@ -26,54 +26,100 @@ const BUCKET_MM: f64 = 0.05;
 /// `region`, edge weight DT_i + DT_j. Prim with a bucket queue (O(E));
 /// within a bucket, last in first out: deterministic.
 pub fn max_spanning_tree(region: &[bool], dt: &[f32], dims: [usize; 3], ground: usize) -> Tree {
-    let q = |v: usize| (dt[v] as f64 / BUCKET_MM).round().min(1e6) as usize;
-    let max_b = region
+    // Per voxel, in one record so that looking at a neighbour costs one
+    // cache miss: its state (tree position, FREE: region not yet in the
+    // tree, OUT: not region), its bucket (computed once, not per pushed
+    // edge) and its distance.
+    const FREE: u32 = u32::MAX;
+    const OUT: u32 = u32::MAX - 1;
+    #[derive(Clone, Copy)]
+    struct Node {
+        pos: u32,
+        q: u32,
+        dt: f32,
+    }
+    let mut node: Vec<Node> = region
         .iter()
         .zip(dt)
-        .filter(|(r, _)| **r)
-        .map(|(_, &d)| (d as f64 / BUCKET_MM).round().min(1e6) as usize)
-        .max()
-        .unwrap_or(0);
-    let mut buckets: Vec<Vec<(u32, u32)>> = vec![Vec::new(); 2 * max_b + 2];
-    let mut pos = vec![u32::MAX; region.len()];
+        .map(|(&r, &d)| {
+            if r {
+                Node {
+                    pos: FREE,
+                    q: (d as f64 / BUCKET_MM).round().min(1e6) as u32,
+                    dt: d,
+                }
+            } else {
+                Node {
+                    pos: OUT,
+                    q: 0,
+                    dt: d,
+                }
+            }
+        })
+        .collect();
+    let count = node.iter().filter(|n| n.pos == FREE).count();
+    let max_b = node.iter().map(|n| n.q).max().unwrap_or(0);
+    // A queued edge carries what accepting it needs (the parent's tree
+    // position and both distances): popped long after it was pushed, it
+    // then costs one cache miss (the state of u), not four.
+    let mut buckets: Vec<Vec<Edge>> = vec![Vec::new(); 2 * max_b as usize + 2];
     let mut tree = Tree {
-        order: Vec::new(),
-        parent: Vec::new(),
-        weight: Vec::new(),
+        order: Vec::with_capacity(count),
+        parent: Vec::with_capacity(count),
+        weight: Vec::with_capacity(count),
     };
-    pos[ground] = 0;
+    node[ground].pos = 0;
     tree.order.push(ground as u32);
     tree.parent.push(0);
     tree.weight.push(0.0);
     let mut top = 0usize;
-    let push = |v: usize, buckets: &mut Vec<Vec<(u32, u32)>>, top: &mut usize, pos: &Vec<u32>| {
-        neighbours6(v, dims, |u| {
-            if region[u] && pos[u] == u32::MAX {
-                let b = q(u) + q(v);
-                buckets[b].push((u as u32, v as u32));
-                *top = (*top).max(b);
-            }
-        });
-    };
-    push(ground, &mut buckets, &mut top, &pos);
+    let push =
+        |v: usize, pv: u32, buckets: &mut Vec<Vec<Edge>>, top: &mut usize, node: &Vec<Node>| {
+            let (qv, dv) = (node[v].q, node[v].dt);
+            neighbours6(v, dims, |u| {
+                let nu = node[u];
+                if nu.pos == FREE {
+                    let b = (nu.q + qv) as usize;
+                    buckets[b].push(Edge {
+                        u: u as u32,
+                        parent: pv,
+                        du: nu.dt,
+                        dp: dv,
+                    });
+                    *top = (*top).max(b);
+                }
+            });
+        };
+    push(ground, 0, &mut buckets, &mut top, &node);
     loop {
         while top > 0 && buckets[top].is_empty() {
             top -= 1;
         }
-        let Some((u, p)) = buckets[top].pop() else {
+        let Some(e) = buckets[top].pop() else {
             break;
         };
-        let (u, p) = (u as usize, p as usize);
-        if pos[u] != u32::MAX {
+        let u = e.u as usize;
+        if node[u].pos != FREE {
             continue;
         }
-        pos[u] = tree.order.len() as u32;
-        tree.order.push(u as u32);
-        tree.parent.push(pos[p]);
-        tree.weight.push(dt[u] as f64 + dt[p] as f64);
-        push(u, &mut buckets, &mut top, &pos);
+        let pu = tree.order.len() as u32;
+        node[u].pos = pu;
+        tree.order.push(e.u);
+        tree.parent.push(e.parent);
+        tree.weight.push(e.du as f64 + e.dp as f64);
+        push(u, pu, &mut buckets, &mut top, &node);
     }
     tree
+}
+
+/// An edge waiting in the bucket queue.
+#[derive(Clone, Copy)]
+struct Edge {
+    u: u32,
+    /// Tree position of the end already in the tree.
+    parent: u32,
+    du: f32,
+    dp: f32,
 }
 
 /// Closed-form solve of L₀ x₀ = d₀ on a tree (ground x = 0, unit node
@@ -94,11 +140,51 @@ pub fn solve_on_tree(parent: &[u32], weight: &[f64]) -> Vec<f64> {
 }
 
 /// Node positions (in tree order) sorted by `x`, ties by position: a total
-/// order, so the result does not depend on the sort's threading.
+/// order (f64::total_cmp, then position), so the result does not depend on
+/// threading. An LSD radix sort on the keys' bits (stable, so positions stay
+/// ascending within ties): linear, where a comparison sort of the 10⁶–10⁷
+/// voxels of a full-size CT costs a random load of `x` per comparison.
 pub fn order_by_potential(x: &[f64]) -> Vec<u32> {
-    let mut idx: Vec<u32> = (0..x.len() as u32).collect();
-    idx.sort_unstable_by(|&a, &b| x[a as usize].total_cmp(&x[b as usize]).then(a.cmp(&b)));
-    idx
+    // The bit pattern ordered as total_cmp orders the floats.
+    let key = |v: f64| {
+        let b = v.to_bits();
+        if b >> 63 == 1 { !b } else { b | (1 << 63) }
+    };
+    let mut a: Vec<(u64, u32)> = x
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| (key(v), i as u32))
+        .collect();
+    let mut b = vec![(0u64, 0u32); a.len()];
+    const BITS: u32 = 11;
+    const RADIX: usize = 1 << BITS;
+    let mut shift = 0u32;
+    while shift < 64 {
+        let digit = |k: u64| ((k >> shift) as usize) & (RADIX - 1);
+        let mut count = vec![0usize; RADIX];
+        for &(k, _) in &a {
+            count[digit(k)] += 1;
+        }
+        // A digit all keys share moves nothing: skip the pass.
+        if count.contains(&a.len()) {
+            shift += BITS;
+            continue;
+        }
+        let mut start = 0;
+        for c in count.iter_mut() {
+            let n = *c;
+            *c = start;
+            start += n;
+        }
+        for &e in &a {
+            let d = digit(e.0);
+            b[count[d]] = e;
+            count[d] += 1;
+        }
+        std::mem::swap(&mut a, &mut b);
+        shift += BITS;
+    }
+    a.into_iter().map(|(_, i)| i).collect()
 }
 
 /// Lattice cut (unit-weight faces between S_k and the rest of the region)
@@ -197,13 +283,17 @@ pub fn steepest_rise(cut: &[u32], lim: &RiseLimits) -> Option<usize> {
         }
     }
     ext.push(n - 1);
+    // The held cut depends on j alone: one linear pass, not a scan of the
+    // 10 ml window (~10⁵ voxels on the full preset) per extremum pair.
+    let ahead = forward_min(&smooth, lim.hold);
+    let held: Vec<f64> = ext.iter().map(|&j| ahead[j]).collect();
     let mut best: Option<(f64, usize, usize)> = None;
     for (x, &i) in ext.iter().enumerate() {
         let k_i = i + 1;
         if k_i < lim.i_min || k_i > lim.i_max {
             continue;
         }
-        for &j in &ext[x + 1..] {
+        for (&j, &held) in ext[x + 1..].iter().zip(&held[x + 1..]) {
             let k_j = j + 1;
             if k_j < lim.j_min
                 || k_j - k_i < lim.span_min
@@ -211,10 +301,6 @@ pub fn steepest_rise(cut: &[u32], lim: &RiseLimits) -> Option<usize> {
             {
                 continue;
             }
-            let held = smooth[j..=(j + lim.hold).min(n - 1)]
-                .iter()
-                .cloned()
-                .fold(f64::INFINITY, f64::min);
             let slope = (held - smooth[i]) / (k_j - k_i) as f64;
             if best.is_none_or(|(s, _, _)| slope > s) {
                 best = Some((slope, i, j));
@@ -244,6 +330,25 @@ pub fn steepest_rise(cut: &[u32], lim: &RiseLimits) -> Option<usize> {
 
 /// Fraction of the rise after which the sweep is stopped.
 const RISE_FRACTION: f64 = 0.25;
+
+/// `out[j]` = min of `f[j..=j + w]` (clipped to the end), by a monotone
+/// deque from the right: O(n) whatever `w`.
+pub(super) fn forward_min(f: &[f64], w: usize) -> Vec<f64> {
+    let n = f.len();
+    let mut out = vec![0.0; n];
+    let mut dq: std::collections::VecDeque<usize> = std::collections::VecDeque::new();
+    for j in (0..n).rev() {
+        while dq.back().is_some_and(|&b| f[b] >= f[j]) {
+            dq.pop_back();
+        }
+        dq.push_back(j);
+        while dq.front().is_some_and(|&a| a > j + w) {
+            dq.pop_front();
+        }
+        out[j] = f[*dq.front().expect("holds j")];
+    }
+    out
+}
 
 /// Sliding minimum (`max == false`) or maximum over a centred window.
 fn sliding(f: &[f64], window: usize, max: bool) -> Vec<f64> {

@@ -204,11 +204,11 @@ pub fn segment(
     let reach = reach::lumen_reach(ct, &found.track, threshold, blood);
     clock.lap("lumen_reach");
     let box_ = roi::roi_box(ct, &found.track, found.dk, &lm_points, reach.as_ref());
-    let roi_vol = ct.crop(box_.lo, box_.hi)?;
+    // `roi_vol` carries the cropped grid (dims, exact affine); `img` its HU.
+    let (roi_vol, mut img) = roi::crop_f32(ct, &box_)?;
     let dims = roi_vol.dims();
     let rsp = roi_vol.spacing();
     let n = roi_vol.len();
-    let mut img: Vec<f32> = roi_vol.as_slice().iter().map(|&v| v as f32).collect();
     clock.lap("roi_crop");
     filter::smooth3(&mut img, dims, rsp, p.smooth_mm);
     clock.lap("smooth");
@@ -239,12 +239,26 @@ pub fn segment(
     drop(above);
     let vox_ml = roi_vol.voxel_volume() / 1000.0;
     let region_n = region.iter().filter(|&&r| r).count();
+    // The IDT runs on the region's bounding box grown by one voxel: that
+    // layer is background (or the ROI's border, as on the ROI), so every
+    // inside distance, the tree and the cuts are those of the whole ROI, on
+    // a fraction of its voxels (the ROI holds the LV and much background).
+    let rbox = morphology::SubBox::around(&region, dims, [1, 1, 1]);
+    let rdims = rbox.dims();
+    let region_s = rbox.extract(&region, dims);
+    let ground_s = rbox.to_inner(ground, dims).ok_or_else(|| {
+        Error::failed(
+            "segment",
+            "the seed voxel fell outside its own threshold region",
+        )
+    })?;
+    drop(region);
     clock.lap("threshold_fill");
-    let dt = edt::inside_distance(&region, dims, rsp);
+    let dt = edt::inside_distance(&region_s, rdims, rsp);
     clock.lap("edt");
 
     // --- IDT -------------------------------------------------------------------
-    let tree = idt::max_spanning_tree(&region, &dt, dims, ground);
+    let tree = idt::max_spanning_tree(&region_s, &dt, rdims, ground_s);
     drop(dt);
     clock.lap("spanning_tree");
     let x = idt::solve_on_tree(&tree.parent, &tree.weight);
@@ -252,7 +266,7 @@ pub fn segment(
     let sweep: Vec<u32> = order.iter().map(|&o| tree.order[o as usize]).collect();
     drop(x);
     clock.lap("tree_solve_order");
-    let cut = idt::sweep_cut(&region, dims, &sweep);
+    let cut = idt::sweep_cut(&region_s, rdims, &sweep);
     let lim = idt::RiseLimits::from_ml(roi_vol.voxel_volume());
     let k_rise = idt::steepest_rise(&cut, &lim);
     let k_min = idt::isoperimetric_min(&cut, lim.i_min);
@@ -280,7 +294,7 @@ pub fn segment(
         .collect();
     let mut idt_region = vec![false; n];
     for &v in &sweep[..k] {
-        idt_region[v as usize] = true;
+        idt_region[rbox.to_outer(v as usize, dims)] = true;
     }
     drop(cut);
     drop(sweep);
@@ -302,9 +316,7 @@ pub fn segment(
         None => vec![false; local.len()],
     };
     let mut opened = vec![false; n];
-    for (v, &m) in local.iter().enumerate() {
-        opened[sub.to_outer(v, dims)] = m;
-    }
+    sub.scatter(&local, &mut opened, dims);
     drop(local);
     let opened_n = opened.iter().filter(|&&v| v).count();
     clock.lap("opening");

@@ -148,9 +148,28 @@ impl SubBox {
             })
     }
 
+    /// Grid index of the first voxel of each sub-box row, in sub-box order.
+    fn rows(&self, outer: [usize; 3]) -> impl Iterator<Item = usize> + '_ {
+        (self.lo[2]..self.hi[2]).flat_map(move |k| {
+            (self.lo[1]..self.hi[1]).map(move |j| self.lo[0] + outer[0] * (j + outer[1] * k))
+        })
+    }
+
+    /// The sub-box's values of `data` (a grid of `outer` dims), row by row.
     pub fn extract<T: Copy>(&self, data: &[T], outer: [usize; 3]) -> Vec<T> {
-        (0..self.dims().iter().product::<usize>())
-            .map(|v| data[self.to_outer(v, outer)])
-            .collect()
+        let w = self.hi[0] - self.lo[0];
+        let mut out = Vec::with_capacity(self.dims().iter().product::<usize>());
+        for o in self.rows(outer) {
+            out.extend_from_slice(&data[o..o + w]);
+        }
+        out
+    }
+
+    /// Write sub-box values `local` back into `data` (a grid of `outer` dims).
+    pub fn scatter<T: Copy>(&self, local: &[T], data: &mut [T], outer: [usize; 3]) {
+        let w = self.hi[0] - self.lo[0];
+        for (o, src) in self.rows(outer).zip(local.chunks_exact(w)) {
+            data[o..o + w].copy_from_slice(src);
+        }
     }
 }

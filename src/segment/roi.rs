@@ -5,7 +5,10 @@
 
 use serde::Serialize;
 
+use rayon::prelude::*;
+
 use super::track::TrackPoint;
+use crate::Result;
 use crate::geom::{Point3, Volume};
 
 /// Lateral margin beyond the tracked radius (mm).
@@ -118,4 +121,33 @@ impl RoiBox {
             fraction_of_volume: dims.iter().product::<usize>() as f64 / ct.len() as f64,
         }
     }
+}
+
+/// The ROI of `ct` as f32 HU, converted straight from the CT (one pass,
+/// parallel over slices), and an all-zero uint8 volume on the ROI grid that
+/// carries its exact affine, the one `Volume::crop` gives.
+pub fn crop_f32(ct: &Volume<i16>, b: &RoiBox) -> Result<(Volume<u8>, Vec<f32>)> {
+    let d = ct.dims();
+    let dims = [0, 1, 2].map(|a| b.hi[a] - b.lo[a]);
+    let mut affine = *ct.affine();
+    let shift =
+        affine * nalgebra::Vector4::new(b.lo[0] as f64, b.lo[1] as f64, b.lo[2] as f64, 1.0);
+    for r in 0..3 {
+        affine[(r, 3)] = shift[r];
+    }
+    let n = dims.iter().product::<usize>();
+    let grid = Volume::from_fortran_vec(dims, affine, vec![0u8; n])?;
+    let src = ct.as_slice();
+    let mut img = vec![0f32; n];
+    img.par_chunks_mut(dims[0] * dims[1])
+        .enumerate()
+        .for_each(|(k, plane)| {
+            for (j, row) in plane.chunks_exact_mut(dims[0]).enumerate() {
+                let o = b.lo[0] + d[0] * (b.lo[1] + j + d[1] * (b.lo[2] + k));
+                for (x, &v) in row.iter_mut().zip(&src[o..o + dims[0]]) {
+                    *x = v as f32;
+                }
+            }
+        });
+    Ok((grid, img))
 }

@@ -329,3 +329,68 @@ fn the_steepest_rise_is_held_not_a_transient_bump() {
     let early = steepest_rise(&cut, &unheld).expect("a rise");
     assert!(early < 40_000, "{early}");
 }
+
+#[test]
+fn radix_order_equals_a_comparison_sort_with_ties() {
+    // Ties, zeros of both signs, tiny and huge values: the order must be
+    // total_cmp then position, as a comparison sort gives it.
+    let mut x: Vec<f64> = (0..5000)
+        .map(|i| {
+            let h = hash_normal(7, i as u64);
+            match i % 5 {
+                0 => (h * 4.0).round(),
+                1 => h.abs() * 1e-300,
+                2 => h.abs() * 1e12,
+                3 => h,
+                _ => h.abs(),
+            }
+        })
+        .collect();
+    x[10] = -0.0;
+    x[11] = 0.0;
+    let mut want: Vec<u32> = (0..x.len() as u32).collect();
+    want.sort_by(|&a, &b| x[a as usize].total_cmp(&x[b as usize]).then(a.cmp(&b)));
+    assert_eq!(idt::order_by_potential(&x), want);
+}
+
+#[test]
+fn forward_min_equals_the_window_scan() {
+    let f: Vec<f64> = (0..700)
+        .map(|i| (hash_normal(3, i) * 5.0).round())
+        .collect();
+    for w in [0, 1, 7, 50, 699, 1000] {
+        let got = idt::forward_min(&f, w);
+        for j in 0..f.len() {
+            let want = f[j..=(j + w).min(f.len() - 1)]
+                .iter()
+                .cloned()
+                .fold(f64::INFINITY, f64::min);
+            assert_eq!(got[j], want, "w {w} j {j}");
+        }
+    }
+}
+
+#[test]
+fn radius_tests_answer_as_hypot_does() {
+    use super::track::{in_ring, within};
+    // Pixel offsets on 0.3–0.9 mm grids against radii, many of them on or a
+    // hair off the boundary (3-4-5 and the like).
+    for t in 0..20000u64 {
+        let (sx, sy) = (0.3 + 0.6 * hash_normal(1, t).abs().min(1.0), 0.4);
+        let (i, j) = ((t % 97) as f64 - 48.0, (t / 97 % 89) as f64 - 44.0);
+        let (a, b) = (i * sx, j * sy);
+        let exact = a.hypot(b);
+        for r in [
+            exact,
+            exact * (1.0 + 1e-15),
+            exact * (1.0 - 1e-15),
+            5.0,
+            12.5 * sx,
+        ] {
+            assert_eq!(within(a, b, r), exact <= r, "{a} {b} {r}");
+            assert_eq!(in_ring(a, b, 0.0, r), exact < r);
+            assert_eq!(in_ring(a, b, r, r + 1.0), exact >= r && exact < r + 1.0);
+        }
+    }
+    assert!(within(3.0, 4.0, 5.0) && !in_ring(3.0, 4.0, 0.0, 5.0) && in_ring(3.0, 4.0, 5.0, 6.0));
+}

@@ -78,13 +78,47 @@ pub fn annulus_values(
     let mut out = Vec::new();
     for j in (c.1 as i64 - rj).max(0)..=(c.1 as i64 + rj).min(nj as i64 - 1) {
         for i in (c.0 as i64 - ri).max(0)..=(c.0 as i64 + ri).min(ni as i64 - 1) {
-            let d = ((i as f64 - c.0) * s[0]).hypot((j as f64 - c.1) * s[1]);
-            if d >= r0 && d < r1 {
+            if in_ring((i as f64 - c.0) * s[0], (j as f64 - c.1) * s[1], r0, r1) {
                 out.push(img[i as usize + j as usize * ni] as f64);
             }
         }
     }
     out
+}
+
+/// Relative band around a radius where a² + b² cannot tell the side of
+/// `a.hypot(b)` (both are within ~1e-16 of the true length): outside it
+/// the squared length decides, inside it hypot itself, so these tests
+/// answer exactly as hypot would, at a fraction of its cost.
+const BAND: f64 = 1e-9;
+
+/// `a.hypot(b) <= r`.
+#[inline]
+pub(super) fn within(a: f64, b: f64, r: f64) -> bool {
+    let d2 = a * a + b * b;
+    let r2 = r * r;
+    if d2 > r2 * (1.0 + BAND) {
+        false
+    } else if d2 < r2 * (1.0 - BAND) {
+        true
+    } else {
+        a.hypot(b) <= r
+    }
+}
+
+/// `r0 <= a.hypot(b) < r1`.
+#[inline]
+pub(super) fn in_ring(a: f64, b: f64, r0: f64, r1: f64) -> bool {
+    let d2 = a * a + b * b;
+    let (lo, hi) = (r0 * r0, r1 * r1);
+    if d2 > hi * (1.0 + BAND) || d2 < lo * (1.0 - BAND) {
+        false
+    } else if d2 < hi * (1.0 - BAND) && d2 > lo * (1.0 + BAND) {
+        true
+    } else {
+        let d = a.hypot(b);
+        d >= r0 && d < r1
+    }
 }
 
 /// Top unpadded slice: walk down while more than half of a slice equals its
@@ -246,9 +280,9 @@ fn track_step(
     let mut best: Option<(f32, usize)> = None;
     for j in 0..wj {
         for i in 0..wi {
-            let d = ((i as f64 - ci) * sp[0]).hypot((j as f64 - cj) * sp[1]);
             let v = i + j * wi;
-            if d <= TRACK_SHIFT * r && best.is_none_or(|(b, _)| map.c[v] > b) {
+            let (a, b) = ((i as f64 - ci) * sp[0], (j as f64 - cj) * sp[1]);
+            if within(a, b, TRACK_SHIFT * r) && best.is_none_or(|(b, _)| map.c[v] > b) {
                 best = Some((map.c[v], v));
             }
         }
