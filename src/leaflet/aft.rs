@@ -380,10 +380,19 @@ fn crosses(i1: u32, i2: u32, p1: P2, p2: P2, j1: u32, j2: u32, q1: P2, q2: P2) -
         return false; // the same segment (a front edge being closed)
     }
     let shared = i1 == j1 || i1 == j2 || i2 == j1 || i2 == j2;
+    // Disjoint boxes cannot meet (exact comparisons, so the answer is the
+    // predicates' own); most edges near a candidate are rejected here
+    // before any of the four orientation tests.
+    if !shared
+        && (p1[0].max(p2[0]) < q1[0].min(q2[0])
+            || q1[0].max(q2[0]) < p1[0].min(p2[0])
+            || p1[1].max(p2[1]) < q1[1].min(q2[1])
+            || q1[1].max(q2[1]) < p1[1].min(p2[1]))
+    {
+        return false;
+    }
     let o1 = orient(p1, p2, q1);
     let o2 = orient(p1, p2, q2);
-    let o3 = orient(q1, q2, p1);
-    let o4 = orient(q1, q2, p2);
     if shared {
         // Sharing an endpoint, they overlap only when collinear and pointing
         // the same way.
@@ -397,7 +406,12 @@ fn crosses(i1: u32, i2: u32, p1: P2, p2: P2, j1: u32, j2: u32, q1: P2, q2: P2) -
         }
         return false;
     }
-    if o1 * o2 > 0.0 || o3 * o4 > 0.0 {
+    if o1 * o2 > 0.0 {
+        return false;
+    }
+    let o3 = orient(q1, q2, p1);
+    let o4 = orient(q1, q2, p2);
+    if o3 * o4 > 0.0 {
         return false;
     }
     if o1 == 0.0 && o2 == 0.0 {
@@ -685,10 +699,16 @@ fn flip_pass(m: &mut FlatMesh) -> usize {
         } else {
             ([s, r, p], [r, s, q])
         };
-        // Most flips do not improve: test that before the robust predicates.
-        let new = shape_abs(&x1, n).min(shape_abs(&x2, n));
+        // Most flips do not improve: test that before the robust predicates,
+        // and the second triangle only when the first can pass (a ≤ t
+        // implies min(a, b) ≤ t, NaN aside).
+        let thr = old + 1e-9;
+        let q1 = shape_abs(&x1, n);
+        if q1 <= thr || !(q1.min(shape_abs(&x2, n)) > thr) {
+            continue;
+        }
         let ok = |t: &[u32; 3]| orient(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize]) > 0.0;
-        if new > old + 1e-9 && ok(&x1) && ok(&x2) {
+        if ok(&x1) && ok(&x2) {
             m.tris[t1] = x1;
             m.tris[t2] = x2;
             touched[t1] = true;
@@ -795,6 +815,9 @@ fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
     // one: keep them per triangle instead of recomputing (a division each).
     let mut qc: Vec<f64> = m.tris.iter().map(|t| signed_shape(t, &m.nodes)).collect();
     let mut trial: Vec<f64> = Vec::new();
+    // Corners of each incident triangle in incidence order: the triangles
+    // do not change here, and the copy saves a dependent load per trial.
+    let inc_tri: Vec<[u32; 3]> = inc.idx.iter().map(|&t| m.tris[t as usize]).collect();
     for _ in 0..sweeps {
         for i in m.n_boundary..nn {
             let ring = nbr.row(i);
@@ -816,6 +839,7 @@ fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
             let target = [c[0] / k, c[1] / k];
             let old_p = m.nodes[i];
             let tris = inc.row(i);
+            let corners = &inc_tri[inc.start[i] as usize..inc.start[i + 1] as usize];
             let before = tris
                 .iter()
                 .map(|&t| qc[t as usize])
@@ -830,8 +854,8 @@ fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
                     old_p[1] + w * (target[1] - old_p[1]),
                 ];
                 trial.clear();
-                if tris.iter().all(|&t| {
-                    let q = signed_shape(&m.tris[t as usize], &m.nodes);
+                if corners.iter().all(|t| {
+                    let q = signed_shape(t, &m.nodes);
                     trial.push(q);
                     q > 0.0 && q >= floor
                 }) {
