@@ -183,6 +183,9 @@ struct Front {
     node_grid: Grid,
     deg: Vec<u32>,
     edges: Vec<[u32; 2]>,
+    /// Length of each edge (mm), computed once: hypot was a few % of the
+    /// profile.
+    len: Vec<f64>,
     alive: Vec<bool>,
     /// Live front edges leaving each node, as a list linked through
     /// `out_next` (u32::MAX ends it): a front node has one or two, so a
@@ -209,7 +212,7 @@ impl Front {
         id
     }
 
-    fn add_edge(&mut self, a: u32, b: u32, penalty: f64) {
+    fn add_edge(&mut self, a: u32, b: u32) {
         let id = self.edges.len() as u32;
         let (pa, pb) = (self.nodes[a as usize], self.nodes[b as usize]);
         self.edges.push([a, b]);
@@ -221,7 +224,9 @@ impl Front {
         self.edge_seen.push(0);
         let (lo, hi) = bbox(pa, pb);
         self.edge_grid.insert(id, lo, hi);
-        let key = (dist(pa, pb) * penalty).to_bits();
+        let len = dist(pa, pb);
+        self.len.push(len);
+        let key = len.to_bits();
         self.heap.push(Reverse(heap_key(key, id)));
     }
 
@@ -368,7 +373,7 @@ impl Front {
             if let Some(rev) = self.find(q, p) {
                 self.kill_edge(rev);
             } else {
-                self.add_edge(p, q, 1.0);
+                self.add_edge(p, q);
             }
         }
     }
@@ -490,6 +495,7 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
         node_grid: Grid::new(lo, hi, 2.0 * h),
         deg: Vec::new(),
         edges: Vec::new(),
+        len: Vec::new(),
         alive: Vec::new(),
         out_first: Vec::new(),
         out_next: Vec::new(),
@@ -511,6 +517,7 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
     f.deg.reserve(est_nodes);
     f.out_first.reserve(est_nodes);
     f.edges.reserve(est_edges);
+    f.len.reserve(est_edges);
     f.alive.reserve(est_edges);
     f.out_next.reserve(est_edges);
     f.edge_seen.reserve(est_edges);
@@ -521,7 +528,7 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
     }
     let nb = bpts.len() as u32;
     for i in 0..nb {
-        f.add_edge(i, (i + 1) % nb, 1.0);
+        f.add_edge(i, (i + 1) % nb);
     }
     // A valid outline encloses at most area/(0.2 h²) triangles' worth of
     // nodes; more means the front escaped a self-intersecting outline.
@@ -537,7 +544,7 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
         }
         let [a, b] = f.edges[e as usize];
         let (pa, pb) = (f.nodes[a as usize], f.nodes[b as usize]);
-        let l = dist(pa, pb);
+        let l = f.len[e as usize];
         let nrm = [-(pb[1] - pa[1]) / l, (pb[0] - pa[0]) / l];
         let mid = [(pa[0] + pb[0]) / 2.0, (pa[1] + pb[1]) / 2.0];
         let delta = h.clamp(0.55 * l, 2.0 * l);
