@@ -771,17 +771,20 @@ fn flip_pass(m: &mut FlatMesh, buf: &mut PostBuf) -> usize {
         let n = &m.nodes;
         let [pp, pr, ps] = [n[p as usize], n[r as usize], n[s as usize]];
         let old = qs[t1].min(qs[t2]);
-        // New triangles r-s-? oriented counter-clockwise.
-        let (x1, x2) = if orient(pr, ps, pp) > 0.0 {
-            ([r, s, p], [s, r, q])
+        // New triangles r-s-? oriented counter-clockwise. A shape of r-s-p
+        // clearly above rounding level proves that orientation (as in
+        // `signed_shape`), so the robust predicate runs only near
+        // degeneracy.
+        let qa = shape_abs(&[r, s, p], n);
+        let (x1, x2, q1) = if qa > 1e-6 || orient(pr, ps, pp) > 0.0 {
+            ([r, s, p], [s, r, q], qa)
         } else {
-            ([s, r, p], [r, s, q])
+            ([s, r, p], [r, s, q], shape_abs(&[s, r, p], n))
         };
         // Most flips do not improve: test that before the robust predicates,
         // and the second triangle only when the first can pass (a ≤ t
         // implies min(a, b) ≤ t, NaN aside).
         let thr = old + 1e-9;
-        let q1 = shape_abs(&x1, n);
         if q1 <= thr || !(q1.min(shape_abs(&x2, n)) > thr) {
             continue;
         }
