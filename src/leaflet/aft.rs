@@ -740,6 +740,11 @@ struct PostBuf {
     trial: Vec<f64>,
     inc_tri: Vec<[u32; 3]>,
     qc: Vec<f64>,
+    /// `pairs` and the incidence rows describe the current triangles:
+    /// only flips change those, so after a pass without flips they are
+    /// reused instead of rebuilt.
+    pairs_valid: bool,
+    inc_valid: bool,
 }
 
 /// One sweep of quality-improving Lawson flips (deterministic order).
@@ -750,9 +755,13 @@ fn flip_pass(m: &mut FlatMesh, buf: &mut PostBuf) -> usize {
         pairs,
         touched,
         qs,
+        pairs_valid,
+        inc_valid,
         ..
     } = buf;
-    interior_edge_pairs(&m.tris, m.nodes.len(), pairs, pair);
+    if !*pairs_valid {
+        interior_edge_pairs(&m.tris, m.nodes.len(), pairs, pair);
+    }
     touched.clear();
     touched.resize(m.tris.len(), false);
     // A flipped triangle is never read again in this pass (touched), so
@@ -796,6 +805,10 @@ fn flip_pass(m: &mut FlatMesh, buf: &mut PostBuf) -> usize {
             touched[t2] = true;
             flips += 1;
         }
+    }
+    *pairs_valid = flips == 0;
+    if flips > 0 {
+        *inc_valid = false;
     }
     flips
 }
@@ -906,9 +919,17 @@ fn smooth_pass(m: &mut FlatMesh, sweeps: usize, buf: &mut PostBuf) {
         trial,
         inc_tri,
         qc,
+        inc_valid,
         ..
     } = buf;
-    incidence_into(m, inc, nbr, fill);
+    if !*inc_valid {
+        incidence_into(m, inc, nbr, fill);
+        // Corners of each incident triangle in incidence order: the copy
+        // saves a dependent load per trial.
+        inc_tri.clear();
+        inc_tri.extend(inc.idx.iter().map(|&t| m.tris[t as usize]));
+        *inc_valid = true;
+    }
     // A node's move depends only on its own and its ring's positions: when
     // none of them changed since it was last tried, trying again repeats
     // the same decision, so it is skipped (same result, bit for bit).
@@ -921,10 +942,6 @@ fn smooth_pass(m: &mut FlatMesh, sweeps: usize, buf: &mut PostBuf) {
     // one: keep them per triangle instead of recomputing (a division each).
     qc.clear();
     qc.extend(m.tris.iter().map(|t| signed_shape(t, &m.nodes)));
-    // Corners of each incident triangle in incidence order: the triangles
-    // do not change here, and the copy saves a dependent load per trial.
-    inc_tri.clear();
-    inc_tri.extend(inc.idx.iter().map(|&t| m.tris[t as usize]));
     for _ in 0..sweeps {
         for i in m.n_boundary..nn {
             let ring = nbr.row(i);
