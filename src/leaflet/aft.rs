@@ -794,7 +794,8 @@ fn flip_pass(m: &mut FlatMesh, buf: &mut PostBuf) -> usize {
         // and the second triangle only when the first can pass (a ≤ t
         // implies min(a, b) ≤ t, NaN aside).
         let thr = old + 1e-9;
-        if q1 <= thr || !(q1.min(shape_abs(&x2, n)) > thr) {
+        let new = q1.min(shape_abs(&x2, n));
+        if q1 <= thr || new.partial_cmp(&thr) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
         let ok = |t: &[u32; 3]| orient(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize]) > 0.0;
