@@ -88,7 +88,7 @@ fn d2(a: P2, b: P2) -> f64 {
     (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
 }
 
-/// Uniform bucket grid over the domain (cell ≈ h).
+/// Uniform bucket grid over the domain (cell size given by the caller).
 struct Grid {
     x0: f64,
     y0: f64,
@@ -183,6 +183,9 @@ struct Front {
     node_grid: Grid,
     deg: Vec<u32>,
     edges: Vec<[u32; 2]>,
+    /// Length of each edge (mm), computed once: hypot was a few % of the
+    /// profile.
+    len: Vec<f64>,
     alive: Vec<bool>,
     /// Live front edges leaving each node, as a list linked through
     /// `out_next` (u32::MAX ends it): a front node has one or two, so a
@@ -190,7 +193,9 @@ struct Front {
     out_first: Vec<u32>,
     out_next: Vec<u32>,
     edge_grid: Grid,
-    heap: BinaryHeap<Reverse<(u64, u32)>>,
+    /// Length bits above the edge id, smallest first: one integer compare
+    /// orders as the tuple (length, id) did.
+    heap: BinaryHeap<Reverse<u128>>,
     tris: Vec<[u32; 3]>,
     scratch: Vec<u32>,
     edge_seen: Vec<u32>,
@@ -207,7 +212,7 @@ impl Front {
         id
     }
 
-    fn add_edge(&mut self, a: u32, b: u32, penalty: f64) {
+    fn add_edge(&mut self, a: u32, b: u32) {
         let id = self.edges.len() as u32;
         let (pa, pb) = (self.nodes[a as usize], self.nodes[b as usize]);
         self.edges.push([a, b]);
@@ -219,8 +224,10 @@ impl Front {
         self.edge_seen.push(0);
         let (lo, hi) = bbox(pa, pb);
         self.edge_grid.insert(id, lo, hi);
-        let key = (dist(pa, pb) * penalty).to_bits();
-        self.heap.push(Reverse((key, id)));
+        let len = dist(pa, pb);
+        self.len.push(len);
+        let key = len.to_bits();
+        self.heap.push(Reverse(heap_key(key, id)));
     }
 
     /// Dead edges and closed nodes leave the grids, so queries scan only
@@ -366,7 +373,7 @@ impl Front {
             if let Some(rev) = self.find(q, p) {
                 self.kill_edge(rev);
             } else {
-                self.add_edge(p, q, 1.0);
+                self.add_edge(p, q);
             }
         }
     }
@@ -380,10 +387,19 @@ fn crosses(i1: u32, i2: u32, p1: P2, p2: P2, j1: u32, j2: u32, q1: P2, q2: P2) -
         return false; // the same segment (a front edge being closed)
     }
     let shared = i1 == j1 || i1 == j2 || i2 == j1 || i2 == j2;
+    // Disjoint boxes cannot meet (exact comparisons, so the answer is the
+    // predicates' own); most edges near a candidate are rejected here
+    // before any of the four orientation tests.
+    if !shared
+        && (p1[0].max(p2[0]) < q1[0].min(q2[0])
+            || q1[0].max(q2[0]) < p1[0].min(p2[0])
+            || p1[1].max(p2[1]) < q1[1].min(q2[1])
+            || q1[1].max(q2[1]) < p1[1].min(p2[1]))
+    {
+        return false;
+    }
     let o1 = orient(p1, p2, q1);
     let o2 = orient(p1, p2, q2);
-    let o3 = orient(q1, q2, p1);
-    let o4 = orient(q1, q2, p2);
     if shared {
         // Sharing an endpoint, they overlap only when collinear and pointing
         // the same way.
@@ -397,7 +413,12 @@ fn crosses(i1: u32, i2: u32, p1: P2, p2: P2, j1: u32, j2: u32, q1: P2, q2: P2) -
         }
         return false;
     }
-    if o1 * o2 > 0.0 || o3 * o4 > 0.0 {
+    if o1 * o2 > 0.0 {
+        return false;
+    }
+    let o3 = orient(q1, q2, p1);
+    let o4 = orient(q1, q2, p2);
+    if o3 * o4 > 0.0 {
         return false;
     }
     if o1 == 0.0 && o2 == 0.0 {
@@ -412,6 +433,10 @@ fn crosses(i1: u32, i2: u32, p1: P2, p2: P2, j1: u32, j2: u32, q1: P2, q2: P2) -
         return a0 <= b1 && b0 <= a1;
     }
     true
+}
+
+fn heap_key(len_bits: u64, id: u32) -> u128 {
+    ((len_bits as u128) << 32) | id as u128
 }
 
 fn bbox(a: P2, b: P2) -> (P2, P2) {
@@ -464,25 +489,46 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
     }
     let mut f = Front {
         nodes: Vec::new(),
-        node_grid: Grid::new(lo, hi, h),
+        // Cells of 2h: the front is a curve, so bigger cells add few ids to
+        // a query but visit a third of the cells (results do not depend on
+        // the cell size: every consumer filters exactly).
+        node_grid: Grid::new(lo, hi, 2.0 * h),
         deg: Vec::new(),
         edges: Vec::new(),
+        len: Vec::new(),
         alive: Vec::new(),
         out_first: Vec::new(),
         out_next: Vec::new(),
-        edge_grid: Grid::new(lo, hi, h),
+        edge_grid: Grid::new(lo, hi, 2.0 * h),
         heap: BinaryHeap::new(),
         tris: Vec::new(),
         scratch: Vec::new(),
         edge_seen: Vec::new(),
         stamp: 0,
     };
+    // Room for the whole mesh up front (equilateral triangles of side h,
+    // +10 %): growing the arrays copied them and faulted in fresh pages
+    // several times per mesh.
+    let est_tris = ((outline.area().abs() / (0.433 * h * h)) * 1.1) as usize + 2 * bpts.len();
+    let est_tris = est_tris.min(8_000_000);
+    let est_nodes = est_tris / 2 + bpts.len();
+    let est_edges = 2 * est_tris + bpts.len();
+    f.nodes.reserve(est_nodes);
+    f.deg.reserve(est_nodes);
+    f.out_first.reserve(est_nodes);
+    f.edges.reserve(est_edges);
+    f.len.reserve(est_edges);
+    f.alive.reserve(est_edges);
+    f.out_next.reserve(est_edges);
+    f.edge_seen.reserve(est_edges);
+    f.heap.reserve(est_edges);
+    f.tris.reserve(est_tris);
     for &p in &bpts {
         f.add_node(p);
     }
     let nb = bpts.len() as u32;
     for i in 0..nb {
-        f.add_edge(i, (i + 1) % nb, 1.0);
+        f.add_edge(i, (i + 1) % nb);
     }
     // A valid outline encloses at most area/(0.2 h²) triangles' worth of
     // nodes; more means the front escaped a self-intersecting outline.
@@ -491,13 +537,14 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
     let mut tries: Vec<u8> = Vec::new();
     let mut cand: Vec<(f64, u32)> = Vec::new();
     let mut near: Vec<u32> = Vec::new();
-    while let Some(Reverse((_, e))) = f.heap.pop() {
+    while let Some(Reverse(top)) = f.heap.pop() {
+        let e = top as u32;
         if !f.alive[e as usize] {
             continue;
         }
         let [a, b] = f.edges[e as usize];
         let (pa, pb) = (f.nodes[a as usize], f.nodes[b as usize]);
-        let l = dist(pa, pb);
+        let l = f.len[e as usize];
         let nrm = [-(pb[1] - pa[1]) / l, (pb[0] - pa[0]) / l];
         let mid = [(pa[0] + pb[0]) / 2.0, (pa[1] + pb[1]) / 2.0];
         let delta = h.clamp(0.55 * l, 2.0 * l);
@@ -596,7 +643,7 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
                 tries[e as usize] = (attempt + 1) as u8;
                 // Postpone: later edges may open the way.
                 let key = (l * (2.0 + attempt as f64)).to_bits();
-                f.heap.push(Reverse((key, e)));
+                f.heap.push(Reverse(heap_key(key, e)));
             }
         }
     }
@@ -613,11 +660,12 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
         boundary,
         n_boundary: nb as usize,
     };
+    let mut buf = PostBuf::default();
     for _ in 0..3 {
-        flip_pass(&mut m);
-        smooth_pass(&mut m, 4);
+        flip_pass(&mut m, &mut buf);
+        smooth_pass(&mut m, 4, &mut buf);
     }
-    flip_pass(&mut m);
+    flip_pass(&mut m, &mut buf);
     Ok(m)
 }
 
@@ -625,9 +673,16 @@ pub fn mesh(outline: &Outline, h: f64) -> Result<FlatMesh, String> {
 /// (p, q) order: the order of a global sort of (edge key, triangle), which
 /// fixes the flip order. Bucketing by p first leaves only tiny per-node
 /// sorts (the global sort was half of the flip pass's time).
-fn interior_edge_pairs(tris: &[[u32; 3]], n_nodes: usize, out: &mut Vec<([u32; 2], [u32; 2])>) {
+fn interior_edge_pairs(
+    tris: &[[u32; 3]],
+    n_nodes: usize,
+    out: &mut Vec<([u32; 2], [u32; 2])>,
+    buf: &mut PairBuf,
+) {
     out.clear();
-    let mut start = vec![0u32; n_nodes + 1];
+    let PairBuf { start, fill, qt } = buf;
+    start.clear();
+    start.resize(n_nodes + 1, 0);
     for tri in tris {
         for k in 0..3 {
             let (p, q) = (tri[k], tri[(k + 1) % 3]);
@@ -637,8 +692,10 @@ fn interior_edge_pairs(tris: &[[u32; 3]], n_nodes: usize, out: &mut Vec<([u32; 2
     for i in 0..n_nodes {
         start[i + 1] += start[i];
     }
-    let mut fill = start.clone();
-    let mut qt = vec![0u64; 3 * tris.len()];
+    fill.clear();
+    fill.extend_from_slice(start);
+    qt.clear();
+    qt.resize(3 * tris.len(), 0);
     for (t, tri) in tris.iter().enumerate() {
         for k in 0..3 {
             let (p, q) = (tri[k], tri[(k + 1) % 3]);
@@ -658,17 +715,61 @@ fn interior_edge_pairs(tris: &[[u32; 3]], n_nodes: usize, out: &mut Vec<([u32; 2
     }
 }
 
+/// Buffers of the edge pairing, kept across passes.
+#[derive(Default)]
+struct PairBuf {
+    start: Vec<u32>,
+    fill: Vec<u32>,
+    qt: Vec<u64>,
+}
+
+/// Work arrays of the post-pass, allocated once per mesh rather than per
+/// pass: fresh large arrays cost page faults on every pass (≈ 5 % of the
+/// mesher's profile).
+#[derive(Default)]
+struct PostBuf {
+    pair: PairBuf,
+    pairs: Vec<([u32; 2], [u32; 2])>,
+    touched: Vec<bool>,
+    qs: Vec<f64>,
+    inc: Rows,
+    nbr: Rows,
+    fill: Vec<u32>,
+    changed: Vec<u32>,
+    tried: Vec<u32>,
+    trial: Vec<f64>,
+    inc_tri: Vec<[u32; 3]>,
+    qc: Vec<f64>,
+    /// `pairs` and the incidence rows describe the current triangles:
+    /// only flips change those, so after a pass without flips they are
+    /// reused instead of rebuilt.
+    pairs_valid: bool,
+    inc_valid: bool,
+}
+
 /// One sweep of quality-improving Lawson flips (deterministic order).
 /// Returns the number of flips.
-fn flip_pass(m: &mut FlatMesh) -> usize {
-    let mut pairs = Vec::with_capacity(2 * m.tris.len());
-    interior_edge_pairs(&m.tris, m.nodes.len(), &mut pairs);
-    let mut touched = vec![false; m.tris.len()];
+fn flip_pass(m: &mut FlatMesh, buf: &mut PostBuf) -> usize {
+    let PostBuf {
+        pair,
+        pairs,
+        touched,
+        qs,
+        pairs_valid,
+        inc_valid,
+        ..
+    } = buf;
+    if !*pairs_valid {
+        interior_edge_pairs(&m.tris, m.nodes.len(), pairs, pair);
+    }
+    touched.clear();
+    touched.resize(m.tris.len(), false);
     // A flipped triangle is never read again in this pass (touched), so
     // the shapes of the start suffice.
-    let qs: Vec<f64> = m.tris.iter().map(|t| shape_abs(t, &m.nodes)).collect();
+    qs.clear();
+    qs.extend(m.tris.iter().map(|t| shape_abs(t, &m.nodes)));
     let mut flips = 0;
-    for (key, ts) in pairs {
+    for &(key, ts) in pairs.iter() {
         let (t1, t2) = (ts[0] as usize, ts[1] as usize);
         if touched[t1] || touched[t2] {
             continue;
@@ -679,22 +780,36 @@ fn flip_pass(m: &mut FlatMesh) -> usize {
         let n = &m.nodes;
         let [pp, pr, ps] = [n[p as usize], n[r as usize], n[s as usize]];
         let old = qs[t1].min(qs[t2]);
-        // New triangles r-s-? oriented counter-clockwise.
-        let (x1, x2) = if orient(pr, ps, pp) > 0.0 {
-            ([r, s, p], [s, r, q])
+        // New triangles r-s-? oriented counter-clockwise. A shape of r-s-p
+        // clearly above rounding level proves that orientation (as in
+        // `signed_shape`), so the robust predicate runs only near
+        // degeneracy.
+        let qa = shape_abs(&[r, s, p], n);
+        let (x1, x2, q1) = if qa > 1e-6 || orient(pr, ps, pp) > 0.0 {
+            ([r, s, p], [s, r, q], qa)
         } else {
-            ([s, r, p], [r, s, q])
+            ([s, r, p], [r, s, q], shape_abs(&[s, r, p], n))
         };
-        // Most flips do not improve: test that before the robust predicates.
-        let new = shape_abs(&x1, n).min(shape_abs(&x2, n));
+        // Most flips do not improve: test that before the robust predicates,
+        // and the second triangle only when the first can pass (a ≤ t
+        // implies min(a, b) ≤ t, NaN aside).
+        let thr = old + 1e-9;
+        let new = q1.min(shape_abs(&x2, n));
+        if q1 <= thr || new.partial_cmp(&thr) != Some(std::cmp::Ordering::Greater) {
+            continue;
+        }
         let ok = |t: &[u32; 3]| orient(n[t[0] as usize], n[t[1] as usize], n[t[2] as usize]) > 0.0;
-        if new > old + 1e-9 && ok(&x1) && ok(&x2) {
+        if ok(&x1) && ok(&x2) {
             m.tris[t1] = x1;
             m.tris[t2] = x2;
             touched[t1] = true;
             touched[t2] = true;
             flips += 1;
         }
+    }
+    *pairs_valid = flips == 0;
+    if flips > 0 {
+        *inc_valid = false;
     }
     flips
 }
@@ -717,6 +832,7 @@ fn signed_shape(t: &[u32; 3], n: &[P2]) -> f64 {
 }
 
 /// Compressed rows: row i is `idx[start[i]..start[i + 1]]`.
+#[derive(Default)]
 struct Rows {
     start: Vec<u32>,
     idx: Vec<u32>,
@@ -730,9 +846,23 @@ impl Rows {
 
 /// Incident triangles (ascending) and neighbour nodes (ascending, once
 /// each) of every node, in two flat arrays instead of a Vec per node.
+#[cfg(test)]
 fn incidence(m: &FlatMesh) -> (Rows, Rows) {
+    let (mut inc, mut nbr) = (Rows::default(), Rows::default());
+    incidence_into(m, &mut inc, &mut nbr, &mut Vec::new());
+    (inc, nbr)
+}
+
+/// `incidence` into reused rows.
+fn incidence_into(m: &FlatMesh, incr: &mut Rows, nbrr: &mut Rows, fill: &mut Vec<u32>) {
     let nn = m.nodes.len();
-    let mut start = vec![0u32; nn + 1];
+    let Rows { start, idx: inc } = incr;
+    let Rows {
+        start: nstart,
+        idx: nb,
+    } = nbrr;
+    start.clear();
+    start.resize(nn + 1, 0);
     for tri in &m.tris {
         for &v in tri {
             start[v as usize + 1] += 1;
@@ -741,9 +871,12 @@ fn incidence(m: &FlatMesh) -> (Rows, Rows) {
     for i in 0..nn {
         start[i + 1] += start[i];
     }
-    let mut fill = start.clone();
-    let mut inc = vec![0u32; 3 * m.tris.len()];
-    let mut nb = vec![0u32; 6 * m.tris.len()];
+    fill.clear();
+    fill.extend_from_slice(start);
+    inc.clear();
+    inc.resize(3 * m.tris.len(), 0);
+    nb.clear();
+    nb.resize(6 * m.tris.len(), 0);
     for (t, tri) in m.tris.iter().enumerate() {
         for k in 0..3 {
             let v = tri[k] as usize;
@@ -755,7 +888,8 @@ fn incidence(m: &FlatMesh) -> (Rows, Rows) {
             fill[v] += 1;
         }
     }
-    let mut nstart = vec![0u32; nn + 1];
+    nstart.clear();
+    nstart.resize(nn + 1, 0);
     let mut w = 0usize;
     for i in 0..nn {
         let (s0, s1) = (2 * start[i] as usize, 2 * start[i + 1] as usize);
@@ -771,30 +905,44 @@ fn incidence(m: &FlatMesh) -> (Rows, Rows) {
         nstart[i + 1] = w as u32;
     }
     nb.truncate(w);
-    (
-        Rows { start, idx: inc },
-        Rows {
-            start: nstart,
-            idx: nb,
-        },
-    )
 }
 
 /// Laplacian smoothing of interior nodes; a move is kept only if no
 /// incident triangle inverts and the worst incident quality does not drop.
-fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
+fn smooth_pass(m: &mut FlatMesh, sweeps: usize, buf: &mut PostBuf) {
     let nn = m.nodes.len();
-    let (inc, nbr) = incidence(m);
+    let PostBuf {
+        inc,
+        nbr,
+        fill,
+        changed,
+        tried,
+        trial,
+        inc_tri,
+        qc,
+        inc_valid,
+        ..
+    } = buf;
+    if !*inc_valid {
+        incidence_into(m, inc, nbr, fill);
+        // Corners of each incident triangle in incidence order: the copy
+        // saves a dependent load per trial.
+        inc_tri.clear();
+        inc_tri.extend(inc.idx.iter().map(|&t| m.tris[t as usize]));
+        *inc_valid = true;
+    }
     // A node's move depends only on its own and its ring's positions: when
     // none of them changed since it was last tried, trying again repeats
     // the same decision, so it is skipped (same result, bit for bit).
-    let mut changed = vec![0u32; nn];
-    let mut tried = vec![0u32; nn];
+    changed.clear();
+    changed.resize(nn, 0);
+    tried.clear();
+    tried.resize(nn, 0);
     let mut clock = 0u32;
     // Incident qualities before a move are those after the last accepted
     // one: keep them per triangle instead of recomputing (a division each).
-    let mut qc: Vec<f64> = m.tris.iter().map(|t| signed_shape(t, &m.nodes)).collect();
-    let mut trial: Vec<f64> = Vec::new();
+    qc.clear();
+    qc.extend(m.tris.iter().map(|t| signed_shape(t, &m.nodes)));
     for _ in 0..sweeps {
         for i in m.n_boundary..nn {
             let ring = nbr.row(i);
@@ -816,6 +964,7 @@ fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
             let target = [c[0] / k, c[1] / k];
             let old_p = m.nodes[i];
             let tris = inc.row(i);
+            let corners = &inc_tri[inc.start[i] as usize..inc.start[i + 1] as usize];
             let before = tris
                 .iter()
                 .map(|&t| qc[t as usize])
@@ -830,13 +979,13 @@ fn smooth_pass(m: &mut FlatMesh, sweeps: usize) {
                     old_p[1] + w * (target[1] - old_p[1]),
                 ];
                 trial.clear();
-                if tris.iter().all(|&t| {
-                    let q = signed_shape(&m.tris[t as usize], &m.nodes);
+                if corners.iter().all(|t| {
+                    let q = signed_shape(t, &m.nodes);
                     trial.push(q);
                     q > 0.0 && q >= floor
                 }) {
                     accepted = true;
-                    for (&t, &q) in tris.iter().zip(&trial) {
+                    for (&t, &q) in tris.iter().zip(trial.iter()) {
                         qc[t as usize] = q;
                     }
                     break;
@@ -949,7 +1098,7 @@ mod tests {
             .map(|w| ([(w[0].0 >> 32) as u32, w[0].0 as u32], [w[0].1, w[1].1]))
             .collect();
         let mut got = Vec::new();
-        interior_edge_pairs(&m.tris, m.nodes.len(), &mut got);
+        interior_edge_pairs(&m.tris, m.nodes.len(), &mut got, &mut PairBuf::default());
         assert!(want.len() > 1000);
         assert_eq!(got, want);
         // Euler on a disc: interior edges = (3T − boundary edges) / 2.
