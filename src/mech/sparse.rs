@@ -202,9 +202,14 @@ impl Pattern {
         nodes: &[u32],
         block: &nalgebra::SMatrix<f64, N, N>,
     ) {
-        // What `slot` finds, with one neighbour search per node pair instead
-        // of one per entry (the search dominated assembly); entries are
-        // visited in the same order, so the sums are the same.
+        self.for_each_slot(dofs, nodes, |r, c, slot| vals[slot] += block[(r, c)]);
+    }
+
+    /// Visit every entry (r, c) of the block over `nodes` that lands in the
+    /// matrix, with its index in `vals`: what `slot` would find, with one
+    /// neighbour search per node pair instead of one per entry (the search
+    /// dominated assembly), in a fixed order, so the sums are the same.
+    fn for_each_slot(&self, dofs: &Dofs, nodes: &[u32], mut f: impl FnMut(usize, usize, usize)) {
         for (bi, &a) in nodes.iter().enumerate() {
             let ea = [0, 1, 2].map(|r| dofs.eq[3 * a as usize + r]);
             let mut before = [0usize; 3];
@@ -227,8 +232,11 @@ impl Pattern {
                     for c in 0..3 {
                         let col = dofs.eq[3 * b as usize + c];
                         if col != NONE {
-                            vals[self.col_ptr[col as usize] + off + before[r]] +=
-                                block[(3 * bi + r, 3 * bj + c)];
+                            f(
+                                3 * bi + r,
+                                3 * bj + c,
+                                self.col_ptr[col as usize] + off + before[r],
+                            );
                         }
                     }
                 }
@@ -251,35 +259,7 @@ impl Pattern {
         let n = 3 * K;
         let mut slots = vec![NONE; elems.len() * n * n];
         for (nodes, s) in elems.iter().zip(slots.chunks_exact_mut(n * n)) {
-            for (bi, &a) in nodes.iter().enumerate() {
-                let ea = [0, 1, 2].map(|r| dofs.eq[3 * a as usize + r]);
-                let mut before = [0usize; 3];
-                for r in 1..3 {
-                    before[r] = before[r - 1] + usize::from(ea[r - 1] != NONE);
-                }
-                for (bj, &b) in nodes.iter().enumerate() {
-                    let (lo, hi) = (
-                        self.nb_off[b as usize] as usize,
-                        self.nb_off[b as usize + 1] as usize,
-                    );
-                    let Ok(k) = self.nb[lo..hi].binary_search(&a) else {
-                        continue;
-                    };
-                    let off = self.row_off[lo + k] as usize;
-                    for r in 0..3 {
-                        if ea[r] == NONE {
-                            continue;
-                        }
-                        for c in 0..3 {
-                            let col = dofs.eq[3 * b as usize + c];
-                            if col != NONE {
-                                s[(3 * bi + r) * n + 3 * bj + c] =
-                                    (self.col_ptr[col as usize] + off + before[r]) as u32;
-                            }
-                        }
-                    }
-                }
-            }
+            self.for_each_slot(dofs, nodes, |r, c, slot| s[r * n + c] = slot as u32);
         }
         let slots: Arc<[u32]> = slots.into();
         cache.push((flat, slots.clone()));
