@@ -567,10 +567,9 @@ pub fn suture(
     let mut k = s.k0;
     // One sparsity pattern (and symbolic LU) for every round's Newton.
     let mut pattern = None;
-    // The state of the last round whose solve converged.
-    let mut kept: Option<Vec<V3>> = None;
     let mut stalled = None;
-    // The last (up to three) rounds' equilibria, oldest first.
+    // The last (up to three) converged rounds' states, oldest first; the
+    // last is what the pre-stage keeps.
     let mut states: Vec<Vec<V3>> = Vec::new();
     for round in 0..s.max_rounds {
         let left = stop.max_seconds - t0.elapsed().as_secs_f64();
@@ -592,8 +591,8 @@ pub fn suture(
             max_seconds: left,
             ..stop.clone()
         };
-        // What doubling K upset, and a start past it: the last two rounds'
-        // states extrapolated (see `predict`). The round's target stays a
+        // What doubling K upset, and a start past it: the last three
+        // rounds' states extrapolated (see `predict`). The round's target stays a
         // hundredth of the upset, so a good prediction saves Newton steps
         // and a poor one is not taken.
         let upset = round_residual(&mut sys, &x);
@@ -634,7 +633,6 @@ pub fn suture(
             ));
             break;
         }
-        kept = Some(x.clone());
         states.push(x.clone());
         if states.len() > 3 {
             states.remove(0);
@@ -657,7 +655,7 @@ pub fn suture(
         }
         k *= 2.0;
     }
-    let status = match (&kept, &stalled) {
+    let status = match (states.last(), &stalled) {
         (None, _) => Status::Failed,
         (Some(_), None) if rounds.last().is_some_and(|r| r.max_sin_phi < s.tolerance) => {
             Status::Sewn
@@ -683,7 +681,7 @@ pub fn suture(
             s.tolerance, s.max_rounds
         ),
     };
-    if let Some(k) = kept {
+    if let Some(k) = states.pop() {
         x = k;
     }
     let max_move = x
