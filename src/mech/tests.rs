@@ -292,3 +292,29 @@ fn hencky_clamped_disc_within_two_percent() {
     );
     assert!((w - w0).abs() < 0.02 * w0);
 }
+
+#[test]
+fn the_step_cap_grows_while_full_capped_steps_are_taken() {
+    // The Hencky disc's centre has to rise from the start's 0.5 mm to
+    // 1.6 mm. At a fixed 0.05 mm cap that is at least 22 steps; the cap
+    // doubles (to at most four times the first) while full capped steps
+    // are taken, and the answer is the one an unconstrained start gives.
+    let (a, h, q): (f64, f64, f64) = (10.0, 0.5, 0.001);
+    let mat = || Box::new(NeoHookean { mu: 1.0 / 3.0 });
+    let (w_free, _) = hencky(mat(), a, h, q, 0.8);
+    let (w, o) = hencky_capped(mat(), a, h, q, 0.8, 0.05);
+    assert!(o.converged, "{}", o.reason);
+    let rise = w - 0.05 * a;
+    assert!(rise > 1.0, "{rise}");
+    assert!(
+        (o.iterations as f64) < 0.75 * rise / 0.05,
+        "{} iterations for a {rise:.2} mm rise at a 0.05 mm first cap",
+        o.iterations
+    );
+    assert!(
+        (o.iterations as f64) >= rise / (super::solve::MAX_STEP_GROWTH * 0.05),
+        "the cap grew past its bound: {} iterations",
+        o.iterations
+    );
+    assert!((w - w_free).abs() < 1e-6, "{w} vs {w_free}");
+}

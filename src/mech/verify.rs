@@ -240,6 +240,18 @@ pub fn inflate_cylinder(mat: Box<dyn Membrane>, r0: f64, h: f64, nt: usize, p: f
 /// radius `a`, thickness `h`, under `q` (MPa), with the conservative
 /// pressure (the rim is fixed) and projected Newton.
 pub fn hencky(mat: Box<dyn Membrane>, a: f64, h: f64, q: f64, mesh: f64) -> (f64, Outcome) {
+    hencky_capped(mat, a, h, q, mesh, 0.2 * a)
+}
+
+/// [`hencky`] with the Newton step's first cap `max_step_mm`.
+pub fn hencky_capped(
+    mat: Box<dyn Membrane>,
+    a: f64,
+    h: f64,
+    q: f64,
+    mesh: f64,
+    max_step_mm: f64,
+) -> (f64, Outcome) {
     let (x0, tris, rim) = shapes::disc(a, mesh);
     let fixed: Vec<[bool; 3]> = rim.iter().map(|&r| [r; 3]).collect();
     let mut sys = uniform_system(
@@ -260,7 +272,7 @@ pub fn hencky(mat: Box<dyn Membrane>, a: f64, h: f64, q: f64, mesh: f64) -> (f64
     let mut opt = NewtonOptions::default();
     opt.stop.abs_n = 1e-10;
     opt.stop.rel = 1e-10;
-    opt.max_step_mm = 0.2 * a;
+    opt.max_step_mm = max_step_mm;
     let o = newton(&mut sys, &mut x, &opt);
     (x[0].z, o)
 }
