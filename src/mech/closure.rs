@@ -398,6 +398,7 @@ pub fn close_on(
         max_step_mm: MAX_STEP_MM,
         max_rejections: 12,
         ptc: false,
+        reuse_factor: false,
     };
     let suturing = match (sutured, cfg.suture.mode) {
         (Some(s), _) => Some(s.clone()),

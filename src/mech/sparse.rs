@@ -77,6 +77,9 @@ pub struct SolveStats {
     /// Solved by LU: the symmetric part was not positive definite, or
     /// GMRES did not reach its tolerance.
     pub lu_solves: usize,
+    /// Of the GMRES solves, those preconditioned with an earlier solve's
+    /// factor (no factorisation).
+    pub reused_factor: usize,
 }
 
 /// Cholesky of one pattern: symbolic analysis, factor values and work space,
@@ -371,8 +374,55 @@ impl Pattern {
     /// of the LU on these patterns, and the answer is the LU's to the
     /// tolerance, so Newton takes the same steps.
     pub fn solve_nonsymmetric(&mut self, vals: &[f64], b: &mut [f64]) -> Result<(), String> {
+        self.solve_nonsymmetric_reusing(vals, b, None)
+    }
+
+    /// [`Pattern::solve_nonsymmetric`], first trying the Cholesky factor
+    /// left from the last solve as the preconditioner, without
+    /// factorising: `reuse = Some(tol)` accepts that try when GMRES reaches
+    /// the relative residual `tol` within [`REUSED_MAX_ITERATIONS`]. For a
+    /// sequence of nearby systems solved loosely (the suturing rounds:
+    /// K doubles, so the old factor is off by a factor of two on the
+    /// sutured rows, a cluster GMRES resolves in a few products) this skips
+    /// the factorisation, the dearest part of a Newton step.
+    pub fn solve_nonsymmetric_reusing(
+        &mut self,
+        vals: &[f64],
+        b: &mut [f64],
+        reuse: Option<f64>,
+    ) -> Result<(), String> {
         if self.transpose.len() != vals.len() {
             self.transpose = self.transpose_map();
+        }
+        let Pattern {
+            llt,
+            col_ptr,
+            row_idx,
+            ..
+        } = &mut *self;
+        if let (Some(tol), Some(f)) = (reuse, llt.as_mut()) {
+            let l = cholesky::LltRef::<'_, u32, f64>::new(&f.symbolic, &f.values);
+            let (x, out) = super::gmres::gmres(
+                b,
+                |v, y| mul_into(col_ptr, row_idx, vals, v, y),
+                |v| {
+                    l.solve_in_place_with_conj(
+                        Conj::No,
+                        column(v),
+                        par(),
+                        MemStack::new(&mut f.mem),
+                    )
+                },
+                tol.max(NONSYMMETRIC_TOL),
+                REUSED_MAX_ITERATIONS,
+            );
+            self.stats.gmres_iterations += out.iterations;
+            if out.converged {
+                self.stats.gmres_solves += 1;
+                self.stats.reused_factor += 1;
+                b.copy_from_slice(&x);
+                return Ok(());
+            }
         }
         let sym: Vec<f64> = vals
             .iter()
@@ -469,6 +519,10 @@ impl Pattern {
 pub const NONSYMMETRIC_TOL: f64 = 1e-10;
 /// Past this many GMRES iterations the LU is cheaper.
 pub const NONSYMMETRIC_MAX_ITERATIONS: usize = 40;
+
+/// GMRES products allowed with a reused factor before a fresh one is made:
+/// past this, the factorisation is cheaper.
+pub const REUSED_MAX_ITERATIONS: usize = 12;
 
 fn mul_into(col_ptr: &[usize], row_idx: &[u32], vals: &[f64], x: &[f64], y: &mut [f64]) {
     y.iter_mut().for_each(|v| *v = 0.0);
@@ -637,6 +691,60 @@ mod tests {
         let ay = pat.mul(&neg, &y);
         for (a, r) in ay.iter().zip(&rhs) {
             assert!((a - r).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn an_earlier_factor_preconditions_a_nearby_system_without_a_factorisation() {
+        let (dofs, tris, mut pat) = strip(40);
+        let mut rng = crate::rng::SplitMix64::new(11);
+        let mut vals = vec![0.0; pat.nnz()];
+        for t in &tris {
+            let m = SMatrix::<f64, 9, 9>::from_fn(|_, _| rng.range(-1.0, 1.0));
+            pat.add_block(&dofs, &mut vals, t, &(m * m.transpose()));
+        }
+        pat.add_diagonal(&mut vals, &vec![0.1; dofs.n_eq]);
+        let rhs: Vec<f64> = (0..dofs.n_eq).map(|i| (0.7 * i as f64).sin()).collect();
+        let mut first = rhs.clone();
+        pat.solve_nonsymmetric(&vals, &mut first).unwrap();
+        // The next round: one node's stiffness doubled (a sutured row as K
+        // doubles) and a small skew part on the free end.
+        let mut next = vals.clone();
+        let node = [tris[5][2]; 1];
+        let block = SMatrix::<f64, 3, 3>::from_fn(|i, j| if i == j { 3.0 } else { 0.5 });
+        pat.add_block(&dofs, &mut next, &node, &block);
+        let skew = SMatrix::<f64, 9, 9>::from_fn(|i, j| (i as f64 - j as f64) * 0.02);
+        pat.add_block(&dofs, &mut next, &tris[tris.len() - 1], &skew);
+        let mut want = rhs.clone();
+        pat.solve_lu(&next, &mut want).unwrap();
+        let before = pat.stats;
+        let mut got = rhs.clone();
+        pat.solve_nonsymmetric_reusing(&next, &mut got, Some(1e-9)).unwrap();
+        assert_eq!(pat.stats.reused_factor, before.reused_factor + 1, "{:?}", pat.stats);
+        let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g - w).abs() <= 1e-7 * scale, "{g} vs {w}");
+        }
+        // A system far from the factored one (every stiffness scaled
+        // unevenly): the reused try gives up and a fresh factor answers.
+        let far: Vec<f64> = next
+            .iter()
+            .enumerate()
+            .map(|(k, v)| v * (1.0 + 50.0 * ((k % 7) as f64)))
+            .collect();
+        let far: Vec<f64> = far
+            .iter()
+            .zip(&pat.transpose)
+            .map(|(a, &t)| 0.5 * (a + far[t as usize]))
+            .collect();
+        let before = pat.stats;
+        let mut y = rhs.clone();
+        pat.solve_nonsymmetric_reusing(&far, &mut y, Some(1e-9)).unwrap();
+        assert_eq!(pat.stats.reused_factor, before.reused_factor, "{:?}", pat.stats);
+        let ay = pat.mul(&far, &y);
+        let scale = ay.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (a, r) in ay.iter().zip(&rhs) {
+            assert!((a - r).abs() < 1e-8 * scale, "{a} vs {r}");
         }
     }
 }

@@ -429,6 +429,7 @@ fn solve_round(
             x,
             &NewtonOptions {
                 stop: stop.clone(),
+                reuse_factor: true,
                 ..nopt.clone()
             },
             pattern,
@@ -864,6 +865,7 @@ mod tests {
             max_step_mm: 0.5,
             max_rejections: 12,
             ptc: false,
+            reuse_factor: false,
         };
         let wall = Wall::Cylinder(axis);
         let out = suture(&l, &s, &axis, &wall, &stop, &nopt).unwrap();

@@ -335,6 +335,7 @@ fn a_pressed_sheet_settles_at_the_closed_form_gap() {
             max_step_mm: 0.5,
             max_rejections: 12,
             ptc: false,
+            reuse_factor: false,
         },
     );
     assert!(o.converged, "{}", o.reason);

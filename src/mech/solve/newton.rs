@@ -28,6 +28,11 @@ pub struct NewtonOptions {
     /// take the step unless it triples the residual, and let the shift s
     /// (1/Δt) follow the residual ratio (switched evolution relaxation).
     pub ptc: bool,
+    /// Non-symmetric steps try the previous step's factor first, solved
+    /// inexactly (a tenth of the reduction the step must make, Eisenstat–
+    /// Walker style): for a sequence of nearby, loosely solved systems
+    /// (the suturing rounds).
+    pub reuse_factor: bool,
 }
 
 /// How far the step cap may grow over [`NewtonOptions::max_step_mm`]. A
@@ -42,6 +47,7 @@ impl Default for NewtonOptions {
             max_step_mm: 1.0,
             max_rejections: 12,
             ptc: false,
+            reuse_factor: false,
         }
     }
 }
@@ -168,7 +174,10 @@ pub fn newton_reusing(
             let ok = if symmetric {
                 pat.solve_llt(&v, &mut b)
             } else {
-                pat.solve_nonsymmetric(&v, &mut b)
+                let goal = opt.stop.abs_n.max(opt.stop.rel * out.initial_residual_n);
+                let reuse = (opt.reuse_factor && shift == 0.0)
+                    .then(|| (0.1 * goal / rn).clamp(1e-10, 1e-2));
+                pat.solve_nonsymmetric_reusing(&v, &mut b, reuse)
             };
             if ok.is_ok() && b.iter().all(|z| z.is_finite()) {
                 d = Some(b);
@@ -180,6 +189,8 @@ pub fn newton_reusing(
             "cholesky"
         } else if pat.stats.lu_solves > before.lu_solves {
             "lu"
+        } else if pat.stats.reused_factor > before.reused_factor {
+            "gmres, earlier factor"
         } else {
             "gmres"
         };
