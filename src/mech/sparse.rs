@@ -719,8 +719,14 @@ mod tests {
         pat.solve_lu(&next, &mut want).unwrap();
         let before = pat.stats;
         let mut got = rhs.clone();
-        pat.solve_nonsymmetric_reusing(&next, &mut got, Some(1e-9)).unwrap();
-        assert_eq!(pat.stats.reused_factor, before.reused_factor + 1, "{:?}", pat.stats);
+        pat.solve_nonsymmetric_reusing(&next, &mut got, Some(1e-9))
+            .unwrap();
+        assert_eq!(
+            pat.stats.reused_factor,
+            before.reused_factor + 1,
+            "{:?}",
+            pat.stats
+        );
         let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for (g, w) in got.iter().zip(&want) {
             assert!((g - w).abs() <= 1e-7 * scale, "{g} vs {w}");
@@ -739,8 +745,13 @@ mod tests {
             .collect();
         let before = pat.stats;
         let mut y = rhs.clone();
-        pat.solve_nonsymmetric_reusing(&far, &mut y, Some(1e-9)).unwrap();
-        assert_eq!(pat.stats.reused_factor, before.reused_factor, "{:?}", pat.stats);
+        pat.solve_nonsymmetric_reusing(&far, &mut y, Some(1e-9))
+            .unwrap();
+        assert_eq!(
+            pat.stats.reused_factor, before.reused_factor,
+            "{:?}",
+            pat.stats
+        );
         let ay = pat.mul(&far, &y);
         let scale = ay.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for (a, r) in ay.iter().zip(&rhs) {

@@ -96,22 +96,16 @@ impl System {
         self.tris[t].map(|i| x[i as usize])
     }
 
-    fn eval_elements(
-        &self,
-        x: &[V3],
-        hess: bool,
-    ) -> Result<Vec<(f64, Grad9, Option<Hess9>)>, Inadmissible> {
-        let out: Vec<Option<(f64, Grad9, Option<Hess9>)>> = (0..self.tris.len())
+    /// Each element's energy and gradient. Kept apart from the Hessians so
+    /// a residual does not move 650 bytes of empty Hessian per triangle.
+    fn eval_grads(&self, x: &[V3]) -> Result<Vec<(f64, Grad9)>, Inadmissible> {
+        let out: Vec<Option<(f64, Grad9)>> = (0..self.tris.len())
             .into_par_iter()
             .with_min_len(256)
             .map(|t| {
                 let m = &self.materials[self.tri_material[t] as usize];
-                let q = self.tri_q(x, t);
-                let e = m.eval(&self.refs[t], &q, hess)?;
-                let h = e
-                    .hess
-                    .map(|h| if self.project { project_psd(&h) } else { h });
-                Some((e.energy, e.grad, h))
+                let e = m.eval(&self.refs[t], &self.tri_q(x, t), false)?;
+                Some((e.energy, e.grad))
             })
             .collect();
         let mut v = Vec::with_capacity(out.len());
@@ -121,9 +115,27 @@ impl System {
         Ok(v)
     }
 
+    /// Each element's Hessian (projected when `self.project`); every entry
+    /// is `Some` when the result is `Ok`.
+    fn eval_hessians(&self, x: &[V3]) -> Result<Vec<Option<Hess9>>, Inadmissible> {
+        let out: Vec<Option<Hess9>> = (0..self.tris.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .map(|t| {
+                let m = &self.materials[self.tri_material[t] as usize];
+                let h = m.eval(&self.refs[t], &self.tri_q(x, t), true)?.hess?;
+                Some(if self.project { project_psd(&h) } else { h })
+            })
+            .collect();
+        match out.iter().position(Option::is_none) {
+            Some(t) => Err(Inadmissible { triangle: t }),
+            None => Ok(out),
+        }
+    }
+
     /// Total potential, or `Ok(None)` when some load has no potential.
     pub fn energy(&self, x: &[V3]) -> Result<Option<f64>, Inadmissible> {
-        let el = self.eval_elements(x, false)?;
+        let el = self.eval_grads(x)?;
         let mut e: f64 = el.iter().map(|v| v.0).sum();
         match self.pressure_mode {
             PressureMode::Follower => {
@@ -150,9 +162,9 @@ impl System {
 
     /// Nodal force (N), zero on prescribed coordinates.
     pub fn residual(&self, x: &[V3]) -> Result<Vec<V3>, Inadmissible> {
-        let el = self.eval_elements(x, false)?;
+        let el = self.eval_grads(x)?;
         let mut f = vec![V3::zeros(); x.len()];
-        for (t, (_, g, _)) in el.iter().enumerate() {
+        for (t, (_, g)) in el.iter().enumerate() {
             for k in 0..3 {
                 f[self.tris[t][k] as usize] -= g.fixed_rows::<3>(3 * k).into_owned();
             }
@@ -223,9 +235,9 @@ impl System {
     /// Fill `vals` with the tangent K = −∂f/∂x at `x`.
     pub fn tangent(&self, x: &[V3], pat: &Pattern, vals: &mut [f64]) -> Result<(), Inadmissible> {
         vals.iter_mut().for_each(|v| *v = 0.0);
-        let el = self.eval_elements(x, true)?;
+        let el = self.eval_hessians(x)?;
         let slots = pat.element_slots(&self.dofs, &self.tris);
-        for (t, (_, _, h)) in el.iter().enumerate() {
+        for (t, h) in el.iter().enumerate() {
             Pattern::add_block_at(
                 vals,
                 &slots[81 * t..81 * (t + 1)],
