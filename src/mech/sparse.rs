@@ -55,6 +55,9 @@ pub struct Pattern {
     row_idx: Vec<u32>,
     /// The couplings it was built from (to detect a change).
     pub key: Vec<[u32; 2]>,
+    /// The coupling list, as a system last listed it, that gave `key`:
+    /// an identical list needs no sort to be recognised.
+    pub listed: Vec<[u32; 2]>,
     llt: Option<LltFactor>,
     lu: Option<LuFactor>,
     sym: SymbolicSparseColMat<u32>,
@@ -183,6 +186,7 @@ impl Pattern {
             col_ptr,
             row_idx,
             key,
+            listed: pairs.to_vec(),
             llt: None,
             lu: None,
             sym,

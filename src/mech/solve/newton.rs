@@ -127,9 +127,11 @@ pub fn newton_reusing(
         let pairs = sys.couplings();
         // Terms list their couplings in a fixed order, so an unchanged list
         // (fixed planes, bending, settled contact) needs no sorted compare.
-        let rebuild = match &*pattern {
+        let rebuild = match &mut *pattern {
             None => true,
             Some(_) if pairs == last_pairs => false,
+            // A new solve on the same system (the next suturing round).
+            Some(p) if pairs == p.listed => false,
             Some(p) => {
                 let mut k: Vec<[u32; 2]> = pairs
                     .iter()
@@ -138,7 +140,11 @@ pub fn newton_reusing(
                 k.extend((0..sys.n_nodes() as u32).map(|i| [i, i]));
                 k.sort_unstable();
                 k.dedup();
-                k != p.key
+                let changed = k != p.key;
+                if !changed {
+                    p.listed = pairs.clone();
+                }
+                changed
             }
         };
         if rebuild {
