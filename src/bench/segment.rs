@@ -125,6 +125,16 @@ fn cases(set: &str) -> Result<Vec<Case>> {
         case("sample seed 2", s, |p| p.seed = 2),
         case("sample seed 3", s, |p| p.seed = 3),
     ];
+    if set == "hard" {
+        // The rows the last complete factorial failed or nearly failed
+        // without landmarks, to iterate on the measured VAJ.
+        return Ok(vec![
+            factor_case(s, 35.0, 10.0, Some([0.44, 0.44, 0.6]), false, true),
+            factor_case(s, 35.0, 10.0, Some([0.4, 0.4, 1.0]), false, true),
+            factor_case(s, 0.0, 80.0, None, false, true),
+            factor_case(s, 0.0, 80.0, None, true, false),
+        ]);
+    }
     match set {
         "quick" => {}
         "grid" => {
@@ -142,7 +152,7 @@ fn cases(set: &str) -> Result<Vec<Case>> {
         }
         other => {
             return Err(Error::usage(format!(
-                "--cases {other}: expected quick, grid or factorial"
+                "--cases {other}: expected quick, grid, factorial or hard"
             )));
         }
     }

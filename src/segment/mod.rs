@@ -351,8 +351,8 @@ pub fn segment(
         let points: Vec<Point3> = (0..n).filter(|&v| opened[v]).map(world).collect();
         let (pl, prof) = vaj::measure(points, roi_vol.voxel_volume(), start, dir, r0, rsp);
         vaj_report.method = match pl {
-            Some(_) => "narrowest section below the sinuses (area profile perpendicular to the marched centreline)".into(),
-            None => "none: no LVOT plateau below a sinus rise was seen, the region is kept as the IDT stopped it".into(),
+            Some(_) => "where the sinus descent flattens into the LVOT, or the end of the region below it (area profile perpendicular to the marched centreline)".into(),
+            None => "none: no sinus descent was seen along the marched centreline, the region is kept as the IDT stopped it".into(),
         };
         vaj_report.profile = prof;
         pl

@@ -255,20 +255,33 @@ fn opening_removes_a_thin_branch_and_keeps_the_trunk() {
     );
 }
 
-/// Landmark-free VAJ on tilted sample phantoms: the cut plane lies within
-/// 2 mm of all three truth nadirs (which span the annulus plane, ~12 mm off
-/// the axis, so this bounds its tilt too) and is within 4° of the truth
-/// valve axis. Measured: 0.6–1.5 mm (the plane sits ~1 mm above the
-/// annulus: the 5 % band over a sinus rise that starts with zero slope),
-/// 0.6–2.5°. The 1- and 2-thread masks are the same bytes.
+/// Landmark-free VAJ on sample phantoms: the cut plane lies within 2 mm of
+/// all three truth nadirs (which span the annulus plane, ~12 mm off the
+/// axis, so this bounds its tilt too) and is within 4° of the truth valve
+/// axis. The last two are rows the factorial failed before the VAJ was read
+/// from the sinus side: the least section lay in the region's slanted end
+/// (plane 6.7 mm below the annulus, Dice 0.969), and a region that stopped
+/// at the annulus got no plane at all (29 voxels in the LV). That noise-80
+/// row is degradation: its plane (at the region's end, where the march's
+/// axis is least sure) is allowed 2.5 mm and 6° (measured 2.03 mm, 5.6°).
+/// No row puts a mask voxel inside the LV, PA, LA, DA or spine. The 1- and
+/// 2-thread masks are the same bytes.
 #[test]
 fn landmark_free_vaj_lies_on_the_truth_annulus_plane_of_a_tilted_root() {
     use crate::geom::{Point3, Vector3};
     use crate::phantom::{PhantomParams, Preset, generate};
-    for (tilt, noise) in [(60.0f64, 50.0), (35.0, 25.0)] {
+    for (tilt, noise, spacing, calcium, coronaries) in [
+        (60.0f64, 50.0, None, false, true),
+        (35.0, 25.0, None, false, true),
+        (35.0, 10.0, Some([0.44, 0.44, 0.6]), false, true),
+        (0.0, 80.0, None, true, false),
+    ] {
         let mut p = PhantomParams::new(Preset::Sample, 1);
         p.tilt_rad = tilt.to_radians();
         p.noise_hu = noise;
+        p.spacing_mm = spacing;
+        p.calcium = calcium;
+        p.coronaries = coronaries;
         let ph = generate(&p, &|_| {}).unwrap();
         let run = |threads: usize| {
             rayon::ThreadPoolBuilder::new()
@@ -279,19 +292,40 @@ fn landmark_free_vaj_lies_on_the_truth_annulus_plane_of_a_tilted_root() {
         };
         let seg = run(2);
         let plane = seg.report.vaj.plane.expect("a VAJ plane without landmarks");
+        let (h_tol, angle_tol) = if noise > 50.0 { (2.5, 6.0) } else { (2.0, 4.0) };
         for n in &ph.truth.nadirs_mm {
             let h = plane.height(&Point3::from(*n));
             assert!(
-                h.abs() < 2.0,
+                h.abs() < h_tol,
                 "tilt {tilt}: nadir {h:.2} mm off the cut plane"
             );
         }
         let axis = ph.truth.valve_frame.axis;
         let angle = Vector3::from(plane.normal).dot(&axis).acos().to_degrees();
         assert!(
-            angle < 4.0,
+            angle < angle_tol,
             "tilt {tilt}: cut plane {angle:.1}° off the annulus"
         );
+        let st = crate::phantom::structures::Structures::new(&p).unwrap();
+        let m = &seg.mask;
+        let [ni, nj, nk] = m.dims();
+        for k in 0..nk {
+            for j in 0..nj {
+                for i in 0..ni {
+                    if m.as_slice()[m.linear_index(i, j, k)] == 0 {
+                        continue;
+                    }
+                    let q = m.index_to_world([i as f64, j as f64, k as f64]);
+                    for s in crate::phantom::structures::Structure::ALL {
+                        assert!(
+                            !st.contains(s, &q),
+                            "tilt {tilt} noise {noise}: mask voxel inside the {}",
+                            s.name()
+                        );
+                    }
+                }
+            }
+        }
         assert_eq!(
             seg.mask.as_slice(),
             run(1).mask.as_slice(),
@@ -393,4 +427,70 @@ fn radius_tests_answer_as_hypot_does() {
         }
     }
     assert!(within(3.0, 4.0, 5.0) && !in_ring(3.0, 4.0, 0.0, 5.0) && in_ring(3.0, 4.0, 5.0, 6.0));
+}
+
+/// Voxel centres (0.5 mm grid) of a straight lumen along z: LVOT of radius
+/// 11.6 mm below the annulus at z = 0, a sinus bulge that leaves it with
+/// zero slope and peaks 2.5 mm wider at z = 10, STJ and aorta of 12.5 mm
+/// from z = 20 up to z = 60. `keep` cuts the region's lower end.
+fn root_tube(keep: impl Fn(f64, f64, f64) -> bool) -> Vec<crate::geom::Point3> {
+    let radius = |z: f64| {
+        let (r0, r_stj) = (11.6, 12.5);
+        if z <= 0.0 {
+            r0
+        } else if z >= 20.0 {
+            r_stj
+        } else {
+            let s = (std::f64::consts::PI * z / 20.0).sin();
+            r0 + (r_stj - r0) * (1.0 - (std::f64::consts::PI * z / 20.0).cos()) / 2.0 + 2.5 * s * s
+        }
+    };
+    let mut pts = Vec::new();
+    for k in -60..120 {
+        let z = k as f64 * 0.5 + 0.25;
+        let r = radius(z);
+        for j in -32..32 {
+            for i in -32..32 {
+                let (x, y) = (i as f64 * 0.5 + 0.25, j as f64 * 0.5 + 0.25);
+                if x * x + y * y <= r * r && keep(x, y, z) {
+                    pts.push(crate::geom::Point3::new(x, y, z));
+                }
+            }
+        }
+    }
+    pts
+}
+
+fn vaj_height(pts: Vec<crate::geom::Point3>) -> f64 {
+    use crate::geom::{Point3, Vector3};
+    let (plane, _) = super::vaj::measure(
+        pts,
+        0.125,
+        Point3::new(0.0, 0.0, 55.0),
+        -Vector3::z(),
+        12.5,
+        [0.5; 3],
+    );
+    let plane = plane.expect("a VAJ plane");
+    assert!(plane.normal[2] > 0.99, "plane normal {:?}", plane.normal);
+    plane.point_mm[2]
+}
+
+/// The IDT cut the LVOT slanted (35°) from just below the annulus: the
+/// sections taper over 16 mm, and the least one (what the VAJ used to be
+/// read from) lies far down that taper. The knee of the sinus' descent is
+/// the annulus.
+#[test]
+fn a_slanted_end_cut_does_not_pull_the_vaj_down_the_taper() {
+    let tan = 35f64.to_radians().tan();
+    let z = vaj_height(root_tube(|x, _, z| z >= -2.0 - (11.6 - x) * tan));
+    assert!((-1.0..=1.5).contains(&z), "VAJ at z = {z:.2} mm");
+}
+
+/// A region that stops at the annulus has no LVOT to find: it is still cut,
+/// at the end of the sinus' descent, never left whole.
+#[test]
+fn a_region_truncated_at_the_annulus_is_still_cut() {
+    let z = vaj_height(root_tube(|_, _, z| z >= 0.3));
+    assert!((0.0..=2.5).contains(&z), "VAJ at z = {z:.2} mm");
 }
