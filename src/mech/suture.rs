@@ -38,7 +38,7 @@ use super::contact::planes::Plane;
 use super::element::{RefTri, V3};
 use super::material::NeoHookean;
 use super::solve::{self, NewtonOptions, Outcome, Stop};
-use super::sparse::{Dofs, Pattern};
+use super::sparse::{Dofs, Pattern, SolveStats};
 use super::system::{PressureMode, System, Term, norm};
 use super::terms::PlaneContact;
 use crate::geom::bvh::Bvh;
@@ -402,6 +402,10 @@ pub struct Sutured {
     pub seconds: f64,
     /// Largest move of a node from the placed template (mm).
     pub max_move_mm: f64,
+    /// How the warm-started rounds' Newton steps were solved (GMRES with a
+    /// fresh or an earlier factor, LU); the first round's continuation is
+    /// not counted.
+    pub warm_linear_solves: SolveStats,
 }
 
 fn force_of(tris: &[SuturedTri], k: f64) -> SutureForce {
@@ -700,6 +704,7 @@ pub fn suture(
         rounds,
         seconds: t0.elapsed().as_secs_f64(),
         max_move_mm: max_move,
+        warm_linear_solves: pattern.as_ref().map(|p| p.stats).unwrap_or_default(),
         x,
     })
 }
