@@ -18,6 +18,10 @@ use super::terms::PlaneContact;
 /// Largest nodal move of one Newton step (mm).
 const MAX_STEP_MM: f64 = 0.5;
 
+/// Steps the exact-tangent phase may take before continuation takes over
+/// again (it needs 2 on the peer case and the sample).
+const EXACT_NEWTON_ITERATIONS: usize = 30;
+
 /// Leaflets as the mechanics sees them (all in mm, LPS).
 #[derive(Debug, Clone)]
 pub struct Leaflets {
@@ -317,7 +321,13 @@ pub(super) fn newton_with_continuation(
         sys.pressure_tangent = true;
         let mut exact = nopt.clone();
         exact.stop.rel = target(&merged);
-        exact.stop.max_iterations = stop.max_iterations.saturating_sub(merged.iterations).max(1);
+        // Newton from a 100-fold drop is quadratic within a few steps when
+        // it is in its basin; one that wanders for dozens of steps (a pure
+        // membrane's nearly singular tangent) goes back to continuation.
+        exact.stop.max_iterations = stop
+            .max_iterations
+            .saturating_sub(merged.iterations)
+            .clamp(1, EXACT_NEWTON_ITERATIONS);
         exact.stop.max_seconds = seconds_left().max(0.0);
         let p2 = solve::newton(sys, x, &exact);
         notes.push(format!("Newton: {}", p2.reason));
