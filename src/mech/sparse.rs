@@ -398,33 +398,9 @@ impl Pattern {
         if self.transpose.len() != vals.len() {
             self.transpose = self.transpose_map();
         }
-        let Pattern {
-            llt,
-            col_ptr,
-            row_idx,
-            ..
-        } = &mut *self;
-        if let (Some(tol), Some(f)) = (reuse, llt.as_mut()) {
-            let l = cholesky::LltRef::<'_, u32, f64>::new(&f.symbolic, &f.values);
-            let (x, out) = super::gmres::gmres(
-                b,
-                |v, y| mul_into(col_ptr, row_idx, vals, v, y),
-                |v| {
-                    l.solve_in_place_with_conj(
-                        Conj::No,
-                        column(v),
-                        par(),
-                        MemStack::new(&mut f.mem),
-                    )
-                },
-                tol.max(NONSYMMETRIC_TOL),
-                REUSED_MAX_ITERATIONS,
-            );
-            self.stats.gmres_iterations += out.iterations;
-            if out.converged {
-                self.stats.gmres_solves += 1;
+        if let Some(tol) = reuse {
+            if self.gmres_with_factor(vals, b, tol.max(NONSYMMETRIC_TOL), REUSED_MAX_ITERATIONS) {
                 self.stats.reused_factor += 1;
-                b.copy_from_slice(&x);
                 return Ok(());
             }
         }
@@ -433,38 +409,43 @@ impl Pattern {
             .zip(&self.transpose)
             .map(|(v, &t)| 0.5 * (v + vals[t as usize]))
             .collect();
-        if self.factor_llt(&sym).is_ok() {
-            let Pattern {
-                llt,
-                col_ptr,
-                row_idx,
-                ..
-            } = &mut *self;
-            let f = llt.as_mut().expect("factored");
-            let l = cholesky::LltRef::<'_, u32, f64>::new(&f.symbolic, &f.values);
-            let (x, out) = super::gmres::gmres(
-                b,
-                |v, y| mul_into(col_ptr, row_idx, vals, v, y),
-                |v| {
-                    l.solve_in_place_with_conj(
-                        Conj::No,
-                        column(v),
-                        par(),
-                        MemStack::new(&mut f.mem),
-                    )
-                },
-                NONSYMMETRIC_TOL,
-                NONSYMMETRIC_MAX_ITERATIONS,
-            );
-            self.stats.gmres_iterations += out.iterations;
-            if out.converged {
-                self.stats.gmres_solves += 1;
-                b.copy_from_slice(&x);
-                return Ok(());
-            }
+        if self.factor_llt(&sym).is_ok()
+            && self.gmres_with_factor(vals, b, NONSYMMETRIC_TOL, NONSYMMETRIC_MAX_ITERATIONS)
+        {
+            return Ok(());
         }
         self.stats.lu_solves += 1;
         self.solve_lu(vals, b)
+    }
+
+    /// GMRES on A = `vals` preconditioned with the Cholesky factor held in
+    /// `self.llt`; on convergence `b` becomes the solution and the solve is
+    /// counted. False (and `b` untouched) without a factor or convergence.
+    fn gmres_with_factor(&mut self, vals: &[f64], b: &mut [f64], tol: f64, max: usize) -> bool {
+        let Pattern {
+            llt,
+            col_ptr,
+            row_idx,
+            stats,
+            ..
+        } = &mut *self;
+        let Some(f) = llt.as_mut() else {
+            return false;
+        };
+        let l = cholesky::LltRef::<'_, u32, f64>::new(&f.symbolic, &f.values);
+        let (x, out) = super::gmres::gmres(
+            b,
+            |v, y| mul_into(col_ptr, row_idx, vals, v, y),
+            |v| l.solve_in_place_with_conj(Conj::No, column(v), par(), MemStack::new(&mut f.mem)),
+            tol,
+            max,
+        );
+        stats.gmres_iterations += out.iterations;
+        if out.converged {
+            stats.gmres_solves += 1;
+            b.copy_from_slice(&x);
+        }
+        out.converged
     }
 
     fn transpose_map(&self) -> Vec<u32> {
