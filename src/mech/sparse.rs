@@ -618,6 +618,20 @@ mod tests {
         (dofs, tris, pat)
     }
 
+    /// [`strip`] with a random symmetric positive definite matrix on it:
+    /// a random PSD 9×9 block per triangle plus 0.1 on the diagonal.
+    fn spd_strip(n: u32, seed: u64) -> (Dofs, Vec<[u32; 3]>, Pattern, Vec<f64>) {
+        let (dofs, tris, pat) = strip(n);
+        let mut rng = crate::rng::SplitMix64::new(seed);
+        let mut vals = vec![0.0; pat.nnz()];
+        for t in &tris {
+            let m = SMatrix::<f64, 9, 9>::from_fn(|_, _| rng.range(-1.0, 1.0));
+            pat.add_block(&dofs, &mut vals, t, &(m * m.transpose()));
+        }
+        pat.add_diagonal(&mut vals, &vec![0.1; dofs.n_eq]);
+        (dofs, tris, pat, vals)
+    }
+
     #[test]
     fn slot_tables_assemble_exactly_what_add_block_does() {
         let (dofs, tris, pat) = strip(7);
@@ -644,15 +658,7 @@ mod tests {
 
     #[test]
     fn nearly_symmetric_systems_are_solved_by_gmres_to_the_lu_answer() {
-        let (dofs, tris, mut pat) = strip(40);
-        let mut rng = crate::rng::SplitMix64::new(9);
-        let mut vals = vec![0.0; pat.nnz()];
-        for t in &tris {
-            let m = SMatrix::<f64, 9, 9>::from_fn(|_, _| rng.range(-1.0, 1.0));
-            pat.add_block(&dofs, &mut vals, t, &(m * m.transpose()));
-        }
-        let diag = vec![0.1; dofs.n_eq];
-        pat.add_diagonal(&mut vals, &diag);
+        let (dofs, tris, mut pat, mut vals) = spd_strip(40, 9);
         // A skew part on the last triangle only, as the follower pressure
         // leaves on a free edge.
         let skew = SMatrix::<f64, 9, 9>::from_fn(|i, j| (i as f64 - j as f64) * 0.05);
@@ -681,14 +687,7 @@ mod tests {
 
     #[test]
     fn an_earlier_factor_preconditions_a_nearby_system_without_a_factorisation() {
-        let (dofs, tris, mut pat) = strip(40);
-        let mut rng = crate::rng::SplitMix64::new(11);
-        let mut vals = vec![0.0; pat.nnz()];
-        for t in &tris {
-            let m = SMatrix::<f64, 9, 9>::from_fn(|_, _| rng.range(-1.0, 1.0));
-            pat.add_block(&dofs, &mut vals, t, &(m * m.transpose()));
-        }
-        pat.add_diagonal(&mut vals, &vec![0.1; dofs.n_eq]);
+        let (dofs, tris, mut pat, vals) = spd_strip(40, 11);
         let rhs: Vec<f64> = (0..dofs.n_eq).map(|i| (0.7 * i as f64).sin()).collect();
         let mut first = rhs.clone();
         pat.solve_nonsymmetric(&vals, &mut first).unwrap();
