@@ -27,7 +27,7 @@
 //! shell, default false).
 //!
 //! The suturing pre-stage (seed 001 Algorithm 1, [`super::suture`]) has its
-//! own table; every key is optional, the defaults are the seed's:
+//! own table; every key is optional, the defaults are the seed's except k0:
 //!
 //! ```toml
 //! [suture]
@@ -35,7 +35,7 @@
 //! mu = "900 kPa"         # auxiliary neo-Hookean shell
 //! thickness = "0.8 mm"
 //! pressure = "90 mmHg"
-//! k0 = "1 N/mm"          # first suturing force parameter K, doubled each round
+//! k0 = "64 N/mm"         # first suturing force parameter K, doubled each round (the seed: 1; see suture::Settings::k0)
 //! tolerance = 0.01       # ε_sew: stop when max sin φ_T < tolerance
 //! max_rounds = 40
 //! ```

@@ -368,7 +368,10 @@ fn placed_leaflets_are_sutured_first_unless_they_say_they_are() {
     let rounds = su["rounds"].as_array().unwrap();
     assert!(rounds.len() > 3);
     for (i, r) in rounds.iter().enumerate() {
-        assert_eq!(r["k_n_per_mm"].as_f64().unwrap(), 2f64.powi(i as i32));
+        assert_eq!(
+            r["k_n_per_mm"].as_f64().unwrap(),
+            64.0 * 2f64.powi(i as i32)
+        );
     }
     assert_eq!(log["config"]["reference"], "sutured");
     let placed = vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
