@@ -32,7 +32,9 @@
 //! √((E_f,s² + E_cf,s²)/2) (the φ-average of E_s²).
 //!
 //! Newton and this element (measured on the sample, suturing on, planes):
-//! the closure converges at h 3 mm only. Not because of the breakpoints —
+//! the closure converges at h 3 and 2 mm (32 and 43 iterations with the
+//! solver of 2026-11-22; earlier 48 and 300), not at 1 or 0.5 mm in 300
+//! iterations. Not because of the breakpoints —
 //! the linear law fails the same way, and smoothing each jump of E_t over
 //! ±0.25 % strain left the iteration counts unchanged (h 2 mm without
 //! bending 147 → 148, h 1 mm 188 → 171) — but because three springs give
@@ -44,6 +46,26 @@
 //! 0.5 mm does not in 300. Clamping the compressed springs' transverse
 //! term, |λ| instead of max(λ, 0) in the projection, a minimum area ratio
 //! and a growing continuation shift did not fix it either.
+//!
+//! What the folds are (sample, h 1 mm, bending on, closure only): the
+//! folded hinges are squashed triangles, not a sheet folding on itself —
+//! at |Δθ| > 2.8 rad the lower of the two wing heights is a median 0.18
+//! of the hinge edge (0.002 at worst; 0.87 for an equilateral wing), with
+//! edges stretched up to 2.3 mm. Seed 000's springs let a triangle pass
+//! through zero area for the few per cent of strain that takes (and a
+//! compressed spring's transverse stiffness is negative), so collapse is a
+//! cheap, even downhill, path; neo-Hookean's J → 0 barrier is not. The
+//! first fold comes in continuation step 5 (shift 3.9e-3, full step,
+//! residual 0.80 → 1.48 N, max |Δθ| 0.80 → 3.03 rad); with neo-Hookean the
+//! same schedule's residual also rises (0.39 → 1.65 N) but |Δθ| stays
+//! ≤ 1.19 rad and the closure converges in 12 + 3 iterations. Not fixed by
+//! (each tried, measured, not kept): W = k (2 tan(Δθ/2))², which cannot
+//! wrap (the fold is then stopped but the residual doubles per accepted
+//! step, 0.9 → 920 N in 13 steps, 2.75 N after 300); capping each step's
+//! first-order hinge turn at 0.5 rad (still folds, 0.91 N after 300);
+//! holding the continuation shift while the residual rises (folds at
+//! shift 0.25, 0.036 N after 300). The seeds' MSM has no area or angle
+//! term, so none is added here.
 
 use super::invariants::{COLLAPSE_RATIO, finite_eval};
 use crate::mech::element::{Eval, Grad9, Hess9, Membrane, RefTri, V3};
