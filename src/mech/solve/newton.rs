@@ -180,10 +180,13 @@ pub fn newton_reusing(
             let ok = if symmetric {
                 pat.solve_llt(&v, &mut b)
             } else {
+                // Inexact Newton: the step's linear residual need only be a
+                // tenth of what must remain after it (the residual then falls
+                // as an exact step's would), never looser than 1 %.
                 let goal = opt.stop.abs_n.max(opt.stop.rel * out.initial_residual_n);
-                let reuse = (opt.reuse_factor && shift == 0.0)
-                    .then(|| (0.1 * goal / rn).clamp(1e-10, 1e-2));
-                pat.solve_nonsymmetric_reusing(&v, &mut b, reuse)
+                let forcing = (0.1 * goal / rn).min(1e-2);
+                let reuse = opt.reuse_factor && shift == 0.0;
+                pat.solve_nonsymmetric_reusing(&v, &mut b, forcing, reuse)
             };
             if ok.is_ok() && b.iter().all(|z| z.is_finite()) {
                 d = Some(b);
