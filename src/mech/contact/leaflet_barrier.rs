@@ -448,7 +448,10 @@ impl Term for LeafletBarrier {
             })
             // min is exact whatever the order: thread-independent.
             .reduce(|| 1.0, f64::min)
-            .min(self.edges.max_step(x, dx, &self.bvh, KEEP, CCD_ITER))
+            .min(
+                self.edges
+                    .max_step(x, dx, &self.bvh, &self.params, self.reach, KEEP, CCD_ITER),
+            )
     }
 
     fn admissible(&self, x: &[V3]) -> bool {
