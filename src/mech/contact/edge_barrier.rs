@@ -5,10 +5,9 @@
 //!
 //! Node–triangle pairs see a node coming at a face, never an edge of one
 //! leaflet coming across an edge of another: two edges can cross with all
-//! four nodes far from the other leaflet's faces. On the sample, once the
-//! sutured leaflets met, the pressure drove such an edge through a fan of
-//! the neighbour's triangles; nothing pushed back and every step was
-//! refused by the crossing test, so the closure stalled.
+//! four nodes far from the other leaflet's faces (the test
+//! `an_edge_pushed_onto_an_edge_is_held_by_the_edge_pair`). Without the
+//! pair nothing pushes back there; only the crossing test refuses the step.
 //!
 //! # Energy
 //!
