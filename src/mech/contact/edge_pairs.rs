@@ -37,6 +37,7 @@ use rayon::prelude::*;
 
 use super::barrier::{BarrierParams, Hess12};
 use super::edge_barrier::{self, mollifier_eps};
+use super::leaflet_barrier::{CCD_ITER, KEEP};
 use crate::geom::bvh::{Aabb, Bvh};
 use crate::mech::element::V3;
 use crate::mech::sparse::{Dofs, Pattern};
@@ -369,9 +370,8 @@ impl EdgePairs {
         bvh: &Bvh,
         params: &BarrierParams,
         reach: f64,
-        keep: f64,
-        ccd_iter: usize,
     ) -> f64 {
+        let (keep, ccd_iter) = (KEEP, CCD_ITER);
         let dmax = dx.iter().map(|v| v.norm()).fold(0.0, f64::max);
         if dmax == 0.0 {
             return 1.0;

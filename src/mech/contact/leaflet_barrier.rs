@@ -52,9 +52,9 @@ use crate::mech::sparse::{Dofs, Pattern};
 use crate::mech::system::Term;
 
 /// Fraction of its gap a pair keeps over one step (additive CCD's s).
-const KEEP: f64 = 0.1;
+pub(super) const KEEP: f64 = 0.1;
 /// Work bound of one pair's CCD.
-const CCD_ITER: usize = 60;
+pub(super) const CCD_ITER: usize = 60;
 
 #[derive(Debug, Clone, Copy)]
 struct Group {
@@ -451,7 +451,7 @@ impl Term for LeafletBarrier {
             .reduce(|| 1.0, f64::min)
             .min(
                 self.edges
-                    .max_step(x, dx, &self.bvh, &self.params, self.reach, KEEP, CCD_ITER),
+                    .max_step(x, dx, &self.bvh, &self.params, self.reach),
             )
     }
 
