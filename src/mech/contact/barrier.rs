@@ -103,15 +103,15 @@ pub fn barrier(s: f64, dhat: f64) -> (f64, f64, f64) {
     )
 }
 
-fn sub<T: Num>(a: [T; 3], b: [T; 3]) -> [T; 3] {
+pub(super) fn sub<T: Num>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-fn dot<T: Num>(a: [T; 3], b: [T; 3]) -> T {
+pub(super) fn dot<T: Num>(a: [T; 3], b: [T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-fn cross<T: Num>(a: [T; 3], b: [T; 3]) -> [T; 3] {
+pub(super) fn cross<T: Num>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -270,7 +270,24 @@ pub fn toi(q: &[V3; 4], dq: &[V3; 4], xi: f64, keep: f64, max_iter: usize) -> f6
     let m = (dq[0] + dq[1] + dq[2] + dq[3]) / 4.0;
     let p = dq.map(|v| v - m);
     let l = p[0].norm() + p[1].norm().max(p[2].norm()).max(p[3].norm());
-    let s0 = proximity(&q[0], &q[1], &q[2], &q[3]).dist - xi;
+    additive_toi(q, dq, xi, keep, max_iter, l, |y| {
+        proximity(&y[0], &y[1], &y[2], &y[3]).dist
+    })
+}
+
+/// The additive CCD loop of [`toi`] for any pair distance `dist` of four
+/// points whose rate of decrease along the move is at most `l` (per unit
+/// of the step fraction).
+pub fn additive_toi(
+    q: &[V3; 4],
+    dq: &[V3; 4],
+    xi: f64,
+    keep: f64,
+    max_iter: usize,
+    l: f64,
+    dist: impl Fn(&[V3; 4]) -> f64,
+) -> f64 {
+    let s0 = dist(q) - xi;
     if !(s0 > 0.0) {
         return 0.0;
     }
@@ -285,16 +302,11 @@ pub fn toi(q: &[V3; 4], dq: &[V3; 4], xi: f64, keep: f64, max_iter: usize) -> f6
         if tt >= 1.0 {
             // The whole move fits once the bound reaches past its end,
             // provided the end itself keeps the gap.
-            let e = proximity(
-                &(q[0] + dq[0]),
-                &(q[1] + dq[1]),
-                &(q[2] + dq[2]),
-                &(q[3] + dq[3]),
-            );
-            return if e.dist - xi >= target { 1.0 } else { t };
+            let e = [0, 1, 2, 3].map(|k| q[k] + dq[k]);
+            return if dist(&e) - xi >= target { 1.0 } else { t };
         }
         let y = [0, 1, 2, 3].map(|k| q[k] + dq[k] * tt);
-        let s = proximity(&y[0], &y[1], &y[2], &y[3]).dist - xi;
+        let s = dist(&y) - xi;
         if s < target {
             return if t > 0.0 {
                 t

@@ -21,25 +21,30 @@
 //! solver's largest nodal step no triangle outside the list can come within
 //! ξ + d̂ before the next update, so the energy is exact over a line search.
 //!
-//! No interpenetration holds by construction: [`Term::max_step`] shortens a
-//! step so that no node–triangle distance falls below ξ + 0.1 s (additive
-//! CCD against every triangle it could reach), and [`Term::admissible`]
-//! rejects a state where triangles of different leaflets cross (exact
-//! triangle–triangle tests) that did not cross at the start, which covers
-//! edge–edge crossings no node–triangle distance sees.
+//! Edges of different leaflets are paired too (`edge_pairs.rs`, IPC's
+//! edge–edge pairs): node–triangle pairs do not see an edge of one leaflet
+//! come across an edge of another, so without them only the crossing test
+//! below stood in the way of such a step.
 //!
-//! That refusal is also where closures stall: there is no edge–edge
-//! barrier, so nothing pushes back when an edge of one leaflet comes to
-//! rest against edges of another, and once it touches, every step the
-//! pressure drives crosses it and is refused. The sample at h 0.5 mm
-//! (GOH, sutured first) stopped at 0.36 N after 12 iterations with steps
-//! of 0 from then on, one triangle refused against a fan of three of the
-//! neighbour's, the same with sutured nodes' pairs made to act: most
-//! likely an edge–edge contact; IPC's edge–edge pairs are the missing piece.
+//! No interpenetration holds by construction: [`Term::max_step`] shortens a
+//! step so that no node–triangle or edge–edge distance falls below
+//! ξ + 0.1 s (additive CCD against everything it could reach), and
+//! [`Term::admissible`] rejects a state where triangles of different
+//! leaflets cross (exact triangle–triangle tests) that did not cross at the
+//! start, with one exception: two triangles that both have a sutured node.
+//! Those meet only at the commissures, where two leaflets are sewn onto
+//! the same wall points (on the sample, edges of neighbouring leaflets
+//! that both end on the suture line start 0 to 0.4 µm apart): edges
+//! fanning out of two such points cross as soon as either turns, no offset
+//! can keep them apart, and every step was refused there. That, not a
+//! missing edge pair, was what stalled the sample (GOH, h 0.5 mm, sutured
+//! first) at 0.36 N: with the exception alone it converges as well. The
+//! crossing count in `closure.json` still includes them.
 
 use rayon::prelude::*;
 
 use super::barrier::{self, BarrierParams, Hess12, Proximity};
+use super::edge_pairs::EdgePairs;
 use crate::geom::bvh::Bvh;
 use crate::geom::tri_tri;
 use crate::mech::element::V3;
@@ -47,9 +52,9 @@ use crate::mech::sparse::{Dofs, Pattern};
 use crate::mech::system::Term;
 
 /// Fraction of its gap a pair keeps over one step (additive CCD's s).
-const KEEP: f64 = 0.1;
+pub(super) const KEEP: f64 = 0.1;
 /// Work bound of one pair's CCD.
-const CCD_ITER: usize = 60;
+pub(super) const CCD_ITER: usize = 60;
 
 #[derive(Debug, Clone, Copy)]
 struct Group {
@@ -80,6 +85,7 @@ pub struct LeafletBarrier {
     /// Crossing triangle pairs of the start (placement), tolerated.
     start_crossings: Vec<(u32, u32)>,
     projected: bool,
+    edges: EdgePairs,
 }
 
 /// Reference lumped node areas (mm²): a third of the incident areas.
@@ -131,12 +137,13 @@ impl LeafletBarrier {
             params,
             reach,
             build_cost: bvh.cost(),
-            bvh,
             groups: vec![],
             cand: vec![],
             active: vec![],
             start_crossings: vec![],
             projected: false,
+            edges: EdgePairs::new(x, tris, tri_body, fixed, &bvh, &params, xi),
+            bvh,
         };
         // Offsets from the start distances (ξ + d̂ is the farthest that can
         // lower one).
@@ -157,12 +164,20 @@ impl LeafletBarrier {
         me.xi = xi_new;
         me.start_crossings = tri_tri::intersecting_pairs(x, tris, tri_body, &me.bvh);
         me.update_candidates(x);
+        me.edges.update(x, &me.bvh, &me.params, me.reach);
         me
     }
 
     /// Pairs that never act: same body, or nothing free among the four.
     fn skip(&self, node: u32, t: u32) -> bool {
         self.tri_body[t as usize] == self.node_body[node as usize] || self.node_fixed[node as usize]
+    }
+
+    /// Triangle `t` has a fixed (sutured) node.
+    fn on_suture_line(&self, t: u32) -> bool {
+        self.tris[t as usize]
+            .iter()
+            .any(|&i| self.node_fixed[i as usize])
     }
 
     pub fn offsets(&self) -> &[f64] {
@@ -300,6 +315,7 @@ impl Term for LeafletBarrier {
             self.build_cost = self.bvh.cost();
         }
         self.update_candidates(x);
+        self.edges.update(x, &self.bvh, &self.params, self.reach);
         let act: Vec<Vec<(u32, u32)>> = self
             .groups
             .par_iter()
@@ -327,7 +343,10 @@ impl Term for LeafletBarrier {
                 None => return Some(f64::INFINITY),
             }
         }
-        Some(e)
+        match self.edges.acting(x, &self.params) {
+            Some(acting) => Some(acting.iter().fold(e, |s, p| s + p.2)),
+            None => Some(f64::INFINITY),
+        }
     }
 
     /// An inadmissible group (d ≤ ξ) adds nothing: the solver never takes
@@ -343,6 +362,9 @@ impl Term for LeafletBarrier {
                 }
             }
         }
+        if let Some(acting) = self.edges.acting(x, &self.params) {
+            self.edges.add_force(&acting, f);
+        }
     }
 
     fn couplings(&self, out: &mut Vec<[u32; 2]>) {
@@ -352,6 +374,7 @@ impl Term for LeafletBarrier {
                 out.push([n, v]);
             }
         }
+        self.edges.couplings(out);
     }
 
     fn add_tangent(&self, x: &[V3], dofs: &Dofs, pat: &Pattern, vals: &mut [f64]) {
@@ -379,6 +402,8 @@ impl Term for LeafletBarrier {
                 pat.add_block(dofs, vals, &[n, v[0], v[1], v[2]], &h);
             }
         }
+        self.edges
+            .add_tangent(x, &self.params, self.projected, dofs, pat, vals);
     }
 
     fn set_projected(&mut self, projected: bool) {
@@ -386,7 +411,7 @@ impl Term for LeafletBarrier {
     }
 
     fn stats(&self) -> Option<(&'static str, usize)> {
-        Some(("contact_pairs", self.active.len()))
+        Some(("contact_pairs", self.active.len() + self.edges.active_len()))
     }
 
     fn contact_mask(&self, x: &[V3]) -> Option<Vec<u8>> {
@@ -424,15 +449,23 @@ impl Term for LeafletBarrier {
             })
             // min is exact whatever the order: thread-independent.
             .reduce(|| 1.0, f64::min)
+            .min(
+                self.edges
+                    .max_step(x, dx, &self.bvh, &self.params, self.reach),
+            )
     }
 
     fn admissible(&self, x: &[V3]) -> bool {
-        if self.eval_groups(x).iter().any(|v| v.is_none()) {
+        if self.eval_groups(x).iter().any(|v| v.is_none())
+            || self.edges.acting(x, &self.params).is_none()
+        {
             return false;
         }
         let bvh = Bvh::build(x, &self.tris);
         let c = tri_tri::intersecting_pairs(x, &self.tris, &self.tri_body, &bvh);
-        c.iter()
-            .all(|p| self.start_crossings.binary_search(p).is_ok())
+        c.iter().all(|p| {
+            self.start_crossings.binary_search(p).is_ok()
+                || (self.on_suture_line(p.0) && self.on_suture_line(p.1))
+        })
     }
 }

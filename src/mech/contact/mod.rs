@@ -17,6 +17,8 @@
 //! ```
 
 pub mod barrier;
+pub mod edge_barrier;
+pub mod edge_pairs;
 pub mod jet;
 pub mod leaflet_barrier;
 pub mod penalty;
@@ -24,5 +26,7 @@ pub mod planes;
 
 #[cfg(test)]
 mod barrier_tests;
+#[cfg(test)]
+mod edge_barrier_tests;
 #[cfg(test)]
 mod tests;

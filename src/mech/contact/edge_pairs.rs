@@ -1,0 +1,427 @@
+//! The edge–edge half of the leaflet barrier: which edges of different
+//! leaflets are paired, their weights and offsets, their energy, forces,
+//! tangent and collision-free step (`edge_barrier.rs` for one pair).
+//!
+//! # Weight
+//!
+//! Each edge carries w_e = a third of its (one or two) triangles' rest
+//! areas, a pair (w_a + w_b)/2 (symmetric in the leaflets). The edge
+//! weights sum to the mesh area, as the node areas of the node–triangle
+//! pairs do, so neither kind of pair dominates: between two parallel
+//! sheets at gap s each edge crosses two or three of the other sheet's
+//! edges at distance s, and the edge pairs add roughly as much pressure
+//! as the node pairs (the sheets rest somewhat wider apart than
+//! `BarrierParams::from_pressure`'s d̂/2, still inside the margin).
+//!
+//! # Pairs
+//!
+//! Each unordered pair once (the lower edge number lists the higher),
+//! edges of the same leaflet never (so no pair shares a node). A pair of
+//! two edges that both end on the suture line is left out: such edges meet
+//! only at the commissures, where the leaflets are sewn side by side onto
+//! the same wall points; their distance there is set by the suturing (on
+//! the sample down to 0 at a shared suture point, an inadmissible start),
+//! not by contact, and the node–triangle pairs of their free nodes still
+//! act. Candidates are the pairs within ξ + d̂ + reach at the
+//! last update, found through the triangle tree (an edge is reached when
+//! one of its triangles is); `max_step` searches afresh.
+//!
+//! # Offsets
+//!
+//! As for the nodes: where an edge starts within ξ + d̂ of an edge of
+//! another leaflet (sewn side by side at the commissures) its offset is
+//! lowered to d₀ − d̂, but not below d₀/2; a pair uses the smaller of its
+//! edges' offsets, so every start state is admissible and unforced.
+
+use rayon::prelude::*;
+
+use super::barrier::{BarrierParams, Hess12};
+use super::edge_barrier::{self, mollifier_eps};
+use super::leaflet_barrier::{CCD_ITER, KEEP};
+use crate::geom::bvh::{Aabb, Bvh};
+use crate::mech::element::V3;
+use crate::mech::sparse::{Dofs, Pattern};
+
+pub struct EdgePairs {
+    edges: Vec<[u32; 2]>,
+    body: Vec<u16>,
+    weight: Vec<f64>,
+    rest_len2: Vec<f64>,
+    xi: Vec<f64>,
+    /// A node of the edge is fixed (on the suture line).
+    fixed: Vec<bool>,
+    tri_edges: Vec<[u32; 3]>,
+    /// The lowest-numbered triangle of each edge: a pair is found once,
+    /// from its two edges' owners.
+    owner: Vec<u32>,
+    /// Candidate pairs (a < b), ascending.
+    cand: Vec<(u32, u32)>,
+    /// Pairs within the margin at the last update (the tangent's).
+    active: Vec<(u32, u32)>,
+}
+
+/// A pair's forces are those of one acting pair.
+type Acting = (u32, u32, f64, [V3; 4]);
+
+impl EdgePairs {
+    pub fn new(
+        x: &[V3],
+        tris: &[[u32; 3]],
+        tri_body: &[u16],
+        node_fixed: &[bool],
+        bvh: &Bvh,
+        params: &BarrierParams,
+        xi: f64,
+    ) -> EdgePairs {
+        let mut keyed: Vec<([u32; 2], u32)> = Vec::with_capacity(3 * tris.len());
+        for (t, tri) in tris.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                keyed.push(([a.min(b), a.max(b)], t as u32));
+            }
+        }
+        keyed.sort_unstable();
+        let mut edges: Vec<[u32; 2]> = vec![];
+        let mut body = vec![];
+        let mut weight = vec![];
+        let mut tri_edges = vec![[0u32; 3]; tris.len()];
+        let mut slot = vec![0u8; tris.len()];
+        let mut owner = vec![];
+        for (e, t) in keyed {
+            if edges.last() != Some(&e) {
+                // Sorted by (edge, triangle): the first is the lowest.
+                owner.push(t);
+                edges.push(e);
+                body.push(tri_body[t as usize]);
+                weight.push(0.0);
+            }
+            let id = (edges.len() - 1) as u32;
+            let v = tris[t as usize].map(|i| x[i as usize]);
+            weight[id as usize] += 0.5 * (v[1] - v[0]).cross(&(v[2] - v[0])).norm() / 3.0;
+            tri_edges[t as usize][slot[t as usize] as usize] = id;
+            slot[t as usize] += 1;
+        }
+        let rest_len2 = edges
+            .iter()
+            .map(|e| (x[e[1] as usize] - x[e[0] as usize]).norm_squared())
+            .collect();
+        let fixed = edges
+            .iter()
+            .map(|e| node_fixed[e[0] as usize] || node_fixed[e[1] as usize])
+            .collect();
+        let mut me = EdgePairs {
+            edges,
+            body,
+            weight,
+            rest_len2,
+            xi: vec![],
+            fixed,
+            tri_edges,
+            owner,
+            cand: vec![],
+            active: vec![],
+        };
+        me.xi = (0..me.edges.len())
+            .into_par_iter()
+            .with_min_len(64)
+            .map(|a| {
+                let mut dmin = f64::INFINITY;
+                for b in me.near(x, bvh, a as u32, xi + params.dhat, false) {
+                    dmin = dmin.min(edge_barrier::proximity(&me.quad(x, a as u32, b)).dist);
+                }
+                xi.min((dmin - params.dhat).max(0.5 * dmin))
+            })
+            .collect();
+        me
+    }
+
+    fn quad(&self, x: &[V3], a: u32, b: u32) -> [V3; 4] {
+        let (ea, eb) = (self.edges[a as usize], self.edges[b as usize]);
+        [
+            x[ea[0] as usize],
+            x[ea[1] as usize],
+            x[eb[0] as usize],
+            x[eb[1] as usize],
+        ]
+    }
+
+    fn nodes(&self, a: u32, b: u32) -> [u32; 4] {
+        let (ea, eb) = (self.edges[a as usize], self.edges[b as usize]);
+        [ea[0], ea[1], eb[0], eb[1]]
+    }
+
+    fn pair_xi(&self, a: u32, b: u32) -> f64 {
+        self.xi[a as usize].min(self.xi[b as usize])
+    }
+
+    fn eps(&self, a: u32, b: u32) -> f64 {
+        mollifier_eps(self.rest_len2[a as usize], self.rest_len2[b as usize])
+    }
+
+    fn pair_weight(&self, a: u32, b: u32) -> f64 {
+        0.5 * (self.weight[a as usize] + self.weight[b as usize])
+    }
+
+    /// Edges of other leaflets whose triangles come within `r` of edge
+    /// `a`'s points (`higher`: only those numbered above `a`), ascending,
+    /// without the pairs that cannot move.
+    fn near(&self, x: &[V3], bvh: &Bvh, a: u32, r: f64, higher: bool) -> Vec<u32> {
+        let e = self.edges[a as usize];
+        let (p, q) = (x[e[0] as usize], x[e[1] as usize]);
+        let mut out = vec![];
+        bvh.query_sphere(&((p + q) * 0.5), r + 0.5 * (q - p).norm(), |t| {
+            for &b in &self.tri_edges[t as usize] {
+                if self.body[b as usize] != self.body[a as usize]
+                    && (!higher || b > a)
+                    && !(self.fixed[a as usize] && self.fixed[b as usize])
+                {
+                    out.push(b);
+                }
+            }
+        });
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// Candidates within ξ + d̂ + `reach` at `x` (`bvh` fitted to `x`),
+    /// and the pairs acting there. Searched per triangle rather than per
+    /// edge (a third fewer tree queries) and kept per owner pair, so no
+    /// pair is met twice and nothing needs sorting; the order follows the
+    /// triangles and the tree, both fixed by `x`: thread-independent.
+    pub fn update(&mut self, x: &[V3], bvh: &Bvh, params: &BarrierParams, reach: f64) {
+        let xi_max = self.xi.iter().fold(0.0, |m: f64, &v| m.max(v));
+        let r = xi_max + params.dhat + reach;
+        let (mid, half) = self.spheres(x);
+        let tris = bvh.len() as u32;
+        let per: Vec<Vec<(u32, u32, bool)>> = (0..tris)
+            .into_par_iter()
+            .with_min_len(32)
+            .map(|ta| {
+                let mut out = vec![];
+                let own: Vec<u32> = self.tri_edges[ta as usize]
+                    .into_iter()
+                    .filter(|&a| self.owner[a as usize] == ta)
+                    .collect();
+                if own.is_empty() {
+                    return out;
+                }
+                let body = self.body[own[0] as usize];
+                let bx = bvh.tri_box(ta);
+                let query = Aabb {
+                    min: bx.min - V3::repeat(r),
+                    max: bx.max + V3::repeat(r),
+                };
+                bvh.query_aabb(&query, |tb| {
+                    for b in self.tri_edges[tb as usize] {
+                        if self.owner[b as usize] != tb || self.body[b as usize] == body {
+                            continue;
+                        }
+                        for &a in &own {
+                            // The pair is met from both owners: kept from
+                            // the lower edge's.
+                            if a > b {
+                                continue;
+                            }
+                            let (lo, hi) = (a, b);
+                            if self.fixed[lo as usize] && self.fixed[hi as usize] {
+                                continue;
+                            }
+                            let far = params.dhat + reach + self.pair_xi(lo, hi);
+                            let gap = (mid[lo as usize] - mid[hi as usize]).norm()
+                                - half[lo as usize]
+                                - half[hi as usize];
+                            if gap >= far {
+                                continue;
+                            }
+                            let q = self.quad(x, lo, hi);
+                            let s = edge_barrier::proximity(&q).dist - self.pair_xi(lo, hi);
+                            if s < params.dhat + reach {
+                                out.push((lo, hi, s < params.dhat));
+                            }
+                        }
+                    }
+                });
+                out
+            })
+            .collect();
+        self.cand.clear();
+        self.active.clear();
+        for (a, b, act) in per.into_iter().flatten() {
+            self.cand.push((a, b));
+            if act {
+                self.active.push((a, b));
+            }
+        }
+    }
+
+    /// Per edge its midpoint and half length at `x`: a pair whose spheres
+    /// are farther apart than a distance is farther apart too.
+    fn spheres(&self, x: &[V3]) -> (Vec<V3>, Vec<f64>) {
+        self.edges
+            .par_iter()
+            .with_min_len(256)
+            .map(|e| {
+                let (p, q) = (x[e[0] as usize], x[e[1] as usize]);
+                ((p + q) * 0.5, 0.5 * (q - p).norm())
+            })
+            .unzip()
+    }
+
+    pub fn active_len(&self) -> usize {
+        self.active.len()
+    }
+
+    pub fn candidates_len(&self) -> usize {
+        self.cand.len()
+    }
+
+    /// The candidate pairs within the margin at `x` with their energy and
+    /// gradient blocks, in candidate order; `None` when a pair has s ≤ 0.
+    pub fn acting(&self, x: &[V3], params: &BarrierParams) -> Option<Vec<Acting>> {
+        let (mid, half) = self.spheres(x);
+        let v: Vec<Option<Acting>> = self
+            .cand
+            .par_iter()
+            .with_min_len(256)
+            .filter_map(|&(a, b)| {
+                let gap = (mid[a as usize] - mid[b as usize]).norm()
+                    - half[a as usize]
+                    - half[b as usize];
+                if gap - self.pair_xi(a, b) >= params.dhat {
+                    return None;
+                }
+                let q = self.quad(x, a, b);
+                let pr = edge_barrier::proximity(&q);
+                let xi = self.pair_xi(a, b);
+                if pr.dist - xi >= params.dhat {
+                    return None;
+                }
+                let r = edge_barrier::pair_eval_at(
+                    &q,
+                    &pr,
+                    xi,
+                    self.pair_weight(a, b),
+                    self.eps(a, b),
+                    params,
+                    false,
+                );
+                Some(r.map(|(e, g, _)| (a, b, e, g)))
+            })
+            .collect();
+        v.into_iter().collect()
+    }
+
+    /// Adds −gradient of the acting pairs to `f`.
+    pub fn add_force(&self, acting: &[Acting], f: &mut [V3]) {
+        for &(a, b, _, g) in acting {
+            for (k, n) in self.nodes(a, b).into_iter().enumerate() {
+                f[n as usize] -= g[k];
+            }
+        }
+    }
+
+    pub fn couplings(&self, out: &mut Vec<[u32; 2]>) {
+        // Each edge's own two nodes are a mesh edge already.
+        for &(a, b) in &self.active {
+            for i in self.edges[a as usize] {
+                for j in self.edges[b as usize] {
+                    out.push([i, j]);
+                }
+            }
+        }
+    }
+
+    pub fn add_tangent(
+        &self,
+        x: &[V3],
+        params: &BarrierParams,
+        projected: bool,
+        dofs: &Dofs,
+        pat: &Pattern,
+        vals: &mut [f64],
+    ) {
+        let blocks: Vec<Option<Hess12>> = self
+            .active
+            .par_iter()
+            .with_min_len(16)
+            .map(|&(a, b)| {
+                let q = self.quad(x, a, b);
+                let (xi, w, eps) = (self.pair_xi(a, b), self.pair_weight(a, b), self.eps(a, b));
+                if projected {
+                    return edge_barrier::pair_gauss_newton(&q, xi, w, eps, params);
+                }
+                edge_barrier::pair_eval(&q, xi, w, eps, params, true)?.2
+            })
+            .collect();
+        for (&(a, b), h) in self.active.iter().zip(blocks) {
+            if let Some(h) = h {
+                pat.add_block(dofs, vals, &self.nodes(a, b), &h);
+            }
+        }
+    }
+
+    /// Largest fraction of `dx` from `x` (`bvh` fitted to `x`) keeping
+    /// every pair's s above `keep` × its start value.
+    pub fn max_step(
+        &self,
+        x: &[V3],
+        dx: &[V3],
+        bvh: &Bvh,
+        params: &BarrierParams,
+        reach: f64,
+    ) -> f64 {
+        let (keep, ccd_iter) = (KEEP, CCD_ITER);
+        let dmax = dx.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        if dmax == 0.0 {
+            return 1.0;
+        }
+        let moved = |e: [u32; 2]| dx[e[0] as usize].norm().max(dx[e[1] as usize].norm());
+        if 2.0 * dmax <= params.dhat + reach {
+            // A pair's distance falls by at most its edges' largest moves,
+            // so every pair that can lose a fraction 1 − keep of its gap
+            // is a candidate (within ξ + d̂ + reach at x, the update's
+            // state) and starts within those moves / (1 − keep).
+            return self
+                .cand
+                .par_iter()
+                .with_min_len(256)
+                .map(|&(a, b)| {
+                    let xi = self.pair_xi(a, b);
+                    let m = moved(self.edges[a as usize]) + moved(self.edges[b as usize]);
+                    let q = self.quad(x, a, b);
+                    if edge_barrier::proximity(&q).dist - xi >= m / (1.0 - keep) {
+                        return 1.0;
+                    }
+                    let dq = self.nodes(a, b).map(|i| dx[i as usize]);
+                    edge_barrier::toi(&q, &dq, xi, keep, ccd_iter)
+                })
+                .reduce(|| 1.0, f64::min);
+        }
+        (0..self.edges.len() as u32)
+            .into_par_iter()
+            .with_min_len(64)
+            .map(|a| {
+                let e = self.edges[a as usize];
+                // Any point of either segment moves by at most its nodes'
+                // largest move: only edges this close can reach ξ.
+                let own = dx[e[0] as usize].norm().max(dx[e[1] as usize].norm());
+                let r = self.xi[a as usize] + own + dmax;
+                let mut t_min: f64 = 1.0;
+                for b in self.near(x, bvh, a, r, true) {
+                    let n = self.nodes(a, b);
+                    let dq = n.map(|i| dx[i as usize]);
+                    let q = self.quad(x, a, b);
+                    t_min = t_min.min(edge_barrier::toi(
+                        &q,
+                        &dq,
+                        self.pair_xi(a, b),
+                        keep,
+                        ccd_iter,
+                    ));
+                }
+                t_min
+            })
+            .reduce(|| 1.0, f64::min)
+    }
+}
