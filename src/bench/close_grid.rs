@@ -46,9 +46,6 @@ const TEMPLATE_TOML: &str = include_str!("../../pipelines/templates/ozaki_defaul
 const MARGIN_PER_THICKNESS: f64 = 1.8;
 const REFINE: usize = 4;
 
-/// Rounds of relaxation + Newton of the combined solver (`mech::closure`).
-const COMBINED_ROUNDS: f64 = 10.0;
-
 #[derive(Debug, Clone, PartialEq)]
 pub enum Case {
     /// The committed sample phantom; the directory holding ct.nii.gz and
@@ -375,19 +372,12 @@ fn run_in(opts: &Options, work: &Path) -> Result<Grid> {
 fn close_row(row: &mut Row, mesh: &Mesh, time_limit_s: f64) -> Result<()> {
     let text = config_text(&row.model, &row.solver, &row.contact, time_limit_s)
         .map_err(|e| Error::failed("bench close --grid", e))?;
-    let mut cfg = config::parse(&text).map_err(|e| {
+    let cfg = config::parse(&text).map_err(|e| {
         Error::failed(
             "bench close --grid",
             format!("pipelines/close.toml as {}: {e}", row.model),
         )
     })?;
-    if cfg.solver == config::SolverKind::Combined {
-        // The combined solver gives each of its Newton phases the whole
-        // time limit (and its relaxation phases a fixed iteration count),
-        // so a hopeless case would run for rounds × the limit: the rounds
-        // share it here, keeping the row within about the limit.
-        cfg.time_limit = time_limit_s / COMBINED_ROUNDS;
-    }
     let mut l = mesh.leaflets.clone();
     if row.model == "goh" && l.fibers.is_none() {
         l.fibers = close::circumferential_fibres(&l);
