@@ -430,14 +430,40 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                         "--time-limit must be a positive number of seconds",
                     ));
                 }
+                let cases = *b.get_one::<usize>("cases").expect("has default");
+                // Running counts on stderr as cases finish: a run stopped
+                // part-way (a cluster's wall limit) still reports its count.
+                let tally = std::sync::Mutex::new([0usize; 4]);
+                let progress = |r: &bench::stress_close::Run| {
+                    let mut t = tally.lock().unwrap_or_else(|p| p.into_inner());
+                    t[match r.verdict.name() {
+                        "converged" => 0,
+                        "failed" => 1,
+                        "non-finite" => 2,
+                        _ => 3,
+                    }] += 1;
+                    eprintln!(
+                        "case {:>4} {:<10} {:>4} its {:>8.2} s | {}/{cases} done: {} converged, {} failed, {} non-finite, {} hang",
+                        r.case.index,
+                        r.verdict.name(),
+                        r.iterations,
+                        r.wall_s,
+                        t.iter().sum::<usize>(),
+                        t[0],
+                        t[1],
+                        t[2],
+                        t[3],
+                    );
+                };
                 let s = bench::stress_close::run(
                     *b.get_one::<u64>("seed").expect("has default"),
-                    *b.get_one::<usize>("cases").expect("has default"),
+                    cases,
                     (
                         *b.get_one::<f64>("h-min").expect("has default"),
                         *b.get_one::<f64>("h-max").expect("has default"),
                     ),
                     limit,
+                    &progress,
                 )?;
                 if let Some(path) = b.get_one::<PathBuf>("csv") {
                     crate::io::write_atomic(path, |w| {

@@ -627,9 +627,11 @@ fn progress_header() -> String {
 
 fn progress_line(r: &Row) -> String {
     let o = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |v| format!("{v:.d$}"));
+    // A skipped row has no residual or time: a dash, not "NaN".
+    let finite = |v: f64| Some(v).filter(|v| v.is_finite());
     let c = r.coaptation;
     format!(
-        "{:<12} {:<9} {:<8} {:>5} {:>6} {:<13} {:>5} {:>9.2e} {:>8.2} {:>7} {:>7} {:>8}",
+        "{:<12} {:<9} {:<8} {:>5} {:>6} {:<13} {:>5} {:>9} {:>8} {:>7} {:>7} {:>8}",
         r.model,
         r.solver,
         r.contact,
@@ -637,8 +639,8 @@ fn progress_line(r: &Row) -> String {
         r.nodes,
         r.status.as_str(),
         r.iterations,
-        r.residual_n,
-        r.wall_s,
+        finite(r.residual_n).map_or("-".to_string(), |v| format!("{v:.2e}")),
+        o(finite(r.wall_s), 2),
         o(c.and_then(|c| c.height_mm), 2),
         o(c.and_then(|c| c.central_height_mm), 2),
         o(c.map(|c| c.area_mm2), 1),

@@ -329,7 +329,15 @@ impl Summary {
 }
 
 /// Run cases `0..n` of `seed` (in parallel; each case is independent).
-pub fn run(seed: u64, n: usize, h_range: (f64, f64), time_limit_s: f64) -> Result<Summary> {
+/// `on_done` sees each case as it finishes (in finishing order), so a long
+/// run that is stopped part-way has still told its count.
+pub fn run(
+    seed: u64,
+    n: usize,
+    h_range: (f64, f64),
+    time_limit_s: f64,
+    on_done: &(dyn Fn(&Run) + Sync),
+) -> Result<Summary> {
     if !(h_range.0 > 0.0 && h_range.0 <= h_range.1 && h_range.1.is_finite()) {
         return Err(Error::usage(format!(
             "mesh range {} – {} mm: must be positive and ordered",
@@ -338,7 +346,11 @@ pub fn run(seed: u64, n: usize, h_range: (f64, f64), time_limit_s: f64) -> Resul
     }
     let results = (0..n)
         .into_par_iter()
-        .map(|i| run_case(&case(seed, i, h_range), time_limit_s))
+        .map(|i| {
+            let r = run_case(&case(seed, i, h_range), time_limit_s);
+            on_done(&r);
+            r
+        })
         .collect();
     Ok(Summary { results })
 }
@@ -410,8 +422,16 @@ mod tests {
     /// why not; none gives NaN or runs past its limit.
     #[test]
     fn hostile_cases_end_converged_or_explained() {
-        let s = run(11, 8, (1.0, 3.0), 20.0).unwrap();
+        let seen = std::sync::Mutex::new(Vec::new());
+        let s = run(11, 8, (1.0, 3.0), 20.0, &|r| {
+            seen.lock().unwrap().push(r.case.index)
+        })
+        .unwrap();
         assert_eq!(s.results.len(), 8);
+        // Every case was reported once as it finished.
+        let mut seen = seen.into_inner().unwrap();
+        seen.sort();
+        assert_eq!(seen, (0..8).collect::<Vec<_>>());
         assert!(s.unexplained().is_empty(), "{}", s.table());
         assert!(s.count("converged") >= 1, "{}", s.table());
     }

@@ -3,6 +3,7 @@
 mod bad_input;
 mod bench_close_grid;
 mod bench_pipeline;
+mod bench_stress_close;
 mod close;
 mod common;
 mod design;

@@ -1,0 +1,58 @@
+//! `coapt bench stress-close`: a few coarse cases, their CSV, and the
+//! running count on stderr that a run stopped part-way leaves behind.
+
+use crate::common::*;
+
+#[test]
+fn stress_close_reports_each_case_as_it_finishes_and_counts_them() {
+    let dir = tmpdir("stress-close");
+    let csv = dir.join("stress.csv");
+    let o = coapt(&[
+        "bench",
+        "stress-close",
+        "--cases",
+        "3",
+        "--seed",
+        "7",
+        "--h-min",
+        "2.5",
+        "--h-max",
+        "3",
+        "--time-limit",
+        "30",
+        "--csv",
+        &s(&csv),
+        "--threads",
+        "1",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let err = stderr(&o);
+    let progress: Vec<&str> = err.lines().filter(|l| l.starts_with("case ")).collect();
+    assert_eq!(progress.len(), 3, "{err}");
+    // The running total counts up to the whole run, one case per line.
+    for (k, l) in progress.iter().enumerate() {
+        assert!(l.contains(&format!("| {}/3 done:", k + 1)), "{l}");
+    }
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<&str> = text.lines().skip(1).collect();
+    assert_eq!(rows.len(), 3);
+    for (i, r) in rows.iter().enumerate() {
+        assert!(r.starts_with(&format!("{i},")), "{r}");
+    }
+    // The last progress line and the summary agree with the CSV's verdicts.
+    let converged = rows.iter().filter(|r| r.contains(",converged,")).count();
+    let failed = rows.iter().filter(|r| r.contains(",failed,")).count();
+    assert_eq!(converged + failed, 3, "{text}");
+    assert!(
+        progress[2].ends_with(&format!(
+            "{converged} converged, {failed} failed, 0 non-finite, 0 hang"
+        )),
+        "{}",
+        progress[2]
+    );
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        table.starts_with(&format!("3 cases: {converged} converged, {failed} failed")),
+        "{table}"
+    );
+}
