@@ -190,7 +190,8 @@ fn command() -> Command {
                     .arg(Arg::new("h-min").long("h-min").value_name("MM").default_value("0.25").value_parser(clap::value_parser!(f64)))
                     .arg(Arg::new("h-max").long("h-max").value_name("MM").default_value("3").value_parser(clap::value_parser!(f64)))
                     .arg(Arg::new("time-limit").long("time-limit").value_name("S").default_value("60").value_parser(clap::value_parser!(f64)).help("the solver's own limit per case; twice that plus 10 s counts as a hang"))
-                    .arg(Arg::new("csv").long("csv").value_name("FILE").value_parser(clap::value_parser!(PathBuf)).help("one row per case")),
+                    .arg(Arg::new("csv").long("csv").value_name("FILE").value_parser(clap::value_parser!(PathBuf)).help("one row per case"))
+                    .arg(Arg::new("only").long("only").value_name("I,J,…").value_delimiter(',').value_parser(clap::value_parser!(usize)).help("replay these cases of the seed's sequence (0-based indices, as in the CSV) instead of 0..N")),
             )
             .subcommand(
                 Command::new("segment")
@@ -430,7 +431,11 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                         "--time-limit must be a positive number of seconds",
                     ));
                 }
-                let cases = *b.get_one::<usize>("cases").expect("has default");
+                let indices: Vec<usize> = match b.get_many::<usize>("only") {
+                    Some(v) => v.copied().collect(),
+                    None => (0..*b.get_one::<usize>("cases").expect("has default")).collect(),
+                };
+                let cases = indices.len();
                 // Running counts on stderr as cases finish: a run stopped
                 // part-way (a cluster's wall limit) still reports its count.
                 let tally = std::sync::Mutex::new([0usize; 4]);
@@ -457,7 +462,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 };
                 let s = bench::stress_close::run(
                     *b.get_one::<u64>("seed").expect("has default"),
-                    cases,
+                    &indices,
                     (
                         *b.get_one::<f64>("h-min").expect("has default"),
                         *b.get_one::<f64>("h-max").expect("has default"),

@@ -328,12 +328,13 @@ impl Summary {
     }
 }
 
-/// Run cases `0..n` of `seed` (in parallel; each case is independent).
-/// `on_done` sees each case as it finishes (in finishing order), so a long
-/// run that is stopped part-way has still told its count.
+/// Run the cases `indices` of `seed` (in parallel; each case is
+/// independent, so one can be replayed alone). `on_done` sees each case as
+/// it finishes (in finishing order), so a long run that is stopped part-way
+/// has still told its count.
 pub fn run(
     seed: u64,
-    n: usize,
+    indices: &[usize],
     h_range: (f64, f64),
     time_limit_s: f64,
     on_done: &(dyn Fn(&Run) + Sync),
@@ -344,9 +345,9 @@ pub fn run(
             h_range.0, h_range.1
         )));
     }
-    let results = (0..n)
-        .into_par_iter()
-        .map(|i| {
+    let results = indices
+        .par_iter()
+        .map(|&i| {
             let r = run_case(&case(seed, i, h_range), time_limit_s);
             on_done(&r);
             r
@@ -423,7 +424,8 @@ mod tests {
     #[test]
     fn hostile_cases_end_converged_or_explained() {
         let seen = std::sync::Mutex::new(Vec::new());
-        let s = run(11, 8, (1.0, 3.0), 20.0, &|r| {
+        let all: Vec<usize> = (0..8).collect();
+        let s = run(11, &all, (1.0, 3.0), 20.0, &|r| {
             seen.lock().unwrap().push(r.case.index)
         })
         .unwrap();
@@ -431,7 +433,16 @@ mod tests {
         // Every case was reported once as it finished.
         let mut seen = seen.into_inner().unwrap();
         seen.sort();
-        assert_eq!(seen, (0..8).collect::<Vec<_>>());
+        assert_eq!(seen, all);
+        // A case replayed alone ends as it did among the others.
+        let again = run(11, &[5], (1.0, 3.0), 20.0, &|_| {}).unwrap();
+        let (a, b) = (&again.results[0], &s.results[5]);
+        assert_eq!(a.case, b.case);
+        assert_eq!(a.verdict, b.verdict);
+        assert_eq!(
+            (a.iterations, a.residual_n.to_bits()),
+            (b.iterations, b.residual_n.to_bits())
+        );
         assert!(s.unexplained().is_empty(), "{}", s.table());
         assert!(s.count("converged") >= 1, "{}", s.table());
     }

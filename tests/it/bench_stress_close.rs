@@ -50,6 +50,36 @@ fn stress_close_reports_each_case_as_it_finishes_and_counts_them() {
         "{}",
         progress[2]
     );
+    // `--only` replays one case of the sequence: the same row but the time.
+    let one = dir.join("one.csv");
+    let o2 = coapt(&[
+        "bench",
+        "stress-close",
+        "--only",
+        "2",
+        "--seed",
+        "7",
+        "--h-min",
+        "2.5",
+        "--h-max",
+        "3",
+        "--time-limit",
+        "30",
+        "--csv",
+        &s(&one),
+        "--threads",
+        "1",
+    ]);
+    assert_eq!(o2.status.code(), Some(0), "{}", stderr(&o2));
+    let replayed = std::fs::read_to_string(&one).unwrap();
+    let without_time = |r: &str| {
+        let c: Vec<&str> = r.split(',').collect();
+        [&c[..14], &c[15..]].concat().join(",")
+    };
+    assert_eq!(
+        without_time(replayed.lines().nth(1).unwrap()),
+        without_time(rows[2])
+    );
     let table = String::from_utf8_lossy(&o.stdout);
     assert!(
         table.starts_with(&format!("3 cases: {converged} converged, {failed} failed")),
