@@ -12,7 +12,7 @@ use super::element::{RefTri, V3};
 use super::solve::{self, NewtonOptions, Outcome, RelaxOptions, Stop};
 use super::sparse::Dofs;
 use super::suture::{self, Sutured, Wall};
-use super::system::{PressureMode, System, Term};
+use super::system::{PressureMode, System, Term, norm};
 use super::terms::PlaneContact;
 
 /// Largest nodal move of one Newton step (mm).
@@ -340,7 +340,19 @@ pub(super) fn newton_with_continuation(
         }
         all = Some(m);
     }
-    let mut o = all.unwrap_or_else(Outcome::start);
+    let mut o = all.unwrap_or_else(|| {
+        // Stopped before its first step (no time left): still say where the
+        // residual stands rather than leave it undefined.
+        let mut o = Outcome::start();
+        for term in sys.terms.iter_mut() {
+            term.update(x);
+        }
+        if let Ok(r) = sys.residual(x) {
+            o.residual_n = norm(&r);
+            o.initial_residual_n = o.residual_n;
+        }
+        o
+    });
     o.converged = false;
     o.reason = notes.join("; ");
     o
@@ -438,6 +450,18 @@ pub fn close_on(
             }
             Some(s)
         }
+    };
+    // `time_limit` bounds the whole close: the closure gets what suturing
+    // left of it (each had been given the whole limit, so a case could run
+    // twice as long as asked).
+    let sew_s = suturing.as_ref().map_or(0.0, |s| s.seconds);
+    let stop = Stop {
+        max_seconds: (cfg.time_limit - t0.elapsed().as_secs_f64()).max(0.0),
+        ..stop
+    };
+    let nopt = NewtonOptions {
+        stop: stop.clone(),
+        ..nopt
     };
     // From here on the leaflets are where suturing left them.
     let placed = l;
@@ -547,6 +571,12 @@ pub fn close_on(
     };
     let solve_s = t1.elapsed().as_secs_f64();
     let mut outcome = outcome;
+    if !outcome.converged && sew_s > 0.0 && outcome.reason.contains("time limit") {
+        outcome.reason = format!(
+            "{} (time_limit {} s for the whole close; suturing took {sew_s:.1} s of it)",
+            outcome.reason, cfg.time_limit
+        );
+    }
     // A solver that ran away (relaxation with too large a step) can leave
     // finite but absurd positions: far beyond the leaflets' own size.
     let (lo, hi) = l.x.iter().fold(
