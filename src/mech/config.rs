@@ -19,7 +19,8 @@
 //! half the thickness so pressed leaflets do not cross; default "0 mm", the
 //! seed's planes through the axis), `tolerance` (default
 //! "1e-7 N"), `relative_tolerance` (default 1e-7), `max_iterations`,
-//! `time_limit` (default "600 s"), `reference` ("sutured", the default: the
+//! `time_limit` (default "600 s"; it bounds the whole close, suturing
+//! included), `reference` ("sutured", the default: the
 //! configuration after suturing is stress-free, as in seed 001; "placed":
 //! the placed template is, so suturing leaves stress; "flat": the flat
 //! template is, leaving the stress of both placing and suturing in the
