@@ -249,6 +249,61 @@ fn stretches(x: &[V3], refs: &[RefTri], tris: &[[u32; 3]]) -> (Vec<f64>, Vec<f64
     (j, m)
 }
 
+/// Growth of the leaflets' whole area beyond which a failed closure is
+/// said to balloon (a closed valve's grows by tens of per cent), and area
+/// ratio below which a triangle is said to have collapsed.
+const BALLOON_AREA: f64 = 1.5;
+const COLLAPSED_AREA: f64 = 0.05;
+/// What a converged closure may leave unbalanced, as a fraction of the
+/// pressure load.
+const LOAD_FRACTION: f64 = 1e-3;
+
+/// Why a closure that did not converge is where it is, read off its last
+/// state, so that a failure names its physical cause before the solver's
+/// account of it. `load`: P·(size/2)/(E′t), the membrane strain the
+/// pressure asks for at the leaflets' scale. `None` when neither sign
+/// shows.
+fn failure_cause(
+    ref_area: &[f64],
+    area_stretch: &[f64],
+    max_stretch: &[f64],
+    load: f64,
+) -> Option<String> {
+    // The whole area, not the largest triangle's stretch: one squeezed
+    // triangle can stretch a hundredfold while the leaflet does not.
+    let a0: f64 = ref_area.iter().sum();
+    let grown = ref_area
+        .iter()
+        .zip(area_stretch)
+        .map(|(a, j)| a * j)
+        .sum::<f64>()
+        / a0;
+    if grown > BALLOON_AREA {
+        let lmax = max_stretch.iter().copied().fold(0.0f64, f64::max);
+        return Some(format!(
+            "the leaflets balloon: their area grew {grown:.1}-fold, a triangle {lmax:.1}-fold \
+             (pressure × size / (E′·thickness) = {load:.2}): more load than this membrane carries \
+             in equilibrium; a stiffer or thicker leaflet or a lower pressure"
+        ));
+    }
+    let (t, amin) =
+        area_stretch
+            .iter()
+            .copied()
+            .enumerate()
+            .fold(
+                (0, f64::INFINITY),
+                |b, (t, a)| if a < b.1 { (t, a) } else { b },
+            );
+    (amin < COLLAPSED_AREA).then(|| {
+        format!(
+            "triangle {t} collapsed to {:.1} % of its area: the material does not resist it \
+             (the MSM's edge springs) or the mesh is degenerate there",
+            100.0 * amin
+        )
+    })
+}
+
 /// The follower load has no potential (the free edge moves), so Newton
 /// alternates two phases until the residual meets `stop` or the iterations
 /// run out: pseudo-transient continuation on the PSD part of the tangent
@@ -589,6 +644,19 @@ pub fn close_on(
         .zip(&l.x)
         .map(|(a, b)| (a - b).norm())
         .fold(0.0, f64::max);
+    // The relative tolerance measures from the first residual; from an
+    // absurd start (the GOH's exponential on a badly strained reference)
+    // it was met at 1e41 N. A closure has converged only when what is left
+    // is small against the load it carries.
+    let load_n = cfg.pressure.abs() * sys.refs.iter().map(|r| r.area).sum::<f64>();
+    let limit_n = cfg.tolerance.max(LOAD_FRACTION * load_n);
+    if outcome.converged && !(outcome.residual_n <= limit_n) {
+        outcome.converged = false;
+        outcome.reason = format!(
+            "residual {:.3e} N is more than {LOAD_FRACTION:.0e} of the pressure load ({load_n:.3e} N): the relative tolerance was met from a start of {:.3e} N, not an equilibrium; {}",
+            outcome.residual_n, outcome.initial_residual_n, outcome.reason
+        );
+    }
     if moved > 100.0 * span && x.iter().all(|p| p.iter().all(|v| v.is_finite())) {
         outcome.converged = false;
         outcome.reason = format!(
@@ -613,6 +681,13 @@ pub fn close_on(
         .find_map(|t| t.contact_mask(&x))
         .unwrap_or_else(|| vec![0; x.len()]);
     let (area_stretch, max_stretch) = stretches(&x, &sys.refs, &sys.tris);
+    if !outcome.converged {
+        let load = cfg.pressure * 0.5 * span / (cfg.plane_strain_modulus() * cfg.thickness);
+        let ref_area: Vec<f64> = sys.refs.iter().map(|r| r.area).collect();
+        if let Some(why) = failure_cause(&ref_area, &area_stretch, &max_stretch, load) {
+            outcome.reason = format!("{why}: {}", outcome.reason);
+        }
+    }
     Ok(Closed {
         x,
         outcome,
@@ -624,4 +699,32 @@ pub fn close_on(
         pressure_sign: signs,
         suturing,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_failure_names_ballooning_or_a_collapse_and_nothing_else() {
+        let a = [1.0, 1.0, 1.0];
+        let fine = (vec![1.2, 0.9, 1.0], vec![1.3, 1.1, 1.05]);
+        assert_eq!(failure_cause(&a, &fine.0, &fine.1, 0.3), None);
+        // One tiny triangle stretched a hundredfold is not a balloon.
+        let one = failure_cause(
+            &[1.0, 1.0, 1e-4],
+            &[1.1, 1.0, 400.0],
+            &[1.1, 1.0, 100.0],
+            0.3,
+        );
+        assert_eq!(one, None);
+        let why = failure_cause(&[1.0, 3.0], &[1.0, 9.0], &[1.1, 3.2], 41.0).unwrap();
+        assert!(why.starts_with("the leaflets balloon"), "{why}");
+        assert!(
+            why.contains("7.0-fold") && why.contains("3.2-fold") && why.contains("41.00"),
+            "{why}"
+        );
+        let why = failure_cause(&a, &[1.0, 0.01, 0.5], &[1.1, 1.2, 1.0], 0.3).unwrap();
+        assert!(why.starts_with("triangle 1 collapsed to 1.0 %"), "{why}");
+    }
 }
