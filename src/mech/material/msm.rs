@@ -66,6 +66,49 @@
 //! holding the continuation shift while the residual rises (folds at
 //! shift 0.25, 0.036 N after 300). The seeds' MSM has no area or angle
 //! term, so none is added here.
+//!
+//! Which triangles collapse, and why (sample, h 1 mm, bending on, the
+//! default sutured reference): every triangle that lost more than 70 % of
+//! its area in the first failing steps had a rest angle of 112–157°. The
+//! sutured leaflets, the stress-free state, are the flat template mesh
+//! bent and stretched onto the root (edge strains −0.72 … +0.89 from the
+//! template): 763 of 2418 triangles have an angle over 100° and 235 over
+//! 120° (the template mesh itself: 9 and 0; h 0.5 mm: 2676 and 919 of
+//! 9804). Three springs on an obtuse triangle are a shallow truss: moving
+//! the obtuse vertex towards the long edge stretches the short springs
+//! only by (h/ℓ)·δ, so that mode is ~(h/ℓ)² softer than shear and a few
+//! per cent of compression turns it negative (test
+//! `msm_obtuse_triangle_has_a_soft_flattening_mode`); a constant-strain
+//! membrane pays for the area and is not affected — St.V-K at E 1 MPa
+//! (ν 0, 0.3 or 0.45) converges there in 18–23 iterations with bending,
+//! linear springs at E 1 MPa do not in 300 (19 N); a Green-strain spring
+//! (ℓ² instead of ℓ) does not either (4.2 N). Seed 004 §2.3.1 names this
+//! limit of Van Gelder's springs ("For an obtuse triangle the term
+//! |a|²+|b|²−|c|² becomes negative … To avoid obtuse triangles in a mesh an
+//! adaptive remeshing procedure … could be an option"; §2.4.2: "… if a mesh
+//! procedure is used that does not allow obtuse triangles"), and seed 000
+//! puts its springs on the advancing-front mesh of the flat template. With
+//! that mesh as the stress-free state (`reference = "flat"`, an existing
+//! option) the MSM converges with Newton at h 3 to 0.5 mm (grid, planes, bending,
+//! one thread: h 3 / 2 / 1 / 0.5 mm in 17 / 16 / 15 / 19 iterations, 0.10
+//! / 0.07 / 0.51 / 2.84 s; coaptation height 12.68 / 12.92 / 12.98 / 13.00
+//! mm, central 5.78 / 6.93 / 8.66 / 8.83 mm), against 32 / 43 / 300 / 300
+//! iterations (5.6e-2 and 1.87 N left at h 1 and 0.5) with the sutured
+//! reference. With true contact at h 0.5 mm (`--threads 2`) it still did
+//! not converge in 150 s (182 iterations, 5.5e-3 N). That reference is not
+//! free: it keeps the placing and suturing distortion as stress, and for the
+//! other models it changes the answer (same grid, h 0.5 mm, sutured →
+//! flat: neo-Hookean μ 900 kPa coaptation height 7.56 → 8.11 mm, central
+//! 6.44 mm → none, area 515 → 420 mm²; GOH 7.32 mm → reported "converged"
+//! at a residual of 3.9e41 N, the relative test passing on a huge initial
+//! residual). So it is left as an option, not made the MSM's default; the
+//! cure the seeds point to is a rest mesh without obtuse triangles, i.e. a
+//! placement closer to an isometry of the template. Flipping the sutured
+//! mesh's spring network to Delaunay (springs across a hinge where the
+//! opposite angles sum over π; 575 flips at h 1 mm, angles over 120°: 235
+//! → 19) was tried and not kept: h 3 mm 23 iterations, h 2 mm 300
+//! (6.0e-2 N, worse), h 1 mm a failed line search at 6.3e-3 N after 94,
+//! h 0.5 mm 300 (0.97 N).
 
 use super::invariants::{COLLAPSE_RATIO, finite_eval};
 use crate::mech::element::{Eval, Grad9, Hess9, Membrane, RefTri, V3};

@@ -961,3 +961,60 @@ fn msm_rhombus_breakpoint_continuity() {
         );
     }
 }
+
+/// Why the MSM needs a rest mesh without obtuse triangles (seed 004
+/// §2.3.1): moving the obtuse vertex of a flat triangle towards the long
+/// edge changes the two short springs only by (h/ℓ)·δ, so the three-spring
+/// element is ~h² times softer in that mode than in shear, and a few per cent
+/// of compression makes it negative (a shallow truss snapping through). The
+/// constant-strain membrane (St.V-K, same E) pays for the lost area and stays
+/// stiff. An equilateral triangle shows neither.
+#[test]
+fn msm_obtuse_triangle_has_a_soft_flattening_mode() {
+    let msm = MassSpring {
+        law: Law::Linear { young: 1.0 },
+    };
+    let svk = StVenantKirchhoff {
+        young: 1.0,
+        poisson: 1.0 / 3.0,
+    };
+    // ∂²U/∂y² and ∂²U/∂x² at the apex (vertex 2), the base along x.
+    let k = |m: &dyn Membrane, p: &[V3; 3], scale: f64| {
+        let r = RefTri::new(*p, H, None).unwrap();
+        let q = p.map(|v| v * scale);
+        let h = m.eval(&r, &q, true).unwrap().hess.unwrap();
+        (h[(7, 7)], h[(6, 6)])
+    };
+    let hgt = 0.2;
+    let obtuse = [
+        V3::new(0.0, 0.0, 0.0),
+        V3::new(2.0, 0.0, 0.0),
+        V3::new(1.0, hgt, 0.0),
+    ];
+    let (m_flat, m_shear) = k(&msm, &obtuse, 1.0);
+    let (s_flat, _) = k(&svk, &obtuse, 1.0);
+    assert!(
+        m_flat > 0.0 && m_flat < 2.0 * hgt * hgt * m_shear,
+        "{m_flat} vs {m_shear}"
+    );
+    assert!(m_flat < 1e-2 * s_flat, "msm {m_flat} vs svk {s_flat}");
+    // 6 % uniform compression: the springs' flattening stiffness turns
+    // negative, the membrane's does not.
+    let (m_c, _) = k(&msm, &obtuse, 0.94);
+    let (s_c, _) = k(&svk, &obtuse, 0.94);
+    assert!(m_c < 0.0 && s_c > 0.0, "msm {m_c}, svk {s_c}");
+    let s3 = 3f64.sqrt() / 2.0;
+    let equilateral = [
+        V3::new(0.0, 0.0, 0.0),
+        V3::new(2.0, 0.0, 0.0),
+        V3::new(1.0, 2.0 * s3, 0.0),
+    ];
+    let (me, _) = k(&msm, &equilateral, 1.0);
+    let (se, _) = k(&svk, &equilateral, 1.0);
+    assert!(
+        me > 0.3 * se && me < 3.0 * se,
+        "equilateral: msm {me} vs svk {se}"
+    );
+    let (me_c, _) = k(&msm, &equilateral, 0.94);
+    assert!(me_c > 0.0, "equilateral, compressed: {me_c}");
+}
