@@ -286,15 +286,12 @@ fn failure_cause(
              in equilibrium; a stiffer or thicker leaflet or a lower pressure"
         ));
     }
-    let (t, amin) =
-        area_stretch
-            .iter()
-            .copied()
-            .enumerate()
-            .fold(
-                (0, f64::INFINITY),
-                |b, (t, a)| if a < b.1 { (t, a) } else { b },
-            );
+    let (t, amin) = area_stretch
+        .iter()
+        .copied()
+        .enumerate()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((0, f64::INFINITY));
     (amin < COLLAPSED_AREA).then(|| {
         format!(
             "triangle {t} collapsed to {:.1} % of its area: the material does not resist it \

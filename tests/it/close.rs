@@ -156,6 +156,14 @@ fn a_closure_that_does_not_converge_exits_1_with_its_history_and_no_mesh() {
     assert_eq!(r["converged"], false);
     assert_eq!(r["iterations"], 2);
     assert!(r["residual_n"].as_f64().unwrap().is_finite());
+    // GOH on the flat template: placing strains it so far that the first
+    // residual is ~1e48 N and the relative tolerance is met at ~1e39 N.
+    // That is not an equilibrium, and it is not called one.
+    let (err, v) = run(
+        "model = \"goh\"\nmu = \"900 kPa\"\nk1 = \"1100 kPa\"\nk2 = 1000\nkappa = 0.29\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"none\"\nreference = \"flat\"\n[suture]\nmode = \"off\"\n",
+    );
+    assert!(err.contains("of the pressure load"), "{err}");
+    assert!(v["solver"]["residual_n"].as_f64().unwrap() > 1.0, "{v}");
 }
 
 /// The sample valve closes with the seed 001 contact planes: converged, no
