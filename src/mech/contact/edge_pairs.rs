@@ -37,7 +37,7 @@ use rayon::prelude::*;
 
 use super::barrier::{BarrierParams, Hess12};
 use super::edge_barrier::{self, mollifier_eps};
-use super::leaflet_barrier::{CCD_ITER, KEEP};
+use super::leaflet_barrier::{CCD_ITER, KEEP, least_near, start_offset};
 use crate::geom::bvh::{Aabb, Bvh};
 use crate::mech::element::V3;
 use crate::mech::sparse::{Dofs, Pattern};
@@ -121,16 +121,19 @@ impl EdgePairs {
             cand: vec![],
             active: vec![],
         };
-        me.xi = (0..me.edges.len())
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|a| {
-                let mut dmin = f64::INFINITY;
-                for b in me.near(x, bvh, a as u32, xi + params.dhat, false) {
-                    dmin = dmin.min(edge_barrier::proximity(&me.quad(x, a as u32, b)).dist);
-                }
-                xi.min((dmin - params.dhat).max(0.5 * dmin))
-            })
+        let dmin = least_near(
+            bvh,
+            me.edges.len(),
+            |a| me.sphere(x, a as u32, xi + params.dhat),
+            |a, t| {
+                me.least_over(t, a as u32, false, |b| {
+                    edge_barrier::proximity(&me.quad(x, a as u32, b)).dist
+                })
+            },
+        );
+        me.xi = dmin
+            .into_iter()
+            .map(|d| start_offset(xi, params.dhat, d))
             .collect();
         me
     }
@@ -162,26 +165,31 @@ impl EdgePairs {
         0.5 * (self.weight[a as usize] + self.weight[b as usize])
     }
 
-    /// Edges of other leaflets whose triangles come within `r` of edge
-    /// `a`'s points (`higher`: only those numbered above `a`), ascending,
-    /// without the pairs that cannot move.
-    fn near(&self, x: &[V3], bvh: &Bvh, a: u32, r: f64, higher: bool) -> Vec<u32> {
+    /// The query sphere of edge `a` at `x` holding every point within `r`
+    /// of the edge.
+    fn sphere(&self, x: &[V3], a: u32, r: f64) -> (V3, f64) {
         let e = self.edges[a as usize];
         let (p, q) = (x[e[0] as usize], x[e[1] as usize]);
-        let mut out = vec![];
-        bvh.query_sphere(&((p + q) * 0.5), r + 0.5 * (q - p).norm(), |t| {
-            for &b in &self.tri_edges[t as usize] {
-                if self.body[b as usize] != self.body[a as usize]
-                    && (!higher || b > a)
-                    && !(self.fixed[a as usize] && self.fixed[b as usize])
-                {
-                    out.push(b);
-                }
+        ((p + q) * 0.5, r + 0.5 * (q - p).norm())
+    }
+
+    /// The least of `f(b)` over the edges b that triangle `t` owns and
+    /// that can pair with `a` (`higher`: only those numbered above `a`); ∞
+    /// when none. An edge whose distance to `a` is below a radius is found
+    /// through its owner as well as its other triangle (its box is inside
+    /// both), so each edge is met once.
+    fn least_over(&self, t: u32, a: u32, higher: bool, f: impl Fn(u32) -> f64) -> f64 {
+        let mut m = f64::INFINITY;
+        for b in self.tri_edges[t as usize] {
+            if self.owner[b as usize] == t
+                && self.body[b as usize] != self.body[a as usize]
+                && (!higher || b > a)
+                && !(self.fixed[a as usize] && self.fixed[b as usize])
+            {
+                m = m.min(f(b));
             }
-        });
-        out.sort_unstable();
-        out.dedup();
-        out
+        }
+        m
     }
 
     /// Candidates within ξ + d̂ + `reach` at `x` (`bvh` fitted to `x`),
@@ -398,30 +406,25 @@ impl EdgePairs {
                 })
                 .reduce(|| 1.0, f64::min);
         }
-        (0..self.edges.len() as u32)
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|a| {
-                let e = self.edges[a as usize];
-                // Any point of either segment moves by at most its nodes'
-                // largest move: only edges this close can reach ξ.
-                let own = dx[e[0] as usize].norm().max(dx[e[1] as usize].norm());
-                let r = self.xi[a as usize] + own + dmax;
-                let mut t_min: f64 = 1.0;
-                for b in self.near(x, bvh, a, r, true) {
-                    let n = self.nodes(a, b);
-                    let dq = n.map(|i| dx[i as usize]);
+        // Any point of either segment moves by at most its nodes' largest
+        // move: only edges this close can reach ξ.
+        least_near(
+            bvh,
+            self.edges.len(),
+            |a| {
+                let own = moved(self.edges[a]);
+                self.sphere(x, a as u32, self.xi[a] + own + dmax)
+            },
+            |a, t| {
+                let a = a as u32;
+                self.least_over(t, a, true, |b| {
+                    let dq = self.nodes(a, b).map(|i| dx[i as usize]);
                     let q = self.quad(x, a, b);
-                    t_min = t_min.min(edge_barrier::toi(
-                        &q,
-                        &dq,
-                        self.pair_xi(a, b),
-                        keep,
-                        ccd_iter,
-                    ));
-                }
-                t_min
-            })
-            .reduce(|| 1.0, f64::min)
+                    edge_barrier::toi(&q, &dq, self.pair_xi(a, b), keep, ccd_iter)
+                })
+            },
+        )
+        .into_iter()
+        .fold(1.0, f64::min)
     }
 }

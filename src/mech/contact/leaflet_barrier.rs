@@ -104,6 +104,35 @@ fn node_areas(x: &[V3], tris: &[[u32; 3]]) -> Vec<f64> {
     a
 }
 
+/// The offset of an item (node or edge) that starts `d0` from another
+/// leaflet: ξ, lowered to d₀ − d̂ where that is closer (no force at the
+/// start), but not below d₀/2 (the start is admissible).
+pub(super) fn start_offset(xi: f64, dhat: f64, d0: f64) -> f64 {
+    xi.min((d0 - dhat).max(0.5 * d0))
+}
+
+/// Per item i (in parallel) the least of `f(i, t)` over the triangles t
+/// whose boxes the tree finds within `sphere(i)` = (centre, radius); ∞
+/// when there are none. What both halves of the barrier ask of the tree:
+/// start distances (offsets) and times of impact (collision-free steps).
+pub(super) fn least_near(
+    bvh: &Bvh,
+    n: usize,
+    sphere: impl Fn(usize) -> (V3, f64) + Sync,
+    f: impl Fn(usize, u32) -> f64 + Sync,
+) -> Vec<f64> {
+    (0..n)
+        .into_par_iter()
+        .with_min_len(64)
+        .map(|i| {
+            let (c, r) = sphere(i);
+            let mut m = f64::INFINITY;
+            bvh.query_sphere(&c, r, |t| m = m.min(f(i, t)));
+            m
+        })
+        .collect()
+}
+
 impl LeafletBarrier {
     /// `x`: the start (must be the state the solver starts from); `xi`: the
     /// mid-surface offset (thickness); `fixed`: nodes with no free
@@ -147,19 +176,21 @@ impl LeafletBarrier {
         };
         // Offsets from the start distances (ξ + d̂ is the farthest that can
         // lower one).
-        let xi_new: Vec<f64> = (0..x.len())
-            .into_par_iter()
-            .map(|i| {
-                let mut dmin = f64::INFINITY;
-                me.bvh.query_sphere(&x[i], xi + params.dhat, |t| {
-                    if me.skip(i as u32, t) {
-                        return;
-                    }
-                    let v = me.tris[t as usize].map(|k| x[k as usize]);
-                    dmin = dmin.min(barrier::proximity(&x[i], &v[0], &v[1], &v[2]).dist);
-                });
-                xi.min((dmin - params.dhat).max(0.5 * dmin))
-            })
+        let dmin = least_near(
+            &me.bvh,
+            x.len(),
+            |i| (x[i], xi + params.dhat),
+            |i, t| {
+                if me.skip(i as u32, t) {
+                    return f64::INFINITY;
+                }
+                let v = me.tris[t as usize].map(|k| x[k as usize]);
+                barrier::proximity(&x[i], &v[0], &v[1], &v[2]).dist
+            },
+        );
+        let xi_new = dmin
+            .into_iter()
+            .map(|d| start_offset(xi, params.dhat, d))
             .collect();
         me.xi = xi_new;
         me.start_crossings = tri_tri::intersecting_pairs(x, tris, tri_body, &me.bvh);
@@ -425,34 +456,32 @@ impl Term for LeafletBarrier {
         }
         // The tree is fitted to x (update ran at x): every triangle a node
         // can reach lies within ξ + |Δx_i| + max |Δx| of it now.
-        (0..x.len())
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|i| {
-                let r = self.xi[i] + dx[i].norm() + dmax;
-                let mut t_min: f64 = 1.0;
-                self.bvh.query_sphere(&x[i], r, |t| {
-                    if self.skip(i as u32, t) {
-                        return;
-                    }
-                    let q = self.quad(x, i as u32, t);
-                    let v = self.tris[t as usize];
-                    let dq = [
-                        dx[i],
-                        dx[v[0] as usize],
-                        dx[v[1] as usize],
-                        dx[v[2] as usize],
-                    ];
-                    t_min = t_min.min(barrier::toi(&q, &dq, self.xi[i], KEEP, CCD_ITER));
-                });
-                t_min
-            })
-            // min is exact whatever the order: thread-independent.
-            .reduce(|| 1.0, f64::min)
-            .min(
-                self.edges
-                    .max_step(x, dx, &self.bvh, &self.params, self.reach),
-            )
+        least_near(
+            &self.bvh,
+            x.len(),
+            |i| (x[i], self.xi[i] + dx[i].norm() + dmax),
+            |i, t| {
+                if self.skip(i as u32, t) {
+                    return 1.0;
+                }
+                let q = self.quad(x, i as u32, t);
+                let v = self.tris[t as usize];
+                let dq = [
+                    dx[i],
+                    dx[v[0] as usize],
+                    dx[v[1] as usize],
+                    dx[v[2] as usize],
+                ];
+                barrier::toi(&q, &dq, self.xi[i], KEEP, CCD_ITER)
+            },
+        )
+        .into_iter()
+        // min is exact whatever the order: thread-independent.
+        .fold(1.0, f64::min)
+        .min(
+            self.edges
+                .max_step(x, dx, &self.bvh, &self.params, self.reach),
+        )
     }
 
     fn admissible(&self, x: &[V3]) -> bool {
