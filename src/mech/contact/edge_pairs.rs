@@ -54,8 +54,6 @@ pub struct EdgePairs {
     /// The lowest-numbered triangle of each edge: a pair is found once,
     /// from its two edges' owners.
     owner: Vec<u32>,
-    /// Candidate pairs (a < b), ascending.
-    cand: Vec<(u32, u32)>,
     /// Pairs within the margin at the last update (the tangent's).
     active: Vec<(u32, u32)>,
 }
@@ -118,7 +116,6 @@ impl EdgePairs {
             fixed,
             tri_edges,
             owner,
-            cand: vec![],
             active: vec![],
         };
         let dmin = least_near(
@@ -192,17 +189,25 @@ impl EdgePairs {
         m
     }
 
-    /// Candidates within ξ + d̂ + `reach` at `x` (`bvh` fitted to `x`),
-    /// and the pairs acting there. Searched per triangle rather than per
-    /// edge (a third fewer tree queries) and kept per owner pair, so no
-    /// pair is met twice and nothing needs sorting; the order follows the
-    /// triangles and the tree, both fixed by `x`: thread-independent.
-    pub fn update(&mut self, x: &[V3], bvh: &Bvh, params: &BarrierParams, reach: f64) {
+    /// The pairs with s < d̂ + `reach` at `y` (`bvh` fitted to a state
+    /// within `slack` of `y`: both triangles of a pair may have moved that
+    /// far from their boxes). Searched per triangle rather than per edge
+    /// (a third fewer tree queries) and kept per owner pair, so no pair is
+    /// met twice and nothing needs sorting; the order follows the
+    /// triangles and the tree, both fixed by the states: thread-independent.
+    pub fn find(
+        &self,
+        y: &[V3],
+        bvh: &Bvh,
+        params: &BarrierParams,
+        reach: f64,
+        slack: f64,
+    ) -> Vec<(u32, u32)> {
         let xi_max = self.xi.iter().fold(0.0, |m: f64, &v| m.max(v));
-        let r = xi_max + params.dhat + reach;
-        let (mid, half) = self.spheres(x);
+        let r = xi_max + params.dhat + reach + 2.0 * slack;
+        let (mid, half) = self.spheres(y);
         let tris = bvh.len() as u32;
-        let per: Vec<Vec<(u32, u32, bool)>> = (0..tris)
+        let per: Vec<Vec<(u32, u32)>> = (0..tris)
             .into_par_iter()
             .with_min_len(32)
             .map(|ta| {
@@ -242,10 +247,10 @@ impl EdgePairs {
                             if gap >= far {
                                 continue;
                             }
-                            let q = self.quad(x, lo, hi);
+                            let q = self.quad(y, lo, hi);
                             let s = edge_barrier::proximity(&q).dist - self.pair_xi(lo, hi);
                             if s < params.dhat + reach {
-                                out.push((lo, hi, s < params.dhat));
+                                out.push((lo, hi));
                             }
                         }
                     }
@@ -253,14 +258,25 @@ impl EdgePairs {
                 out
             })
             .collect();
-        self.cand.clear();
-        self.active.clear();
-        for (a, b, act) in per.into_iter().flatten() {
-            self.cand.push((a, b));
-            if act {
-                self.active.push((a, b));
-            }
-        }
+        per.into_iter().flatten().collect()
+    }
+
+    /// Keeps the pairs of `cand` within the margin at `x` for the tangent.
+    pub fn set_active(&mut self, x: &[V3], cand: &[(u32, u32)], params: &BarrierParams) {
+        let (mid, half) = self.spheres(x);
+        self.active = cand
+            .par_iter()
+            .with_min_len(256)
+            .filter(|&&(a, b)| {
+                let xi = self.pair_xi(a, b);
+                let gap = (mid[a as usize] - mid[b as usize]).norm()
+                    - half[a as usize]
+                    - half[b as usize];
+                gap - xi < params.dhat
+                    && edge_barrier::proximity(&self.quad(x, a, b)).dist - xi < params.dhat
+            })
+            .copied()
+            .collect();
     }
 
     /// Per edge its midpoint and half length at `x`: a pair whose spheres
@@ -280,16 +296,16 @@ impl EdgePairs {
         self.active.len()
     }
 
-    pub fn candidates_len(&self) -> usize {
-        self.cand.len()
-    }
-
     /// The candidate pairs within the margin at `x` with their energy and
     /// gradient blocks, in candidate order; `None` when a pair has s ≤ 0.
-    pub fn acting(&self, x: &[V3], params: &BarrierParams) -> Option<Vec<Acting>> {
+    pub fn acting(
+        &self,
+        cand: &[(u32, u32)],
+        x: &[V3],
+        params: &BarrierParams,
+    ) -> Option<Vec<Acting>> {
         let (mid, half) = self.spheres(x);
-        let v: Vec<Option<Acting>> = self
-            .cand
+        let v: Vec<Option<Acting>> = cand
             .par_iter()
             .with_min_len(256)
             .filter_map(|&(a, b)| {
@@ -370,14 +386,15 @@ impl EdgePairs {
     }
 
     /// Largest fraction of `dx` from `x` (`bvh` fitted to `x`) keeping
-    /// every pair's s above `keep` × its start value.
+    /// every pair's s above `keep` × its start value; `listed`: `cand`
+    /// holds every pair that could lose that much over the move.
     pub fn max_step(
         &self,
+        cand: &[(u32, u32)],
         x: &[V3],
         dx: &[V3],
         bvh: &Bvh,
-        params: &BarrierParams,
-        reach: f64,
+        listed: bool,
     ) -> f64 {
         let (keep, ccd_iter) = (KEEP, CCD_ITER);
         let dmax = dx.iter().map(|v| v.norm()).fold(0.0, f64::max);
@@ -385,13 +402,10 @@ impl EdgePairs {
             return 1.0;
         }
         let moved = |e: [u32; 2]| dx[e[0] as usize].norm().max(dx[e[1] as usize].norm());
-        if 2.0 * dmax <= params.dhat + reach {
-            // A pair's distance falls by at most its edges' largest moves,
-            // so every pair that can lose a fraction 1 − keep of its gap
-            // is a candidate (within ξ + d̂ + reach at x, the update's
-            // state) and starts within those moves / (1 − keep).
-            return self
-                .cand
+        if listed {
+            // A pair's distance falls by at most its edges' largest moves:
+            // one farther than those moves / (1 − keep) keeps its share.
+            return cand
                 .par_iter()
                 .with_min_len(256)
                 .map(|&(a, b)| {

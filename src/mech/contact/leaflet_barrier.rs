@@ -65,6 +65,50 @@ struct Group {
     end: u32,
 }
 
+/// Candidate pairs and where they were found: every node–triangle and
+/// edge–edge pair with s < d̂ + `reach` at `x0` is listed, so at any state
+/// y with 2 max |y − x0| ≤ `reach` every pair with s < d̂ is (a pair's
+/// distance falls by at most the moves of its two sides).
+struct Lists {
+    reach: f64,
+    x0: Vec<V3>,
+    groups: Vec<Group>,
+    cand: Vec<u32>,
+    edge_cand: Vec<(u32, u32)>,
+}
+
+impl Lists {
+    /// Largest nodal move from `x0` to `y`.
+    fn moved(&self, y: &[V3]) -> f64 {
+        largest_move(&self.x0, y)
+    }
+
+    fn covers(&self, y: &[V3]) -> bool {
+        2.0 * self.moved(y) <= self.reach
+    }
+}
+
+/// max_i |b_i − a_i| (exact in any order).
+fn largest_move(a: &[V3], b: &[V3]) -> f64 {
+    if a.len() != b.len() {
+        return f64::INFINITY;
+    }
+    a.par_iter()
+        .with_min_len(1024)
+        .zip(b.par_iter())
+        .map(|(p, q)| (q - p).norm())
+        .reduce(|| 0.0, f64::max)
+}
+
+/// Shortest reach the lists are built with (mm): below it a rebuild costs
+/// more than the pairs it saves.
+const MIN_REACH: f64 = 0.1;
+
+/// The lists are built to hold for about this many steps of the last
+/// step's size (a reach of 8 steps: a step up to twice the last one, plus
+/// the moves since the build).
+const REACH_PER_STEP: f64 = 8.0;
+
 pub struct LeafletBarrier {
     tris: Vec<[u32; 3]>,
     node_body: Vec<u16>,
@@ -74,13 +118,17 @@ pub struct LeafletBarrier {
     xi: Vec<f64>,
     node_fixed: Vec<bool>,
     pub params: BarrierParams,
+    /// Largest reach of the lists (mm).
     reach: f64,
     bvh: Bvh,
     build_cost: f64,
-    groups: Vec<Group>,
-    cand: Vec<u32>,
-    /// Closest triangle of each group at the last update when the barrier
-    /// acts there (the couplings of the tangent).
+    /// The state the tree is fitted to (the last update's).
+    x_fit: Vec<V3>,
+    /// Largest nodal move between the last two updates (∞ before).
+    last_move: f64,
+    lists: Lists,
+    /// Pairs of `lists` within the margin at the last update (the
+    /// couplings of the tangent).
     active: Vec<(u32, u32)>,
     /// Crossing triangle pairs of the start (placement), tolerated.
     start_crossings: Vec<(u32, u32)>,
@@ -136,10 +184,11 @@ pub(super) fn least_near(
 impl LeafletBarrier {
     /// `x`: the start (must be the state the solver starts from); `xi`: the
     /// mid-surface offset (thickness); `fixed`: nodes with no free
-    /// coordinate. Where a node starts closer than ξ + d̂ to another leaflet
-    /// (sewn side by side at the commissures) its offset is lowered to
-    /// d₀ − d̂ (no force at the start), but not below d₀/2: every start is
-    /// admissible.
+    /// coordinate; `reach`: the largest reach of the candidate lists (twice
+    /// the step the lists must cover). Where a node starts closer than
+    /// ξ + d̂ to another leaflet (sewn side by side at the commissures) its
+    /// offset is lowered to d₀ − d̂ (no force at the start), but not below
+    /// d₀/2: every start is admissible.
     pub fn new(
         x: &[V3],
         tris: &[[u32; 3]],
@@ -166,8 +215,15 @@ impl LeafletBarrier {
             params,
             reach,
             build_cost: bvh.cost(),
-            groups: vec![],
-            cand: vec![],
+            x_fit: x.to_vec(),
+            last_move: f64::INFINITY,
+            lists: Lists {
+                reach: 0.0,
+                x0: vec![],
+                groups: vec![],
+                cand: vec![],
+                edge_cand: vec![],
+            },
             active: vec![],
             start_crossings: vec![],
             projected: false,
@@ -188,14 +244,13 @@ impl LeafletBarrier {
                 barrier::proximity(&x[i], &v[0], &v[1], &v[2]).dist
             },
         );
-        let xi_new = dmin
+        me.xi = dmin
             .into_iter()
             .map(|d| start_offset(xi, params.dhat, d))
             .collect();
-        me.xi = xi_new;
         me.start_crossings = tri_tri::intersecting_pairs(x, tris, tri_body, &me.bvh);
-        me.update_candidates(x);
-        me.edges.update(x, &me.bvh, &me.params, me.reach);
+        me.lists = me.find(x, me.reach, 0.0);
+        me.set_active(x);
         me
     }
 
@@ -219,18 +274,25 @@ impl LeafletBarrier {
         self.start_crossings.len()
     }
 
-    fn update_candidates(&mut self, x: &[V3]) {
+    /// The pairs with s < d̂ + `reach` at `y`, the tree fitted to a state
+    /// within `slack` of `y` (so its boxes are searched that much wider).
+    fn find(&self, y: &[V3], reach: f64, slack: f64) -> Lists {
         // Per node: its (node, body) keys and their candidate lists.
         type Found = (Vec<(u32, u16)>, Vec<Vec<u32>>);
-        let per: Vec<Found> = (0..x.len())
+        let far = self.params.dhat + reach;
+        let per: Vec<Found> = (0..y.len())
             .into_par_iter()
             .with_min_len(64)
             .map(|i| {
-                let r = self.xi[i] + self.params.dhat + self.reach;
+                let r = self.xi[i] + far + slack;
                 let mut found: Vec<u32> = vec![];
-                self.bvh.query_sphere(&x[i], r, |t| {
+                self.bvh.query_sphere(&y[i], r, |t| {
                     if !self.skip(i as u32, t) {
-                        found.push(t);
+                        let q = self.quad(y, i as u32, t);
+                        let d = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist;
+                        if d - self.xi[i] < far {
+                            found.push(t);
+                        }
                     }
                 });
                 found.sort_unstable_by_key(|&t| (self.tri_body[t as usize], t));
@@ -247,27 +309,70 @@ impl LeafletBarrier {
                 (keys, lists)
             })
             .collect();
-        self.groups.clear();
-        self.cand.clear();
+        let mut groups = vec![];
+        let mut cand = vec![];
         for (keys, lists) in per {
             for (k, l) in keys.into_iter().zip(lists) {
-                let start = self.cand.len() as u32;
-                self.cand.extend_from_slice(&l);
-                self.groups.push(Group {
+                let start = cand.len() as u32;
+                cand.extend_from_slice(&l);
+                groups.push(Group {
                     node: k.0,
                     body: k.1,
                     start,
-                    end: self.cand.len() as u32,
+                    end: cand.len() as u32,
                 });
             }
         }
+        Lists {
+            reach,
+            x0: y.to_vec(),
+            groups,
+            cand,
+            edge_cand: self.edges.find(y, &self.bvh, &self.params, reach, slack),
+        }
+    }
+
+    /// `f` of lists holding every pair acting at `y`: the stored ones when
+    /// they cover `y`, else found afresh (a trial state farther than the
+    /// lists were built for).
+    fn with_lists<R>(&self, y: &[V3], f: impl FnOnce(&Lists) -> R) -> R {
+        if self.lists.covers(y) {
+            return f(&self.lists);
+        }
+        let slack = largest_move(&self.x_fit, y);
+        f(&self.find(y, 0.0, slack))
+    }
+
+    /// The pairs of the lists within the margin at `x` (the update's
+    /// state, which the lists cover).
+    fn set_active(&mut self, x: &[V3]) {
+        let lists = &self.lists;
+        let act: Vec<Vec<(u32, u32)>> = lists
+            .groups
+            .par_iter()
+            .with_min_len(64)
+            .map(|g| {
+                let xi = self.xi[g.node as usize];
+                lists.cand[g.start as usize..g.end as usize]
+                    .iter()
+                    .filter(|&&t| {
+                        let q = self.quad(x, g.node, t);
+                        barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - xi < self.params.dhat
+                    })
+                    .map(|&t| (g.node, t))
+                    .collect()
+            })
+            .collect();
+        self.active = act.into_iter().flatten().collect();
+        self.edges
+            .set_active(x, &self.lists.edge_cand, &self.params);
     }
 
     /// The closest candidate triangle of a group at `x` (ties: lower index).
-    fn closest(&self, x: &[V3], g: &Group) -> Option<(u32, Proximity)> {
+    fn closest(&self, lists: &Lists, x: &[V3], g: &Group) -> Option<(u32, Proximity)> {
         let xi = &x[g.node as usize];
         let mut best: Option<(u32, Proximity)> = None;
-        for &t in &self.cand[g.start as usize..g.end as usize] {
+        for &t in &lists.cand[g.start as usize..g.end as usize] {
             let v = self.tris[t as usize].map(|k| x[k as usize]);
             let p = barrier::proximity(xi, &v[0], &v[1], &v[2]);
             if best.as_ref().is_none_or(|b| p.dist < b.1.dist) {
@@ -290,15 +395,16 @@ impl LeafletBarrier {
     /// Per group: its energy and the gradient blocks of its acting pairs;
     /// `None` when a pair is inadmissible (d ≤ ξ).
     #[allow(clippy::type_complexity)]
-    fn eval_groups(&self, x: &[V3]) -> Vec<Option<(f64, Vec<(u32, [V3; 4])>)>> {
-        self.groups
+    fn eval_groups(&self, lists: &Lists, x: &[V3]) -> Vec<Option<(f64, Vec<(u32, [V3; 4])>)>> {
+        lists
+            .groups
             .par_iter()
             .with_min_len(64)
             .map(|g| {
                 let i = g.node as usize;
                 let mut e = 0.0;
                 let mut grads = vec![];
-                for &t in &self.cand[g.start as usize..g.end as usize] {
+                for &t in &lists.cand[g.start as usize..g.end as usize] {
                     let q = self.quad(x, g.node, t);
                     let p = barrier::proximity(&q[0], &q[1], &q[2], &q[3]);
                     if p.dist - self.xi[i] >= self.params.dhat {
@@ -322,15 +428,74 @@ impl LeafletBarrier {
 
     /// Bit b set on a node whose distance to leaflet b is within ξ + d̂.
     fn mask(&self, x: &[V3]) -> Vec<u8> {
-        let mut m = vec![0u8; x.len()];
-        for g in &self.groups {
-            if let Some((_, p)) = self.closest(x, g) {
-                if p.dist - self.xi[g.node as usize] < self.params.dhat && g.body < 8 {
-                    m[g.node as usize] |= 1 << g.body;
+        self.with_lists(x, |lists| {
+            let mut m = vec![0u8; x.len()];
+            for g in &lists.groups {
+                if let Some((_, p)) = self.closest(lists, x, g) {
+                    if p.dist - self.xi[g.node as usize] < self.params.dhat && g.body < 8 {
+                        m[g.node as usize] |= 1 << g.body;
+                    }
                 }
             }
+            m
+        })
+    }
+
+    /// Largest fraction of `dx` from `x` keeping every node–triangle
+    /// pair's s above `KEEP` × its start value; `listed`: the lists hold
+    /// every pair that could lose that much.
+    fn node_max_step(&self, x: &[V3], dx: &[V3], dmax: f64, listed: bool) -> f64 {
+        let dq = |i: usize, t: u32| {
+            let v = self.tris[t as usize];
+            [
+                dx[i],
+                dx[v[0] as usize],
+                dx[v[1] as usize],
+                dx[v[2] as usize],
+            ]
+        };
+        if listed {
+            let lists = &self.lists;
+            return lists
+                .groups
+                .par_iter()
+                .with_min_len(64)
+                .map(|g| {
+                    let i = g.node as usize;
+                    let mut t_min: f64 = 1.0;
+                    for &t in &lists.cand[g.start as usize..g.end as usize] {
+                        let q = self.quad(x, g.node, t);
+                        let d = dq(i, t);
+                        // The distance falls by at most the node's move
+                        // plus the triangle's largest.
+                        let m = d[0].norm() + d[1].norm().max(d[2].norm()).max(d[3].norm());
+                        let s = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - self.xi[i];
+                        if s >= m / (1.0 - KEEP) {
+                            continue;
+                        }
+                        t_min = t_min.min(barrier::toi(&q, &d, self.xi[i], KEEP, CCD_ITER));
+                    }
+                    t_min
+                })
+                // min is exact whatever the order: thread-independent.
+                .reduce(|| 1.0, f64::min);
         }
-        m
+        // The tree is fitted to x (update ran at x): every triangle a node
+        // can reach lies within ξ + |Δx_i| + max |Δx| of it now.
+        least_near(
+            &self.bvh,
+            x.len(),
+            |i| (x[i], self.xi[i] + dx[i].norm() + dmax),
+            |i, t| {
+                if self.skip(i as u32, t) {
+                    return 1.0;
+                }
+                let q = self.quad(x, i as u32, t);
+                barrier::toi(&q, &dq(i, t), self.xi[i], KEEP, CCD_ITER)
+            },
+        )
+        .into_iter()
+        .fold(1.0, f64::min)
     }
 }
 
@@ -339,65 +504,61 @@ impl Term for LeafletBarrier {
         "leaflet-barrier"
     }
 
+    /// Refits the tree; finds the pairs afresh only when the lists would
+    /// not cover a step up to twice the last one, or are far wider than
+    /// that needs (a step of `last` moves no node farther than `last`).
     fn update(&mut self, x: &[V3]) {
+        self.last_move = largest_move(&self.x_fit, x);
+        self.x_fit = x.to_vec();
         self.bvh.refit(x);
         if self.bvh.cost() > 2.0 * self.build_cost {
             self.bvh = Bvh::build(x, &self.tris);
             self.build_cost = self.bvh.cost();
         }
-        self.update_candidates(x);
-        self.edges.update(x, &self.bvh, &self.params, self.reach);
-        let act: Vec<Vec<(u32, u32)>> = self
-            .groups
-            .par_iter()
-            .with_min_len(64)
-            .map(|g| {
-                let xi = self.xi[g.node as usize];
-                self.cand[g.start as usize..g.end as usize]
-                    .iter()
-                    .filter(|&&t| {
-                        let q = self.quad(x, g.node, t);
-                        barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - xi < self.params.dhat
-                    })
-                    .map(|&t| (g.node, t))
-                    .collect()
-            })
-            .collect();
-        self.active = act.into_iter().flatten().collect();
+        let want = (REACH_PER_STEP * self.last_move).clamp(MIN_REACH, self.reach);
+        let moved = self.lists.moved(x);
+        if 2.0 * (moved + 2.0 * self.last_move) > self.lists.reach || self.lists.reach > 2.0 * want
+        {
+            self.lists = self.find(x, want, 0.0);
+        }
+        self.set_active(x);
     }
 
     fn energy(&self, x: &[V3]) -> Option<f64> {
-        let mut e = 0.0;
-        for v in self.eval_groups(x) {
-            match v {
-                Some((ev, _)) => e += ev,
-                None => return Some(f64::INFINITY),
+        self.with_lists(x, |lists| {
+            let mut e = 0.0;
+            for v in self.eval_groups(lists, x) {
+                match v {
+                    Some((ev, _)) => e += ev,
+                    None => return Some(f64::INFINITY),
+                }
             }
-        }
-        match self.edges.acting(x, &self.params) {
-            Some(acting) => Some(acting.iter().fold(e, |s, p| s + p.2)),
-            None => Some(f64::INFINITY),
-        }
+            match self.edges.acting(&lists.edge_cand, x, &self.params) {
+                Some(acting) => Some(acting.iter().fold(e, |s, p| s + p.2)),
+                None => Some(f64::INFINITY),
+            }
+        })
     }
 
     /// An inadmissible group (d ≤ ξ) adds nothing: the solver never takes
     /// such a state ([`Term::admissible`]).
     fn add_force(&self, x: &[V3], f: &mut [V3]) {
-        for (g, v) in self.groups.iter().zip(self.eval_groups(x)) {
-            let Some((_, grads)) = v else { continue };
-            for (t, gr) in grads {
-                let v = self.tris[t as usize];
-                f[g.node as usize] -= gr[0];
-                for k in 0..3 {
-                    f[v[k] as usize] -= gr[k + 1];
+        self.with_lists(x, |lists| {
+            for (g, v) in lists.groups.iter().zip(self.eval_groups(lists, x)) {
+                let Some((_, grads)) = v else { continue };
+                for (t, gr) in grads {
+                    let v = self.tris[t as usize];
+                    f[g.node as usize] -= gr[0];
+                    for k in 0..3 {
+                        f[v[k] as usize] -= gr[k + 1];
+                    }
                 }
             }
-        }
-        if let Some(acting) = self.edges.acting(x, &self.params) {
-            self.edges.add_force(&acting, f);
-        }
+            if let Some(acting) = self.edges.acting(&lists.edge_cand, x, &self.params) {
+                self.edges.add_force(&acting, f);
+            }
+        })
     }
-
     fn couplings(&self, out: &mut Vec<[u32; 2]>) {
         // The triangle's own vertex pairs are mesh edges already.
         for &(n, t) in &self.active {
@@ -454,40 +615,28 @@ impl Term for LeafletBarrier {
         if dmax == 0.0 {
             return 1.0;
         }
-        // The tree is fitted to x (update ran at x): every triangle a node
-        // can reach lies within ξ + |Δx_i| + max |Δx| of it now.
-        least_near(
-            &self.bvh,
-            x.len(),
-            |i| (x[i], self.xi[i] + dx[i].norm() + dmax),
-            |i, t| {
-                if self.skip(i as u32, t) {
-                    return 1.0;
-                }
-                let q = self.quad(x, i as u32, t);
-                let v = self.tris[t as usize];
-                let dq = [
-                    dx[i],
-                    dx[v[0] as usize],
-                    dx[v[1] as usize],
-                    dx[v[2] as usize],
-                ];
-                barrier::toi(&q, &dq, self.xi[i], KEEP, CCD_ITER)
-            },
-        )
-        .into_iter()
-        // min is exact whatever the order: thread-independent.
-        .fold(1.0, f64::min)
-        .min(
-            self.edges
-                .max_step(x, dx, &self.bvh, &self.params, self.reach),
-        )
+        // A pair outside the lists had s ≥ d̂ + reach where they were
+        // built, at least d̂ + reach − 2·moved now, and loses at most 2·dmax
+        // over the step: it keeps its KEEP share when that is within
+        // (1 − KEEP) of its gap. Else every pair is searched afresh.
+        let gap = self.params.dhat + self.lists.reach - 2.0 * self.lists.moved(x);
+        let listed = 2.0 * dmax <= (1.0 - KEEP) * gap;
+        self.node_max_step(x, dx, dmax, listed)
+            .min(
+                self.edges
+                    .max_step(&self.lists.edge_cand, x, dx, &self.bvh, listed),
+            )
     }
 
     fn admissible(&self, x: &[V3]) -> bool {
-        if self.eval_groups(x).iter().any(|v| v.is_none())
-            || self.edges.acting(x, &self.params).is_none()
-        {
+        let admissible = self.with_lists(x, |lists| {
+            !self.eval_groups(lists, x).iter().any(|v| v.is_none())
+                && self
+                    .edges
+                    .acting(&lists.edge_cand, x, &self.params)
+                    .is_some()
+        });
+        if !admissible {
             return false;
         }
         let bvh = Bvh::build(x, &self.tris);
