@@ -385,60 +385,50 @@ impl EdgePairs {
         }
     }
 
-    /// Largest fraction of `dx` from `x` (`bvh` fitted to `x`) keeping
-    /// every pair's s above `keep` × its start value; `listed`: `cand`
-    /// holds every pair that could lose that much over the move.
-    pub fn max_step(
-        &self,
-        cand: &[(u32, u32)],
-        x: &[V3],
-        dx: &[V3],
-        bvh: &Bvh,
-        listed: bool,
-    ) -> f64 {
-        let (keep, ccd_iter) = (KEEP, CCD_ITER);
+    /// Largest fraction of `dx` from `x` keeping every pair's s above
+    /// `KEEP` × its start value: over `cand` when it holds every pair that
+    /// could lose more, else over everything the tree (`bvh`, fitted to `x`)
+    /// finds in reach.
+    pub fn max_step(&self, cand: Option<&[(u32, u32)]>, x: &[V3], dx: &[V3], bvh: &Bvh) -> f64 {
         let dmax = dx.iter().map(|v| v.norm()).fold(0.0, f64::max);
-        if dmax == 0.0 {
-            return 1.0;
-        }
         let moved = |e: [u32; 2]| dx[e[0] as usize].norm().max(dx[e[1] as usize].norm());
-        if listed {
-            // A pair's distance falls by at most its edges' largest moves:
-            // one farther than those moves / (1 − keep) keeps its share.
-            return cand
-                .par_iter()
-                .with_min_len(256)
-                .map(|&(a, b)| {
-                    let xi = self.pair_xi(a, b);
-                    let m = moved(self.edges[a as usize]) + moved(self.edges[b as usize]);
-                    let q = self.quad(x, a, b);
-                    if edge_barrier::proximity(&q).dist - xi >= m / (1.0 - keep) {
-                        return 1.0;
-                    }
-                    let dq = self.nodes(a, b).map(|i| dx[i as usize]);
-                    edge_barrier::toi(&q, &dq, xi, keep, ccd_iter)
-                })
-                .reduce(|| 1.0, f64::min);
-        }
-        // Any point of either segment moves by at most its nodes' largest
-        // move: only edges this close can reach ξ.
-        least_near(
-            bvh,
-            self.edges.len(),
-            |a| {
-                let own = moved(self.edges[a]);
-                self.sphere(x, a as u32, self.xi[a] + own + dmax)
-            },
-            |a, t| {
-                let a = a as u32;
-                self.least_over(t, a, true, |b| {
-                    let dq = self.nodes(a, b).map(|i| dx[i as usize]);
-                    let q = self.quad(x, a, b);
-                    edge_barrier::toi(&q, &dq, self.pair_xi(a, b), keep, ccd_iter)
-                })
-            },
-        )
-        .into_iter()
-        .fold(1.0, f64::min)
+        let Some(cand) = cand else {
+            // Any point of either segment moves by at most its nodes'
+            // largest move: only edges this close can lose a (1 − KEEP)
+            // share of their gap.
+            return least_near(
+                bvh,
+                self.edges.len(),
+                |a| {
+                    let own = moved(self.edges[a]);
+                    self.sphere(x, a as u32, self.xi[a] + (own + dmax) / (1.0 - KEEP))
+                },
+                |a, t| {
+                    let a = a as u32;
+                    self.least_over(t, a, true, |b| {
+                        let dq = self.nodes(a, b).map(|i| dx[i as usize]);
+                        let q = self.quad(x, a, b);
+                        edge_barrier::toi(&q, &dq, self.pair_xi(a, b), KEEP, CCD_ITER)
+                    })
+                },
+            )
+            .into_iter()
+            .fold(1.0, f64::min);
+        };
+        // A pair's distance falls by at most its edges' largest moves: one
+        // farther than those moves / (1 − KEEP) keeps its share.
+        cand.par_iter()
+            .with_min_len(256)
+            .map(|&(a, b)| {
+                let xi = self.pair_xi(a, b);
+                let m = moved(self.edges[a as usize]) + moved(self.edges[b as usize]);
+                let q = self.quad(x, a, b);
+                if edge_barrier::proximity(&q).dist - xi >= m / (1.0 - KEEP) {
+                    return 1.0;
+                }
+                let dq = self.nodes(a, b).map(|i| dx[i as usize]);
+                edge_barrier::toi(&q, &dq, xi, KEEP, CCD_ITER)
+            })
+            .reduce(|| 1.0, f64::min)
     }
 }

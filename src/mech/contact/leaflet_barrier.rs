@@ -41,6 +41,8 @@
 //! first) at 0.36 N: with the exception alone it converges as well. The
 //! crossing count in `closure.json` still includes them.
 
+use std::sync::{Arc, Mutex};
+
 use rayon::prelude::*;
 
 use super::barrier::{self, BarrierParams, Hess12, Proximity};
@@ -127,6 +129,12 @@ pub struct LeafletBarrier {
     /// Largest nodal move between the last two updates (∞ before).
     last_move: f64,
     lists: Lists,
+    /// Wider lists for the step being taken (found by [`Term::max_step`]
+    /// when `lists` do not cover it) or for the last trial state beyond
+    /// both; dropped at the next update. Which lists serve a state never
+    /// changes a result: every one holds the same acting pairs in the same
+    /// order.
+    spare: Mutex<Option<Arc<Lists>>>,
     /// Pairs of `lists` within the margin at the last update (the
     /// couplings of the tangent).
     active: Vec<(u32, u32)>,
@@ -224,6 +232,7 @@ impl LeafletBarrier {
                 cand: vec![],
                 edge_cand: vec![],
             },
+            spare: Mutex::new(None),
             active: vec![],
             start_crossings: vec![],
             projected: false,
@@ -339,8 +348,18 @@ impl LeafletBarrier {
         if self.lists.covers(y) {
             return f(&self.lists);
         }
+        let spare = self.spare_lists();
+        if let Some(l) = spare.filter(|l| l.covers(y)) {
+            return f(&l);
+        }
         let slack = largest_move(&self.x_fit, y);
-        f(&self.find(y, 0.0, slack))
+        let l = Arc::new(self.find(y, 0.0, slack));
+        *self.spare.lock().unwrap_or_else(|e| e.into_inner()) = Some(l.clone());
+        f(&l)
+    }
+
+    fn spare_lists(&self) -> Option<Arc<Lists>> {
+        self.spare.lock().unwrap_or_else(|e| e.into_inner()).clone()
     }
 
     /// The pairs of the lists within the margin at `x` (the update's
@@ -442,9 +461,9 @@ impl LeafletBarrier {
     }
 
     /// Largest fraction of `dx` from `x` keeping every node–triangle
-    /// pair's s above `KEEP` × its start value; `listed`: the lists hold
-    /// every pair that could lose that much.
-    fn node_max_step(&self, x: &[V3], dx: &[V3], dmax: f64, listed: bool) -> f64 {
+    /// pair's s above `KEEP` × its start value: over `lists` when they
+    /// hold every pair that could lose more, else over the tree.
+    fn node_max_step(&self, lists: Option<&Lists>, x: &[V3], dx: &[V3]) -> f64 {
         let dq = |i: usize, t: u32| {
             let v = self.tris[t as usize];
             [
@@ -454,48 +473,49 @@ impl LeafletBarrier {
                 dx[v[2] as usize],
             ]
         };
-        if listed {
-            let lists = &self.lists;
-            return lists
-                .groups
-                .par_iter()
-                .with_min_len(64)
-                .map(|g| {
-                    let i = g.node as usize;
-                    let mut t_min: f64 = 1.0;
-                    for &t in &lists.cand[g.start as usize..g.end as usize] {
-                        let q = self.quad(x, g.node, t);
-                        let d = dq(i, t);
-                        // The distance falls by at most the node's move
-                        // plus the triangle's largest.
-                        let m = d[0].norm() + d[1].norm().max(d[2].norm()).max(d[3].norm());
-                        let s = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - self.xi[i];
-                        if s >= m / (1.0 - KEEP) {
-                            continue;
-                        }
-                        t_min = t_min.min(barrier::toi(&q, &d, self.xi[i], KEEP, CCD_ITER));
+        let Some(lists) = lists else {
+            // The tree is fitted to x (update ran at x): a triangle can
+            // take a (1 − KEEP) share of a node's gap only from within
+            // ξ + (|Δx_i| + max |Δx|)/(1 − KEEP).
+            let dmax = dx.iter().map(|v| v.norm()).fold(0.0, f64::max);
+            return least_near(
+                &self.bvh,
+                x.len(),
+                |i| (x[i], self.xi[i] + (dx[i].norm() + dmax) / (1.0 - KEEP)),
+                |i, t| {
+                    if self.skip(i as u32, t) {
+                        return 1.0;
                     }
-                    t_min
-                })
-                // min is exact whatever the order: thread-independent.
-                .reduce(|| 1.0, f64::min);
-        }
-        // The tree is fitted to x (update ran at x): every triangle a node
-        // can reach lies within ξ + |Δx_i| + max |Δx| of it now.
-        least_near(
-            &self.bvh,
-            x.len(),
-            |i| (x[i], self.xi[i] + dx[i].norm() + dmax),
-            |i, t| {
-                if self.skip(i as u32, t) {
-                    return 1.0;
+                    let q = self.quad(x, i as u32, t);
+                    barrier::toi(&q, &dq(i, t), self.xi[i], KEEP, CCD_ITER)
+                },
+            )
+            .into_iter()
+            .fold(1.0, f64::min);
+        };
+        lists
+            .groups
+            .par_iter()
+            .with_min_len(64)
+            .map(|g| {
+                let i = g.node as usize;
+                let mut t_min: f64 = 1.0;
+                for &t in &lists.cand[g.start as usize..g.end as usize] {
+                    let q = self.quad(x, g.node, t);
+                    let d = dq(i, t);
+                    // The distance falls by at most the node's move plus
+                    // the triangle's largest.
+                    let m = d[0].norm() + d[1].norm().max(d[2].norm()).max(d[3].norm());
+                    let s = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - self.xi[i];
+                    if s >= m / (1.0 - KEEP) {
+                        continue;
+                    }
+                    t_min = t_min.min(barrier::toi(&q, &d, self.xi[i], KEEP, CCD_ITER));
                 }
-                let q = self.quad(x, i as u32, t);
-                barrier::toi(&q, &dq(i, t), self.xi[i], KEEP, CCD_ITER)
-            },
-        )
-        .into_iter()
-        .fold(1.0, f64::min)
+                t_min
+            })
+            // min is exact whatever the order: thread-independent.
+            .reduce(|| 1.0, f64::min)
     }
 }
 
@@ -508,8 +528,14 @@ impl Term for LeafletBarrier {
     /// not cover a step up to twice the last one, or are far wider than
     /// that needs (a step of `last` moves no node farther than `last`).
     fn update(&mut self, x: &[V3]) {
-        self.last_move = largest_move(&self.x_fit, x);
+        // A solver phase starts with an update where the last ended: that
+        // says nothing about the step to come.
+        let moved = largest_move(&self.x_fit, x);
+        if moved > 0.0 {
+            self.last_move = moved;
+        }
         self.x_fit = x.to_vec();
+        *self.spare.get_mut().unwrap_or_else(|e| e.into_inner()) = None;
         self.bvh.refit(x);
         if self.bvh.cost() > 2.0 * self.build_cost {
             self.bvh = Bvh::build(x, &self.tris);
@@ -618,14 +644,26 @@ impl Term for LeafletBarrier {
         // A pair outside the lists had s ≥ d̂ + reach where they were
         // built, at least d̂ + reach − 2·moved now, and loses at most 2·dmax
         // over the step: it keeps its KEEP share when that is within
-        // (1 − KEEP) of its gap. Else every pair is searched afresh.
-        let gap = self.params.dhat + self.lists.reach - 2.0 * self.lists.moved(x);
-        let listed = 2.0 * dmax <= (1.0 - KEEP) * gap;
-        self.node_max_step(x, dx, dmax, listed)
-            .min(
-                self.edges
-                    .max_step(&self.lists.edge_cand, x, dx, &self.bvh, listed),
-            )
+        // (1 − KEEP) of its gap. Else the tree is searched (a long step:
+        // the lists are sized for the last step's length).
+        let moved = self.lists.moved(x);
+        let listed =
+            2.0 * dmax <= (1.0 - KEEP) * (self.params.dhat + self.lists.reach - 2.0 * moved);
+        let lists = listed.then_some(&self.lists);
+        let t = self.node_max_step(lists, x, dx).min(self.edges.max_step(
+            lists.map(|l| &l.edge_cand[..]),
+            x,
+            dx,
+            &self.bvh,
+        ));
+        // The line search moves no node farther than t·dmax: lists for
+        // that, found once here, serve every trial state.
+        if 2.0 * (moved + t * dmax) > self.lists.reach {
+            // (A hair wider: x + α t Δx − x rounds.)
+            let l = Arc::new(self.find(x, 2.0 * t * dmax * (1.0 + 1e-9), 0.0));
+            *self.spare.lock().unwrap_or_else(|e| e.into_inner()) = Some(l);
+        }
+        t
     }
 
     fn admissible(&self, x: &[V3]) -> bool {
