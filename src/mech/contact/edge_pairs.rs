@@ -123,7 +123,7 @@ impl EdgePairs {
             me.edges.len(),
             |a| me.sphere(x, a as u32, xi + params.dhat),
             |a, t| {
-                me.least_over(t, a as u32, false, |b| {
+                me.least_over(t, a as u32, |b| {
                     edge_barrier::proximity(&me.quad(x, a as u32, b)).dist
                 })
             },
@@ -171,16 +171,15 @@ impl EdgePairs {
     }
 
     /// The least of `f(b)` over the edges b that triangle `t` owns and
-    /// that can pair with `a` (`higher`: only those numbered above `a`); ∞
+    /// that can pair with `a`; ∞
     /// when none. An edge whose distance to `a` is below a radius is found
     /// through its owner as well as its other triangle (its box is inside
     /// both), so each edge is met once.
-    fn least_over(&self, t: u32, a: u32, higher: bool, f: impl Fn(u32) -> f64) -> f64 {
+    fn least_over(&self, t: u32, a: u32, f: impl Fn(u32) -> f64) -> f64 {
         let mut m = f64::INFINITY;
         for b in self.tri_edges[t as usize] {
             if self.owner[b as usize] == t
                 && self.body[b as usize] != self.body[a as usize]
-                && (!higher || b > a)
                 && !(self.fixed[a as usize] && self.fixed[b as usize])
             {
                 m = m.min(f(b));
@@ -386,35 +385,10 @@ impl EdgePairs {
     }
 
     /// Largest fraction of `dx` from `x` keeping every pair's s above
-    /// `KEEP` × its start value: over `cand` when it holds every pair that
-    /// could lose more, else over everything the tree (`bvh`, fitted to `x`)
-    /// finds in reach.
-    pub fn max_step(&self, cand: Option<&[(u32, u32)]>, x: &[V3], dx: &[V3], bvh: &Bvh) -> f64 {
-        let dmax = dx.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    /// `KEEP` × its start value, `cand` holding every pair that could lose
+    /// more.
+    pub fn max_step(&self, cand: &[(u32, u32)], x: &[V3], dx: &[V3]) -> f64 {
         let moved = |e: [u32; 2]| dx[e[0] as usize].norm().max(dx[e[1] as usize].norm());
-        let Some(cand) = cand else {
-            // Any point of either segment moves by at most its nodes'
-            // largest move: only edges this close can lose a (1 − KEEP)
-            // share of their gap.
-            return least_near(
-                bvh,
-                self.edges.len(),
-                |a| {
-                    let own = moved(self.edges[a]);
-                    self.sphere(x, a as u32, self.xi[a] + (own + dmax) / (1.0 - KEEP))
-                },
-                |a, t| {
-                    let a = a as u32;
-                    self.least_over(t, a, true, |b| {
-                        let dq = self.nodes(a, b).map(|i| dx[i as usize]);
-                        let q = self.quad(x, a, b);
-                        edge_barrier::toi(&q, &dq, self.pair_xi(a, b), KEEP, CCD_ITER)
-                    })
-                },
-            )
-            .into_iter()
-            .fold(1.0, f64::min);
-        };
         // A pair's distance falls by at most its edges' largest moves: one
         // farther than those moves / (1 − KEEP) keeps its share.
         cand.par_iter()

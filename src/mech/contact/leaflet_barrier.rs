@@ -461,38 +461,9 @@ impl LeafletBarrier {
     }
 
     /// Largest fraction of `dx` from `x` keeping every node–triangle
-    /// pair's s above `KEEP` × its start value: over `lists` when they
-    /// hold every pair that could lose more, else over the tree.
-    fn node_max_step(&self, lists: Option<&Lists>, x: &[V3], dx: &[V3]) -> f64 {
-        let dq = |i: usize, t: u32| {
-            let v = self.tris[t as usize];
-            [
-                dx[i],
-                dx[v[0] as usize],
-                dx[v[1] as usize],
-                dx[v[2] as usize],
-            ]
-        };
-        let Some(lists) = lists else {
-            // The tree is fitted to x (update ran at x): a triangle can
-            // take a (1 − KEEP) share of a node's gap only from within
-            // ξ + (|Δx_i| + max |Δx|)/(1 − KEEP).
-            let dmax = dx.iter().map(|v| v.norm()).fold(0.0, f64::max);
-            return least_near(
-                &self.bvh,
-                x.len(),
-                |i| (x[i], self.xi[i] + (dx[i].norm() + dmax) / (1.0 - KEEP)),
-                |i, t| {
-                    if self.skip(i as u32, t) {
-                        return 1.0;
-                    }
-                    let q = self.quad(x, i as u32, t);
-                    barrier::toi(&q, &dq(i, t), self.xi[i], KEEP, CCD_ITER)
-                },
-            )
-            .into_iter()
-            .fold(1.0, f64::min);
-        };
+    /// pair's s above `KEEP` × its start value, `lists` holding every pair
+    /// that could lose more.
+    fn node_max_step(&self, lists: &Lists, x: &[V3], dx: &[V3]) -> f64 {
         lists
             .groups
             .par_iter()
@@ -502,7 +473,13 @@ impl LeafletBarrier {
                 let mut t_min: f64 = 1.0;
                 for &t in &lists.cand[g.start as usize..g.end as usize] {
                     let q = self.quad(x, g.node, t);
-                    let d = dq(i, t);
+                    let v = self.tris[t as usize];
+                    let d = [
+                        dx[i],
+                        dx[v[0] as usize],
+                        dx[v[1] as usize],
+                        dx[v[2] as usize],
+                    ];
                     // The distance falls by at most the node's move plus
                     // the triangle's largest.
                     let m = d[0].norm() + d[1].norm().max(d[2].norm()).max(d[3].norm());
@@ -636,34 +613,45 @@ impl Term for LeafletBarrier {
         Some(self.mask(x))
     }
 
+    /// A step is cut to what the lists cover: pairs outside them had
+    /// s ≥ d̂ + R where they were built, at least d̂ + R − 2·moved now, and
+    /// a step of c·dmax takes at most 2c·dmax from them, so they keep
+    /// their KEEP share for c ≤ (1 − KEEP)(d̂ + R − 2·moved)/(2·dmax); the
+    /// line search's states stay covered for c ≤ (R/2 − moved)/dmax. The
+    /// next update sizes the lists for the step taken (a cut step is at
+    /// least twice the last one: `update` keeps that much room).
     fn max_step(&self, x: &[V3], dx: &[V3]) -> f64 {
         let dmax = dx.iter().map(|v| v.norm()).fold(0.0, f64::max);
         if dmax == 0.0 {
             return 1.0;
         }
-        // A pair outside the lists had s ≥ d̂ + reach where they were
-        // built, at least d̂ + reach − 2·moved now, and loses at most 2·dmax
-        // over the step: it keeps its KEEP share when that is within
-        // (1 − KEEP) of its gap. Else the tree is searched (a long step:
-        // the lists are sized for the last step's length).
-        let moved = self.lists.moved(x);
-        let listed =
-            2.0 * dmax <= (1.0 - KEEP) * (self.params.dhat + self.lists.reach - 2.0 * moved);
-        let lists = listed.then_some(&self.lists);
-        let t = self.node_max_step(lists, x, dx).min(self.edges.max_step(
-            lists.map(|l| &l.edge_cand[..]),
-            x,
-            dx,
-            &self.bvh,
-        ));
-        // The line search moves no node farther than t·dmax: lists for
-        // that, found once here, serve every trial state.
-        if 2.0 * (moved + t * dmax) > self.lists.reach {
-            // (A hair wider: x + α t Δx − x rounds.)
-            let l = Arc::new(self.find(x, 2.0 * t * dmax * (1.0 + 1e-9), 0.0));
-            *self.spare.lock().unwrap_or_else(|e| e.into_inner()) = Some(l);
+        if !dmax.is_finite() {
+            return 0.0;
         }
-        t
+        let lists = &self.lists;
+        let moved = lists.moved(x);
+        let c = ((1.0 - KEEP) * (self.params.dhat + lists.reach - 2.0 * moved) / (2.0 * dmax))
+            .min((0.5 * lists.reach - moved) / dmax);
+        // (A hair short when cut: x + c Δx − x rounds.)
+        let cover = if c >= 1.0 {
+            1.0
+        } else {
+            c.max(0.0) * (1.0 - 1e-9)
+        };
+        if cover == 0.0 {
+            return 0.0;
+        }
+        let cut: Vec<V3>;
+        let dx = if cover < 1.0 {
+            cut = dx.iter().map(|v| v * cover).collect();
+            &cut[..]
+        } else {
+            dx
+        };
+        let t = self
+            .node_max_step(lists, x, dx)
+            .min(self.edges.max_step(&lists.edge_cand, x, dx));
+        cover * t
     }
 
     fn admissible(&self, x: &[V3]) -> bool {
