@@ -14,8 +14,9 @@
 //!
 //! # Energy
 //!
-//! With s = d − ξ (ξ = mid-surface offset: the thickness, two half
-//! thicknesses meeting), margin d̂ and node area a (reference lumped area):
+//! With s = d − ξ (ξ = mid-surface offset: about the thickness, two half
+//! thicknesses meeting; `leaflet_barrier` "Offset"), margin d̂ and node
+//! area a (reference lumped area):
 //!
 //! ```text
 //! e = κ a b(s),   b(s) = −(s − d̂)² ln(s/d̂)   0 < s < d̂;   0 for s ≥ d̂;   +∞ for s ≤ 0

@@ -22,9 +22,9 @@
 //! the same wall points; their distance there is set by the suturing (on
 //! the sample down to 0 at a shared suture point, an inadmissible start),
 //! not by contact, and the node–triangle pairs of their free nodes still
-//! act. Candidates are the pairs within ξ + d̂ + reach at the
-//! last update, found through the triangle tree (an edge is reached when
-//! one of its triangles is); `max_step` searches afresh.
+//! act. Candidates are the pairs within ξ + d̂ + reach where the leaflet
+//! barrier's lists were found, through the triangle tree (an edge is
+//! reached when one of its triangles is); the leaflet barrier keeps them.
 //!
 //! # Offsets
 //!

@@ -16,10 +16,37 @@
 //! meets every other leaflet in the same way, so the term is symmetric in
 //! the leaflets.
 //!
-//! Candidates are the triangles within ξ + d̂ + `reach` at the last
-//! [`Term::update`] (BVH refitted there). With `reach` at least twice the
-//! solver's largest nodal step no triangle outside the list can come within
-//! ξ + d̂ before the next update, so the energy is exact over a line search.
+//! # Offset
+//!
+//! The barrier acts for mid-surface distances d in (ξ, ξ + d̂). Two
+//! touching leaflets have their mid-surfaces a thickness t apart. κ is set
+//! so that two parallel sheets pressed by the closing pressure rest at
+//! s = d − ξ = d̂/2 ([`BarrierParams::from_pressure`]), so the closure
+//! passes ξ = t − d̂/2: pressed at the closing pressure the mid-surfaces sit
+//! a thickness apart, pressed less they sit up to d̂/2 farther (the sheets
+//! begin to feel each other d̂/2 before they touch), pressed more up to
+//! d̂/2 closer (the tissue compressed). With ξ = t they rested a margin and
+//! more beyond the thickness (0.65–0.75 mm for 0.5 mm leaflets): on the
+//! sample (GOH, h 0.5 mm) the coaptation height was 6.66 mm against
+//! 6.90 mm for the planes offset by half the thickness (the same
+//! thickness between the sheets) and 7.29 mm for the planes through the
+//! axis; with ξ = t − d̂/2 it is 6.87 mm. ξ = t − d̂ (force only once the
+//! surfaces touch) gave 7.03 mm but the exact-tangent Newton stalled (101
+//! iterations instead of 34): −b′ ∇²d grows as the offset shrinks. On a
+//! mesh a node also feels the faces around the one below it (ξ is large
+//! against d̂), so the sheets rest somewhat wider than d̂/2.
+//!
+//! # Candidates
+//!
+//! The pairs with s < d̂ + R at the state `Lists::x0` they were found at
+//! are listed; at a state y with 2 max |y − x0| ≤ R every pair with s < d̂
+//! is among them (a pair's distance falls by at most the moves of its two
+//! sides), so energy and forces there are exact; a state beyond that is
+//! searched afresh. The lists are kept across updates while they cover a
+//! step of twice the last one, and found again with R = 8 × the last step
+//! (0.1 mm to `reach`) otherwise: near convergence the steps are short and
+//! the lists short and seldom rebuilt. [`Term::max_step`] cuts a step to
+//! what the lists cover (the next update widens them).
 //!
 //! Edges of different leaflets are paired too (`edge_pairs.rs`, IPC's
 //! edge–edge pairs): node–triangle pairs do not see an edge of one leaflet
@@ -41,6 +68,7 @@
 //! first) at 0.36 N: with the exception alone it converges as well. The
 //! crossing count in `closure.json` still includes them.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
@@ -128,6 +156,10 @@ pub struct LeafletBarrier {
     x_fit: Vec<V3>,
     /// Largest nodal move between the last two updates (∞ before).
     last_move: f64,
+    /// The largest nodal move of the last step [`Term::max_step`] had to
+    /// cut (f64 bits; 0: none since the update): what the lists should
+    /// have covered.
+    cut_from: AtomicU64,
     lists: Lists,
     /// Wider lists for the step being taken (found by [`Term::max_step`]
     /// when `lists` do not cover it) or for the last trial state beyond
@@ -225,6 +257,7 @@ impl LeafletBarrier {
             build_cost: bvh.cost(),
             x_fit: x.to_vec(),
             last_move: f64::INFINITY,
+            cut_from: AtomicU64::new(0),
             lists: Lists {
                 reach: 0.0,
                 x0: vec![],
@@ -518,9 +551,13 @@ impl Term for LeafletBarrier {
             self.bvh = Bvh::build(x, &self.tris);
             self.build_cost = self.bvh.cost();
         }
-        let want = (REACH_PER_STEP * self.last_move).clamp(MIN_REACH, self.reach);
+        // A cut step asks for lists that hold it (it was cut, not limited
+        // by the pairs: sizing for the cut move alone would cut again).
+        let cut = f64::from_bits(self.cut_from.swap(0, Ordering::Relaxed));
+        let want = (REACH_PER_STEP * self.last_move.max(cut)).clamp(MIN_REACH, self.reach);
         let moved = self.lists.moved(x);
-        if 2.0 * (moved + 2.0 * self.last_move) > self.lists.reach || self.lists.reach > 2.0 * want
+        if 2.0 * (moved + 2.0 * self.last_move.max(cut)) > self.lists.reach
+            || self.lists.reach > 2.0 * want
         {
             self.lists = self.find(x, want, 0.0);
         }
@@ -640,6 +677,9 @@ impl Term for LeafletBarrier {
         };
         if cover == 0.0 {
             return 0.0;
+        }
+        if cover < 1.0 {
+            self.cut_from.store(dmax.to_bits(), Ordering::Relaxed);
         }
         let cut: Vec<V3>;
         let dx = if cover < 1.0 {
