@@ -563,13 +563,18 @@ pub fn close_on(
             }
             let params = BarrierParams::from_pressure(cfg.contact_margin, cfg.pressure.max(1e-6));
             let node_fixed: Vec<bool> = l.boundary.iter().map(|&b| b == 1).collect();
+            // κ puts two sheets pressed by the closing pressure at
+            // s = d̂/2; an offset of the thickness less d̂/2 puts their
+            // mid-surfaces a thickness apart there, where two touching
+            // leaflets are (leaflet_barrier.rs, "Offset").
+            let xi = (cfg.thickness - 0.5 * params.dhat).max(0.0);
             terms.push(Box::new(LeafletBarrier::new(
                 &l.x,
                 &l.tris,
                 &l.leaflet,
                 &node_fixed,
                 params,
-                cfg.thickness,
+                xi,
                 2.0 * MAX_STEP_MM,
             )));
         }

@@ -14,8 +14,9 @@
 //!
 //! # Energy
 //!
-//! With s = d − ξ (ξ = mid-surface offset: the thickness, two half
-//! thicknesses meeting), margin d̂ and node area a (reference lumped area):
+//! With s = d − ξ (ξ = mid-surface offset: about the thickness, two half
+//! thicknesses meeting; `leaflet_barrier` "Offset"), margin d̂ and node
+//! area a (reference lumped area):
 //!
 //! ```text
 //! e = κ a b(s),   b(s) = −(s − d̂)² ln(s/d̂)   0 < s < d̂;   0 for s ≥ d̂;   +∞ for s ≤ 0
@@ -176,7 +177,7 @@ pub fn pair_eval(
     area: f64,
     prm: &BarrierParams,
     want_hess: bool,
-) -> Option<(f64, [V3; 4], Option<Hess12>)> {
+) -> Option<PairEval> {
     let pr = proximity(&q[0], &q[1], &q[2], &q[3]);
     pair_eval_at(q, &pr, xi, area, prm, want_hess)
 }
@@ -189,46 +190,83 @@ pub fn pair_eval_at(
     area: f64,
     prm: &BarrierParams,
     want_hess: bool,
-) -> Option<(f64, [V3; 4], Option<Hess12>)> {
+) -> Option<PairEval> {
     let d = pr.dist;
+    gated(d, xi, prm.dhat, want_hess, |s| {
+        let (b, b1, b2) = barrier(s, prm.dhat);
+        let ka = prm.kappa * area;
+        let u = pr.r / d;
+        let coef = [1.0, -pr.w[0], -pr.w[1], -pr.w[2]];
+        let grad = coef.map(|c| u * (ka * b1 * c));
+        let hess = want_hess.then(|| {
+            let mut p = [[Jet::cst(0.0); 3]; 4];
+            for (k, v) in q.iter().enumerate() {
+                for c in 0..3 {
+                    p[k][c] = Jet::var(v[c], 3 * k + c);
+                }
+            }
+            let j = dist2(&p, pr.feature);
+            let gs = nalgebra::SVector::<f64, 12>::from_column_slice(&j.g);
+            let hs = Hess12::from_fn(|r, c| j.h[r][c]);
+            // ∇d from the closed form, not ∇d²/(2d): the same to round-off, and
+            // consistent with the gradient above.
+            let mut gd = nalgebra::SVector::<f64, 12>::zeros();
+            for k in 0..4 {
+                for c in 0..3 {
+                    gd[3 * k + c] = u[c] * coef[k];
+                }
+            }
+            let hd = hs / (2.0 * d) - gs * gs.transpose() / (4.0 * d * d * d);
+            (gd * gd.transpose() * b2 + hd * b1) * ka
+        });
+        (ka * b, grad, hess)
+    })
+}
+
+/// Energy (N·mm), gradient blocks (N) and optional Hessian (N/mm) of a pair.
+pub type PairEval = (f64, [V3; 4], Option<Hess12>);
+
+/// The gate every pair evaluation shares (node–triangle and edge–edge):
+/// `None` when s = d − ξ ≤ 0 (inadmissible), zeros from the margin on,
+/// else `acting(s)`, refused (`None`) when it is not finite.
+pub(super) fn gated(
+    d: f64,
+    xi: f64,
+    dhat: f64,
+    want_hess: bool,
+    acting: impl FnOnce(f64) -> PairEval,
+) -> Option<PairEval> {
     let s = d - xi;
     if !(s > 0.0) {
         return None;
     }
-    if s >= prm.dhat {
+    if s >= dhat {
         return Some((0.0, [V3::zeros(); 4], want_hess.then(Hess12::zeros)));
     }
-    let (b, b1, b2) = barrier(s, prm.dhat);
-    let ka = prm.kappa * area;
-    let u = pr.r / d;
-    let coef = [1.0, -pr.w[0], -pr.w[1], -pr.w[2]];
-    let grad = coef.map(|c| u * (ka * b1 * c));
-    let hess = want_hess.then(|| {
-        let mut p = [[Jet::cst(0.0); 3]; 4];
-        for (k, v) in q.iter().enumerate() {
-            for c in 0..3 {
-                p[k][c] = Jet::var(v[c], 3 * k + c);
-            }
-        }
-        let j = dist2(&p, pr.feature);
-        let gs = nalgebra::SVector::<f64, 12>::from_column_slice(&j.g);
-        let hs = Hess12::from_fn(|r, c| j.h[r][c]);
-        // ∇d from the closed form, not ∇d²/(2d): the same to round-off, and
-        // consistent with the gradient above.
-        let mut gd = nalgebra::SVector::<f64, 12>::zeros();
-        for k in 0..4 {
-            for c in 0..3 {
-                gd[3 * k + c] = u[c] * coef[k];
-            }
-        }
-        let hd = hs / (2.0 * d) - gs * gs.transpose() / (4.0 * d * d * d);
-        (gd * gd.transpose() * b2 + hd * b1) * ka
-    });
-    let e = ka * b;
+    let (e, grad, hess) = acting(s);
     if !(e.is_finite() && grad.iter().all(|g| g.iter().all(|v| v.is_finite()))) {
         return None;
     }
     Some((e, grad, hess))
+}
+
+/// The gate of the PSD parts: `None` when s ≤ 0, zero from the margin on,
+/// else `acting(s)` when finite.
+pub(super) fn gated_psd(
+    d: f64,
+    xi: f64,
+    dhat: f64,
+    acting: impl FnOnce(f64) -> Hess12,
+) -> Option<Hess12> {
+    let s = d - xi;
+    if !(s > 0.0) {
+        return None;
+    }
+    if s >= dhat {
+        return Some(Hess12::zeros());
+    }
+    let h = acting(s);
+    h.iter().all(|v| v.is_finite()).then_some(h)
 }
 
 /// The positive semi-definite part κ a b″(s) ∇d ∇dᵀ of the pair Hessian
@@ -238,24 +276,18 @@ pub fn pair_eval_at(
 /// inadmissible.
 pub fn pair_gauss_newton(q: &[V3; 4], xi: f64, area: f64, prm: &BarrierParams) -> Option<Hess12> {
     let pr = proximity(&q[0], &q[1], &q[2], &q[3]);
-    let s = pr.dist - xi;
-    if !(s > 0.0) {
-        return None;
-    }
-    if s >= prm.dhat {
-        return Some(Hess12::zeros());
-    }
-    let b2 = barrier(s, prm.dhat).2;
-    let u = pr.r / pr.dist;
-    let coef = [1.0, -pr.w[0], -pr.w[1], -pr.w[2]];
-    let mut gd = nalgebra::SVector::<f64, 12>::zeros();
-    for k in 0..4 {
-        for c in 0..3 {
-            gd[3 * k + c] = u[c] * coef[k];
+    gated_psd(pr.dist, xi, prm.dhat, |s| {
+        let b2 = barrier(s, prm.dhat).2;
+        let u = pr.r / pr.dist;
+        let coef = [1.0, -pr.w[0], -pr.w[1], -pr.w[2]];
+        let mut gd = nalgebra::SVector::<f64, 12>::zeros();
+        for k in 0..4 {
+            for c in 0..3 {
+                gd[3 * k + c] = u[c] * coef[k];
+            }
         }
-    }
-    let h = gd * gd.transpose() * (prm.kappa * area * b2);
-    h.iter().all(|v| v.is_finite()).then_some(h)
+        gd * gd.transpose() * (prm.kappa * area * b2)
+    })
 }
 
 /// Largest fraction t ∈ [0, 1] of the move `dq` from `q` (node, A, B, C)

@@ -9,11 +9,13 @@ use crate::mech::element::V3;
 use crate::mech::system::Term;
 use crate::rng::SplitMix64;
 
-fn rv(r: &mut SplitMix64, s: f64) -> V3 {
+/// A random vector with coordinates in [−s, s].
+pub(super) fn rv(r: &mut SplitMix64, s: f64) -> V3 {
     V3::new(r.range(-s, s), r.range(-s, s), r.range(-s, s))
 }
 
-fn flat(q: &[V3; 4]) -> [f64; 12] {
+/// The four points of a pair as one vector of 12 coordinates.
+pub(super) fn flat(q: &[V3; 4]) -> [f64; 12] {
     let mut v = [0.0; 12];
     for k in 0..4 {
         for c in 0..3 {
@@ -23,7 +25,7 @@ fn flat(q: &[V3; 4]) -> [f64; 12] {
     v
 }
 
-fn unflat(v: &[f64; 12]) -> [V3; 4] {
+pub(super) fn unflat(v: &[f64; 12]) -> [V3; 4] {
     [0, 1, 2, 3].map(|k| V3::new(v[3 * k], v[3 * k + 1], v[3 * k + 2]))
 }
 

@@ -34,7 +34,9 @@
 //! every region (d is a minimum over s, t: the envelope theorem); ∇²D and
 //! ∇²c come from the region's closed form differentiated by [`Jet`].
 
-use super::barrier::{BarrierParams, Hess12, additive_toi, barrier, cross, dot, sub};
+use super::barrier::{
+    BarrierParams, Hess12, PairEval, additive_toi, barrier, cross, dot, gated, gated_psd, sub,
+};
 use super::jet::{Jet, Num};
 use crate::geom::segment_distance::{SegProximity, SegRegion, segment_segment};
 use crate::mech::element::V3;
@@ -136,7 +138,7 @@ pub fn pair_eval(
     eps: f64,
     prm: &BarrierParams,
     want_hess: bool,
-) -> Option<(f64, [V3; 4], Option<Hess12>)> {
+) -> Option<PairEval> {
     pair_eval_at(q, &proximity(q), xi, weight, eps, prm, want_hess)
 }
 
@@ -149,47 +151,38 @@ pub fn pair_eval_at(
     eps: f64,
     prm: &BarrierParams,
     want_hess: bool,
-) -> Option<(f64, [V3; 4], Option<Hess12>)> {
+) -> Option<PairEval> {
     let d = pr.dist;
-    let s = d - xi;
-    if !(s > 0.0) {
-        return None;
-    }
-    if s >= prm.dhat {
-        return Some((0.0, [V3::zeros(); 4], want_hess.then(Hess12::zeros)));
-    }
-    let (b, b1, b2) = barrier(s, prm.dhat);
-    let (e1, e2) = (q[1] - q[0], q[3] - q[2]);
-    let c = e1.cross(&e2).norm_squared();
-    let (m, m1, m2) = mollifier(c, eps);
-    let kw = prm.kappa * weight;
-    let dd = d * d;
-    let f_d = m * b1 / (2.0 * d);
-    let f_c = m1 * b;
-    let (gd, gc) = grads(q, pr);
-    let grad = [0, 1, 2, 3].map(|k| (gd[k] * f_d + gc[k] * f_c) * kw);
-    let hess = want_hess.then(|| {
-        let p = jets(q);
-        let jd = dist2(&p, pr.region);
-        let hd = Hess12::from_fn(|r, c| jd.h[r][c]);
-        let (vd, vc) = (flat(&gd), flat(&gc));
-        let f_dd = m * (b2 / (4.0 * dd) - b1 / (4.0 * dd * d));
-        let mut h = hd * f_d + vd * vd.transpose() * f_dd;
-        if m1 != 0.0 {
-            let jc = cross2(&p);
-            let hc = Hess12::from_fn(|r, c| jc.h[r][c]);
-            let f_cc = m2 * b;
-            let f_dc = m1 * b1 / (2.0 * d);
-            let x = vd * vc.transpose();
-            h += hc * f_c + vc * vc.transpose() * f_cc + (x + x.transpose()) * f_dc;
-        }
-        h * kw
-    });
-    let e = kw * m * b;
-    if !(e.is_finite() && grad.iter().all(|g| g.iter().all(|v| v.is_finite()))) {
-        return None;
-    }
-    Some((e, grad, hess))
+    gated(d, xi, prm.dhat, want_hess, |s| {
+        let (b, b1, b2) = barrier(s, prm.dhat);
+        let (e1, e2) = (q[1] - q[0], q[3] - q[2]);
+        let c = e1.cross(&e2).norm_squared();
+        let (m, m1, m2) = mollifier(c, eps);
+        let kw = prm.kappa * weight;
+        let dd = d * d;
+        let f_d = m * b1 / (2.0 * d);
+        let f_c = m1 * b;
+        let (gd, gc) = grads(q, pr);
+        let grad = [0, 1, 2, 3].map(|k| (gd[k] * f_d + gc[k] * f_c) * kw);
+        let hess = want_hess.then(|| {
+            let p = jets(q);
+            let jd = dist2(&p, pr.region);
+            let hd = Hess12::from_fn(|r, c| jd.h[r][c]);
+            let (vd, vc) = (flat(&gd), flat(&gc));
+            let f_dd = m * (b2 / (4.0 * dd) - b1 / (4.0 * dd * d));
+            let mut h = hd * f_d + vd * vd.transpose() * f_dd;
+            if m1 != 0.0 {
+                let jc = cross2(&p);
+                let hc = Hess12::from_fn(|r, c| jc.h[r][c]);
+                let f_cc = m2 * b;
+                let f_dc = m1 * b1 / (2.0 * d);
+                let x = vd * vc.transpose();
+                h += hc * f_c + vc * vc.transpose() * f_cc + (x + x.transpose()) * f_dc;
+            }
+            h * kw
+        });
+        (kw * m * b, grad, hess)
+    })
 }
 
 /// The positive semi-definite part κ w m b″ ∇d ∇dᵀ of the pair Hessian
@@ -202,20 +195,14 @@ pub fn pair_gauss_newton(
     prm: &BarrierParams,
 ) -> Option<Hess12> {
     let pr = proximity(q);
-    let s = pr.dist - xi;
-    if !(s > 0.0) {
-        return None;
-    }
-    if s >= prm.dhat {
-        return Some(Hess12::zeros());
-    }
-    let b2 = barrier(s, prm.dhat).2;
-    let c = (q[1] - q[0]).cross(&(q[3] - q[2])).norm_squared();
-    let m = mollifier(c, eps).0;
-    // ∇d = ∇D / (2d).
-    let vd = flat(&grads(q, &pr).0) / (2.0 * pr.dist);
-    let h = vd * vd.transpose() * (prm.kappa * weight * m * b2);
-    h.iter().all(|v| v.is_finite()).then_some(h)
+    gated_psd(pr.dist, xi, prm.dhat, |s| {
+        let b2 = barrier(s, prm.dhat).2;
+        let c = (q[1] - q[0]).cross(&(q[3] - q[2])).norm_squared();
+        let m = mollifier(c, eps).0;
+        // ∇d = ∇D / (2d).
+        let vd = flat(&grads(q, &pr).0) / (2.0 * pr.dist);
+        vd * vd.transpose() * (prm.kappa * weight * m * b2)
+    })
 }
 
 /// Largest fraction of the move `dq` of the pair over which s = d − ξ

@@ -3,6 +3,7 @@
 //! edge pushed across another edge held by nothing but the edge pair.
 
 use super::barrier::BarrierParams;
+use super::barrier_tests::{flat, rv, unflat};
 use super::edge_barrier::*;
 use super::leaflet_barrier::LeafletBarrier;
 use crate::geom::bvh::Bvh;
@@ -11,24 +12,6 @@ use crate::geom::tri_tri;
 use crate::mech::element::V3;
 use crate::mech::system::Term;
 use crate::rng::SplitMix64;
-
-fn rv(r: &mut SplitMix64, s: f64) -> V3 {
-    V3::new(r.range(-s, s), r.range(-s, s), r.range(-s, s))
-}
-
-fn flat(q: &[V3; 4]) -> [f64; 12] {
-    let mut v = [0.0; 12];
-    for k in 0..4 {
-        for c in 0..3 {
-            v[3 * k + c] = q[k][c];
-        }
-    }
-    v
-}
-
-fn unflat(v: &[f64; 12]) -> [V3; 4] {
-    [0, 1, 2, 3].map(|k| V3::new(v[3 * k], v[3 * k + 1], v[3 * k + 2]))
-}
 
 fn region_class(r: SegRegion) -> u8 {
     match r {

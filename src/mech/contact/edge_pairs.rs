@@ -22,9 +22,9 @@
 //! the same wall points; their distance there is set by the suturing (on
 //! the sample down to 0 at a shared suture point, an inadmissible start),
 //! not by contact, and the node–triangle pairs of their free nodes still
-//! act. Candidates are the pairs within ξ + d̂ + reach at the
-//! last update, found through the triangle tree (an edge is reached when
-//! one of its triangles is); `max_step` searches afresh.
+//! act. Candidates are the pairs within ξ + d̂ + reach where the leaflet
+//! barrier's lists were found, through the triangle tree (an edge is
+//! reached when one of its triangles is); the leaflet barrier keeps them.
 //!
 //! # Offsets
 //!
@@ -37,7 +37,7 @@ use rayon::prelude::*;
 
 use super::barrier::{BarrierParams, Hess12};
 use super::edge_barrier::{self, mollifier_eps};
-use super::leaflet_barrier::{CCD_ITER, KEEP};
+use super::leaflet_barrier::{CCD_ITER, KEEP, least_near, start_offset};
 use crate::geom::bvh::{Aabb, Bvh};
 use crate::mech::element::V3;
 use crate::mech::sparse::{Dofs, Pattern};
@@ -54,8 +54,6 @@ pub struct EdgePairs {
     /// The lowest-numbered triangle of each edge: a pair is found once,
     /// from its two edges' owners.
     owner: Vec<u32>,
-    /// Candidate pairs (a < b), ascending.
-    cand: Vec<(u32, u32)>,
     /// Pairs within the margin at the last update (the tangent's).
     active: Vec<(u32, u32)>,
 }
@@ -118,19 +116,21 @@ impl EdgePairs {
             fixed,
             tri_edges,
             owner,
-            cand: vec![],
             active: vec![],
         };
-        me.xi = (0..me.edges.len())
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|a| {
-                let mut dmin = f64::INFINITY;
-                for b in me.near(x, bvh, a as u32, xi + params.dhat, false) {
-                    dmin = dmin.min(edge_barrier::proximity(&me.quad(x, a as u32, b)).dist);
-                }
-                xi.min((dmin - params.dhat).max(0.5 * dmin))
-            })
+        let dmin = least_near(
+            bvh,
+            me.edges.len(),
+            |a| me.sphere(x, a as u32, xi + params.dhat),
+            |a, t| {
+                me.least_over(t, a as u32, |b| {
+                    edge_barrier::proximity(&me.quad(x, a as u32, b)).dist
+                })
+            },
+        );
+        me.xi = dmin
+            .into_iter()
+            .map(|d| start_offset(xi, params.dhat, d))
             .collect();
         me
     }
@@ -162,39 +162,51 @@ impl EdgePairs {
         0.5 * (self.weight[a as usize] + self.weight[b as usize])
     }
 
-    /// Edges of other leaflets whose triangles come within `r` of edge
-    /// `a`'s points (`higher`: only those numbered above `a`), ascending,
-    /// without the pairs that cannot move.
-    fn near(&self, x: &[V3], bvh: &Bvh, a: u32, r: f64, higher: bool) -> Vec<u32> {
+    /// The query sphere of edge `a` at `x` holding every point within `r`
+    /// of the edge.
+    fn sphere(&self, x: &[V3], a: u32, r: f64) -> (V3, f64) {
         let e = self.edges[a as usize];
         let (p, q) = (x[e[0] as usize], x[e[1] as usize]);
-        let mut out = vec![];
-        bvh.query_sphere(&((p + q) * 0.5), r + 0.5 * (q - p).norm(), |t| {
-            for &b in &self.tri_edges[t as usize] {
-                if self.body[b as usize] != self.body[a as usize]
-                    && (!higher || b > a)
-                    && !(self.fixed[a as usize] && self.fixed[b as usize])
-                {
-                    out.push(b);
-                }
-            }
-        });
-        out.sort_unstable();
-        out.dedup();
-        out
+        ((p + q) * 0.5, r + 0.5 * (q - p).norm())
     }
 
-    /// Candidates within ξ + d̂ + `reach` at `x` (`bvh` fitted to `x`),
-    /// and the pairs acting there. Searched per triangle rather than per
-    /// edge (a third fewer tree queries) and kept per owner pair, so no
-    /// pair is met twice and nothing needs sorting; the order follows the
-    /// triangles and the tree, both fixed by `x`: thread-independent.
-    pub fn update(&mut self, x: &[V3], bvh: &Bvh, params: &BarrierParams, reach: f64) {
+    /// The least of `f(b)` over the edges b that triangle `t` owns and
+    /// that can pair with `a`; ∞
+    /// when none. An edge whose distance to `a` is below a radius is found
+    /// through its owner as well as its other triangle (its box is inside
+    /// both), so each edge is met once.
+    fn least_over(&self, t: u32, a: u32, f: impl Fn(u32) -> f64) -> f64 {
+        let mut m = f64::INFINITY;
+        for b in self.tri_edges[t as usize] {
+            if self.owner[b as usize] == t
+                && self.body[b as usize] != self.body[a as usize]
+                && !(self.fixed[a as usize] && self.fixed[b as usize])
+            {
+                m = m.min(f(b));
+            }
+        }
+        m
+    }
+
+    /// The pairs with s < d̂ + `reach` at `y` (`bvh` fitted to a state
+    /// within `slack` of `y`: both triangles of a pair may have moved that
+    /// far from their boxes). Searched per triangle rather than per edge
+    /// (a third fewer tree queries) and kept per owner pair, so no pair is
+    /// met twice and nothing needs sorting; the order follows the
+    /// triangles and the tree, both fixed by the states: thread-independent.
+    pub fn find(
+        &self,
+        y: &[V3],
+        bvh: &Bvh,
+        params: &BarrierParams,
+        reach: f64,
+        slack: f64,
+    ) -> Vec<(u32, u32)> {
         let xi_max = self.xi.iter().fold(0.0, |m: f64, &v| m.max(v));
-        let r = xi_max + params.dhat + reach;
-        let (mid, half) = self.spheres(x);
+        let r = xi_max + params.dhat + reach + 2.0 * slack;
+        let (mid, half) = self.spheres(y);
         let tris = bvh.len() as u32;
-        let per: Vec<Vec<(u32, u32, bool)>> = (0..tris)
+        let per: Vec<Vec<(u32, u32)>> = (0..tris)
             .into_par_iter()
             .with_min_len(32)
             .map(|ta| {
@@ -234,10 +246,10 @@ impl EdgePairs {
                             if gap >= far {
                                 continue;
                             }
-                            let q = self.quad(x, lo, hi);
+                            let q = self.quad(y, lo, hi);
                             let s = edge_barrier::proximity(&q).dist - self.pair_xi(lo, hi);
                             if s < params.dhat + reach {
-                                out.push((lo, hi, s < params.dhat));
+                                out.push((lo, hi));
                             }
                         }
                     }
@@ -245,14 +257,25 @@ impl EdgePairs {
                 out
             })
             .collect();
-        self.cand.clear();
-        self.active.clear();
-        for (a, b, act) in per.into_iter().flatten() {
-            self.cand.push((a, b));
-            if act {
-                self.active.push((a, b));
-            }
-        }
+        per.into_iter().flatten().collect()
+    }
+
+    /// Keeps the pairs of `cand` within the margin at `x` for the tangent.
+    pub fn set_active(&mut self, x: &[V3], cand: &[(u32, u32)], params: &BarrierParams) {
+        let (mid, half) = self.spheres(x);
+        self.active = cand
+            .par_iter()
+            .with_min_len(256)
+            .filter(|&&(a, b)| {
+                let xi = self.pair_xi(a, b);
+                let gap = (mid[a as usize] - mid[b as usize]).norm()
+                    - half[a as usize]
+                    - half[b as usize];
+                gap - xi < params.dhat
+                    && edge_barrier::proximity(&self.quad(x, a, b)).dist - xi < params.dhat
+            })
+            .copied()
+            .collect();
     }
 
     /// Per edge its midpoint and half length at `x`: a pair whose spheres
@@ -272,16 +295,16 @@ impl EdgePairs {
         self.active.len()
     }
 
-    pub fn candidates_len(&self) -> usize {
-        self.cand.len()
-    }
-
     /// The candidate pairs within the margin at `x` with their energy and
     /// gradient blocks, in candidate order; `None` when a pair has s ≤ 0.
-    pub fn acting(&self, x: &[V3], params: &BarrierParams) -> Option<Vec<Acting>> {
+    pub fn acting(
+        &self,
+        cand: &[(u32, u32)],
+        x: &[V3],
+        params: &BarrierParams,
+    ) -> Option<Vec<Acting>> {
         let (mid, half) = self.spheres(x);
-        let v: Vec<Option<Acting>> = self
-            .cand
+        let v: Vec<Option<Acting>> = cand
             .par_iter()
             .with_min_len(256)
             .filter_map(|&(a, b)| {
@@ -361,66 +384,24 @@ impl EdgePairs {
         }
     }
 
-    /// Largest fraction of `dx` from `x` (`bvh` fitted to `x`) keeping
-    /// every pair's s above `keep` × its start value.
-    pub fn max_step(
-        &self,
-        x: &[V3],
-        dx: &[V3],
-        bvh: &Bvh,
-        params: &BarrierParams,
-        reach: f64,
-    ) -> f64 {
-        let (keep, ccd_iter) = (KEEP, CCD_ITER);
-        let dmax = dx.iter().map(|v| v.norm()).fold(0.0, f64::max);
-        if dmax == 0.0 {
-            return 1.0;
-        }
+    /// Largest fraction of `dx` from `x` keeping every pair's s above
+    /// `KEEP` × its start value, `cand` holding every pair that could lose
+    /// more.
+    pub fn max_step(&self, cand: &[(u32, u32)], x: &[V3], dx: &[V3]) -> f64 {
         let moved = |e: [u32; 2]| dx[e[0] as usize].norm().max(dx[e[1] as usize].norm());
-        if 2.0 * dmax <= params.dhat + reach {
-            // A pair's distance falls by at most its edges' largest moves,
-            // so every pair that can lose a fraction 1 − keep of its gap
-            // is a candidate (within ξ + d̂ + reach at x, the update's
-            // state) and starts within those moves / (1 − keep).
-            return self
-                .cand
-                .par_iter()
-                .with_min_len(256)
-                .map(|&(a, b)| {
-                    let xi = self.pair_xi(a, b);
-                    let m = moved(self.edges[a as usize]) + moved(self.edges[b as usize]);
-                    let q = self.quad(x, a, b);
-                    if edge_barrier::proximity(&q).dist - xi >= m / (1.0 - keep) {
-                        return 1.0;
-                    }
-                    let dq = self.nodes(a, b).map(|i| dx[i as usize]);
-                    edge_barrier::toi(&q, &dq, xi, keep, ccd_iter)
-                })
-                .reduce(|| 1.0, f64::min);
-        }
-        (0..self.edges.len() as u32)
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|a| {
-                let e = self.edges[a as usize];
-                // Any point of either segment moves by at most its nodes'
-                // largest move: only edges this close can reach ξ.
-                let own = dx[e[0] as usize].norm().max(dx[e[1] as usize].norm());
-                let r = self.xi[a as usize] + own + dmax;
-                let mut t_min: f64 = 1.0;
-                for b in self.near(x, bvh, a, r, true) {
-                    let n = self.nodes(a, b);
-                    let dq = n.map(|i| dx[i as usize]);
-                    let q = self.quad(x, a, b);
-                    t_min = t_min.min(edge_barrier::toi(
-                        &q,
-                        &dq,
-                        self.pair_xi(a, b),
-                        keep,
-                        ccd_iter,
-                    ));
+        // A pair's distance falls by at most its edges' largest moves: one
+        // farther than those moves / (1 − KEEP) keeps its share.
+        cand.par_iter()
+            .with_min_len(256)
+            .map(|&(a, b)| {
+                let xi = self.pair_xi(a, b);
+                let m = moved(self.edges[a as usize]) + moved(self.edges[b as usize]);
+                let q = self.quad(x, a, b);
+                if edge_barrier::proximity(&q).dist - xi >= m / (1.0 - KEEP) {
+                    return 1.0;
                 }
-                t_min
+                let dq = self.nodes(a, b).map(|i| dx[i as usize]);
+                edge_barrier::toi(&q, &dq, xi, KEEP, CCD_ITER)
             })
             .reduce(|| 1.0, f64::min)
     }

@@ -16,10 +16,37 @@
 //! meets every other leaflet in the same way, so the term is symmetric in
 //! the leaflets.
 //!
-//! Candidates are the triangles within ξ + d̂ + `reach` at the last
-//! [`Term::update`] (BVH refitted there). With `reach` at least twice the
-//! solver's largest nodal step no triangle outside the list can come within
-//! ξ + d̂ before the next update, so the energy is exact over a line search.
+//! # Offset
+//!
+//! The barrier acts for mid-surface distances d in (ξ, ξ + d̂). Two
+//! touching leaflets have their mid-surfaces a thickness t apart. κ is set
+//! so that two parallel sheets pressed by the closing pressure rest at
+//! s = d − ξ = d̂/2 ([`BarrierParams::from_pressure`]), so the closure
+//! passes ξ = t − d̂/2: pressed at the closing pressure the mid-surfaces sit
+//! a thickness apart, pressed less they sit up to d̂/2 farther (the sheets
+//! begin to feel each other d̂/2 before they touch), pressed more up to
+//! d̂/2 closer (the tissue compressed). With ξ = t they rested a margin and
+//! more beyond the thickness (0.65–0.75 mm for 0.5 mm leaflets): on the
+//! sample (GOH, h 0.5 mm) the coaptation height was 6.66 mm against
+//! 6.90 mm for the planes offset by half the thickness (the same
+//! thickness between the sheets) and 7.29 mm for the planes through the
+//! axis; with ξ = t − d̂/2 it is 6.87 mm. ξ = t − d̂ (force only once the
+//! surfaces touch) gave 7.03 mm but the exact-tangent Newton stalled (101
+//! iterations instead of 34): −b′ ∇²d grows as the offset shrinks. On a
+//! mesh a node also feels the faces around the one below it (ξ is large
+//! against d̂), so the sheets rest somewhat wider than d̂/2.
+//!
+//! # Candidates
+//!
+//! The pairs with s < d̂ + R at the state `Lists::x0` they were found at
+//! are listed; at a state y with 2 max |y − x0| ≤ R every pair with s < d̂
+//! is among them (a pair's distance falls by at most the moves of its two
+//! sides), so energy and forces there are exact; a state beyond that is
+//! searched afresh. The lists are kept across updates while they cover a
+//! step of twice the last one, and found again with R = 8 × the last step
+//! (0.1 mm to `reach`) otherwise: near convergence the steps are short and
+//! the lists short and seldom rebuilt. [`Term::max_step`] cuts a step to
+//! what the lists cover (the next update widens them).
 //!
 //! Edges of different leaflets are paired too (`edge_pairs.rs`, IPC's
 //! edge–edge pairs): node–triangle pairs do not see an edge of one leaflet
@@ -40,6 +67,9 @@
 //! missing edge pair, was what stalled the sample (GOH, h 0.5 mm, sutured
 //! first) at 0.36 N: with the exception alone it converges as well. The
 //! crossing count in `closure.json` still includes them.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
 
@@ -65,6 +95,50 @@ struct Group {
     end: u32,
 }
 
+/// Candidate pairs and where they were found: every node–triangle and
+/// edge–edge pair with s < d̂ + `reach` at `x0` is listed, so at any state
+/// y with 2 max |y − x0| ≤ `reach` every pair with s < d̂ is (a pair's
+/// distance falls by at most the moves of its two sides).
+struct Lists {
+    reach: f64,
+    x0: Vec<V3>,
+    groups: Vec<Group>,
+    cand: Vec<u32>,
+    edge_cand: Vec<(u32, u32)>,
+}
+
+impl Lists {
+    /// Largest nodal move from `x0` to `y`.
+    fn moved(&self, y: &[V3]) -> f64 {
+        largest_move(&self.x0, y)
+    }
+
+    fn covers(&self, y: &[V3]) -> bool {
+        2.0 * self.moved(y) <= self.reach
+    }
+}
+
+/// max_i |b_i − a_i| (exact in any order).
+fn largest_move(a: &[V3], b: &[V3]) -> f64 {
+    if a.len() != b.len() {
+        return f64::INFINITY;
+    }
+    a.par_iter()
+        .with_min_len(1024)
+        .zip(b.par_iter())
+        .map(|(p, q)| (q - p).norm())
+        .reduce(|| 0.0, f64::max)
+}
+
+/// Shortest reach the lists are built with (mm): below it a rebuild costs
+/// more than the pairs it saves.
+const MIN_REACH: f64 = 0.1;
+
+/// The lists are built to hold for about this many steps of the last
+/// step's size (a reach of 8 steps: a step up to twice the last one, plus
+/// the moves since the build).
+const REACH_PER_STEP: f64 = 8.0;
+
 pub struct LeafletBarrier {
     tris: Vec<[u32; 3]>,
     node_body: Vec<u16>,
@@ -74,13 +148,27 @@ pub struct LeafletBarrier {
     xi: Vec<f64>,
     node_fixed: Vec<bool>,
     pub params: BarrierParams,
+    /// Largest reach of the lists (mm).
     reach: f64,
     bvh: Bvh,
     build_cost: f64,
-    groups: Vec<Group>,
-    cand: Vec<u32>,
-    /// Closest triangle of each group at the last update when the barrier
-    /// acts there (the couplings of the tangent).
+    /// The state the tree is fitted to (the last update's).
+    x_fit: Vec<V3>,
+    /// Largest nodal move between the last two updates (∞ before).
+    last_move: f64,
+    /// The largest nodal move of the last step [`Term::max_step`] had to
+    /// cut (f64 bits; 0: none since the update): what the lists should
+    /// have covered.
+    cut_from: AtomicU64,
+    lists: Lists,
+    /// Wider lists for the step being taken (found by [`Term::max_step`]
+    /// when `lists` do not cover it) or for the last trial state beyond
+    /// both; dropped at the next update. Which lists serve a state never
+    /// changes a result: every one holds the same acting pairs in the same
+    /// order.
+    spare: Mutex<Option<Arc<Lists>>>,
+    /// Pairs of `lists` within the margin at the last update (the
+    /// couplings of the tangent).
     active: Vec<(u32, u32)>,
     /// Crossing triangle pairs of the start (placement), tolerated.
     start_crossings: Vec<(u32, u32)>,
@@ -104,13 +192,43 @@ fn node_areas(x: &[V3], tris: &[[u32; 3]]) -> Vec<f64> {
     a
 }
 
+/// The offset of an item (node or edge) that starts `d0` from another
+/// leaflet: ξ, lowered to d₀ − d̂ where that is closer (no force at the
+/// start), but not below d₀/2 (the start is admissible).
+pub(super) fn start_offset(xi: f64, dhat: f64, d0: f64) -> f64 {
+    xi.min((d0 - dhat).max(0.5 * d0))
+}
+
+/// Per item i (in parallel) the least of `f(i, t)` over the triangles t
+/// whose boxes the tree finds within `sphere(i)` = (centre, radius); ∞
+/// when there are none. What both halves of the barrier ask of the tree:
+/// start distances (offsets) and times of impact (collision-free steps).
+pub(super) fn least_near(
+    bvh: &Bvh,
+    n: usize,
+    sphere: impl Fn(usize) -> (V3, f64) + Sync,
+    f: impl Fn(usize, u32) -> f64 + Sync,
+) -> Vec<f64> {
+    (0..n)
+        .into_par_iter()
+        .with_min_len(64)
+        .map(|i| {
+            let (c, r) = sphere(i);
+            let mut m = f64::INFINITY;
+            bvh.query_sphere(&c, r, |t| m = m.min(f(i, t)));
+            m
+        })
+        .collect()
+}
+
 impl LeafletBarrier {
     /// `x`: the start (must be the state the solver starts from); `xi`: the
     /// mid-surface offset (thickness); `fixed`: nodes with no free
-    /// coordinate. Where a node starts closer than ξ + d̂ to another leaflet
-    /// (sewn side by side at the commissures) its offset is lowered to
-    /// d₀ − d̂ (no force at the start), but not below d₀/2: every start is
-    /// admissible.
+    /// coordinate; `reach`: the largest reach of the candidate lists (twice
+    /// the step the lists must cover). Where a node starts closer than
+    /// ξ + d̂ to another leaflet (sewn side by side at the commissures) its
+    /// offset is lowered to d₀ − d̂ (no force at the start), but not below
+    /// d₀/2: every start is admissible.
     pub fn new(
         x: &[V3],
         tris: &[[u32; 3]],
@@ -137,8 +255,17 @@ impl LeafletBarrier {
             params,
             reach,
             build_cost: bvh.cost(),
-            groups: vec![],
-            cand: vec![],
+            x_fit: x.to_vec(),
+            last_move: f64::INFINITY,
+            cut_from: AtomicU64::new(0),
+            lists: Lists {
+                reach: 0.0,
+                x0: vec![],
+                groups: vec![],
+                cand: vec![],
+                edge_cand: vec![],
+            },
+            spare: Mutex::new(None),
             active: vec![],
             start_crossings: vec![],
             projected: false,
@@ -147,24 +274,25 @@ impl LeafletBarrier {
         };
         // Offsets from the start distances (ξ + d̂ is the farthest that can
         // lower one).
-        let xi_new: Vec<f64> = (0..x.len())
-            .into_par_iter()
-            .map(|i| {
-                let mut dmin = f64::INFINITY;
-                me.bvh.query_sphere(&x[i], xi + params.dhat, |t| {
-                    if me.skip(i as u32, t) {
-                        return;
-                    }
-                    let v = me.tris[t as usize].map(|k| x[k as usize]);
-                    dmin = dmin.min(barrier::proximity(&x[i], &v[0], &v[1], &v[2]).dist);
-                });
-                xi.min((dmin - params.dhat).max(0.5 * dmin))
-            })
+        let dmin = least_near(
+            &me.bvh,
+            x.len(),
+            |i| (x[i], xi + params.dhat),
+            |i, t| {
+                if me.skip(i as u32, t) {
+                    return f64::INFINITY;
+                }
+                let v = me.tris[t as usize].map(|k| x[k as usize]);
+                barrier::proximity(&x[i], &v[0], &v[1], &v[2]).dist
+            },
+        );
+        me.xi = dmin
+            .into_iter()
+            .map(|d| start_offset(xi, params.dhat, d))
             .collect();
-        me.xi = xi_new;
         me.start_crossings = tri_tri::intersecting_pairs(x, tris, tri_body, &me.bvh);
-        me.update_candidates(x);
-        me.edges.update(x, &me.bvh, &me.params, me.reach);
+        me.lists = me.find(x, me.reach, 0.0);
+        me.set_active(x);
         me
     }
 
@@ -188,18 +316,25 @@ impl LeafletBarrier {
         self.start_crossings.len()
     }
 
-    fn update_candidates(&mut self, x: &[V3]) {
+    /// The pairs with s < d̂ + `reach` at `y`, the tree fitted to a state
+    /// within `slack` of `y` (so its boxes are searched that much wider).
+    fn find(&self, y: &[V3], reach: f64, slack: f64) -> Lists {
         // Per node: its (node, body) keys and their candidate lists.
         type Found = (Vec<(u32, u16)>, Vec<Vec<u32>>);
-        let per: Vec<Found> = (0..x.len())
+        let far = self.params.dhat + reach;
+        let per: Vec<Found> = (0..y.len())
             .into_par_iter()
             .with_min_len(64)
             .map(|i| {
-                let r = self.xi[i] + self.params.dhat + self.reach;
+                let r = self.xi[i] + far + slack;
                 let mut found: Vec<u32> = vec![];
-                self.bvh.query_sphere(&x[i], r, |t| {
+                self.bvh.query_sphere(&y[i], r, |t| {
                     if !self.skip(i as u32, t) {
-                        found.push(t);
+                        let q = self.quad(y, i as u32, t);
+                        let d = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist;
+                        if d - self.xi[i] < far {
+                            found.push(t);
+                        }
                     }
                 });
                 found.sort_unstable_by_key(|&t| (self.tri_body[t as usize], t));
@@ -216,27 +351,80 @@ impl LeafletBarrier {
                 (keys, lists)
             })
             .collect();
-        self.groups.clear();
-        self.cand.clear();
+        let mut groups = vec![];
+        let mut cand = vec![];
         for (keys, lists) in per {
             for (k, l) in keys.into_iter().zip(lists) {
-                let start = self.cand.len() as u32;
-                self.cand.extend_from_slice(&l);
-                self.groups.push(Group {
+                let start = cand.len() as u32;
+                cand.extend_from_slice(&l);
+                groups.push(Group {
                     node: k.0,
                     body: k.1,
                     start,
-                    end: self.cand.len() as u32,
+                    end: cand.len() as u32,
                 });
             }
         }
+        Lists {
+            reach,
+            x0: y.to_vec(),
+            groups,
+            cand,
+            edge_cand: self.edges.find(y, &self.bvh, &self.params, reach, slack),
+        }
+    }
+
+    /// `f` of lists holding every pair acting at `y`: the stored ones when
+    /// they cover `y`, else found afresh (a trial state farther than the
+    /// lists were built for).
+    fn with_lists<R>(&self, y: &[V3], f: impl FnOnce(&Lists) -> R) -> R {
+        if self.lists.covers(y) {
+            return f(&self.lists);
+        }
+        let spare = self.spare_lists();
+        if let Some(l) = spare.filter(|l| l.covers(y)) {
+            return f(&l);
+        }
+        let slack = largest_move(&self.x_fit, y);
+        let l = Arc::new(self.find(y, 0.0, slack));
+        *self.spare.lock().unwrap_or_else(|e| e.into_inner()) = Some(l.clone());
+        f(&l)
+    }
+
+    fn spare_lists(&self) -> Option<Arc<Lists>> {
+        self.spare.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// The pairs of the lists within the margin at `x` (the update's
+    /// state, which the lists cover).
+    fn set_active(&mut self, x: &[V3]) {
+        let lists = &self.lists;
+        let act: Vec<Vec<(u32, u32)>> = lists
+            .groups
+            .par_iter()
+            .with_min_len(64)
+            .map(|g| {
+                let xi = self.xi[g.node as usize];
+                lists.cand[g.start as usize..g.end as usize]
+                    .iter()
+                    .filter(|&&t| {
+                        let q = self.quad(x, g.node, t);
+                        barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - xi < self.params.dhat
+                    })
+                    .map(|&t| (g.node, t))
+                    .collect()
+            })
+            .collect();
+        self.active = act.into_iter().flatten().collect();
+        self.edges
+            .set_active(x, &self.lists.edge_cand, &self.params);
     }
 
     /// The closest candidate triangle of a group at `x` (ties: lower index).
-    fn closest(&self, x: &[V3], g: &Group) -> Option<(u32, Proximity)> {
+    fn closest(&self, lists: &Lists, x: &[V3], g: &Group) -> Option<(u32, Proximity)> {
         let xi = &x[g.node as usize];
         let mut best: Option<(u32, Proximity)> = None;
-        for &t in &self.cand[g.start as usize..g.end as usize] {
+        for &t in &lists.cand[g.start as usize..g.end as usize] {
             let v = self.tris[t as usize].map(|k| x[k as usize]);
             let p = barrier::proximity(xi, &v[0], &v[1], &v[2]);
             if best.as_ref().is_none_or(|b| p.dist < b.1.dist) {
@@ -259,15 +447,16 @@ impl LeafletBarrier {
     /// Per group: its energy and the gradient blocks of its acting pairs;
     /// `None` when a pair is inadmissible (d ≤ ξ).
     #[allow(clippy::type_complexity)]
-    fn eval_groups(&self, x: &[V3]) -> Vec<Option<(f64, Vec<(u32, [V3; 4])>)>> {
-        self.groups
+    fn eval_groups(&self, lists: &Lists, x: &[V3]) -> Vec<Option<(f64, Vec<(u32, [V3; 4])>)>> {
+        lists
+            .groups
             .par_iter()
             .with_min_len(64)
             .map(|g| {
                 let i = g.node as usize;
                 let mut e = 0.0;
                 let mut grads = vec![];
-                for &t in &self.cand[g.start as usize..g.end as usize] {
+                for &t in &lists.cand[g.start as usize..g.end as usize] {
                     let q = self.quad(x, g.node, t);
                     let p = barrier::proximity(&q[0], &q[1], &q[2], &q[3]);
                     if p.dist - self.xi[i] >= self.params.dhat {
@@ -291,15 +480,52 @@ impl LeafletBarrier {
 
     /// Bit b set on a node whose distance to leaflet b is within ξ + d̂.
     fn mask(&self, x: &[V3]) -> Vec<u8> {
-        let mut m = vec![0u8; x.len()];
-        for g in &self.groups {
-            if let Some((_, p)) = self.closest(x, g) {
-                if p.dist - self.xi[g.node as usize] < self.params.dhat && g.body < 8 {
-                    m[g.node as usize] |= 1 << g.body;
+        self.with_lists(x, |lists| {
+            let mut m = vec![0u8; x.len()];
+            for g in &lists.groups {
+                if let Some((_, p)) = self.closest(lists, x, g) {
+                    if p.dist - self.xi[g.node as usize] < self.params.dhat && g.body < 8 {
+                        m[g.node as usize] |= 1 << g.body;
+                    }
                 }
             }
-        }
-        m
+            m
+        })
+    }
+
+    /// Largest fraction of `dx` from `x` keeping every node–triangle
+    /// pair's s above `KEEP` × its start value, `lists` holding every pair
+    /// that could lose more.
+    fn node_max_step(&self, lists: &Lists, x: &[V3], dx: &[V3]) -> f64 {
+        lists
+            .groups
+            .par_iter()
+            .with_min_len(64)
+            .map(|g| {
+                let i = g.node as usize;
+                let mut t_min: f64 = 1.0;
+                for &t in &lists.cand[g.start as usize..g.end as usize] {
+                    let q = self.quad(x, g.node, t);
+                    let v = self.tris[t as usize];
+                    let d = [
+                        dx[i],
+                        dx[v[0] as usize],
+                        dx[v[1] as usize],
+                        dx[v[2] as usize],
+                    ];
+                    // The distance falls by at most the node's move plus
+                    // the triangle's largest.
+                    let m = d[0].norm() + d[1].norm().max(d[2].norm()).max(d[3].norm());
+                    let s = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - self.xi[i];
+                    if s >= m / (1.0 - KEEP) {
+                        continue;
+                    }
+                    t_min = t_min.min(barrier::toi(&q, &d, self.xi[i], KEEP, CCD_ITER));
+                }
+                t_min
+            })
+            // min is exact whatever the order: thread-independent.
+            .reduce(|| 1.0, f64::min)
     }
 }
 
@@ -308,65 +534,71 @@ impl Term for LeafletBarrier {
         "leaflet-barrier"
     }
 
+    /// Refits the tree; finds the pairs afresh only when the lists would
+    /// not cover a step up to twice the last one, or are far wider than
+    /// that needs (a step of `last` moves no node farther than `last`).
     fn update(&mut self, x: &[V3]) {
+        // A solver phase starts with an update where the last ended: that
+        // says nothing about the step to come.
+        let moved = largest_move(&self.x_fit, x);
+        if moved > 0.0 {
+            self.last_move = moved;
+        }
+        self.x_fit = x.to_vec();
+        *self.spare.get_mut().unwrap_or_else(|e| e.into_inner()) = None;
         self.bvh.refit(x);
         if self.bvh.cost() > 2.0 * self.build_cost {
             self.bvh = Bvh::build(x, &self.tris);
             self.build_cost = self.bvh.cost();
         }
-        self.update_candidates(x);
-        self.edges.update(x, &self.bvh, &self.params, self.reach);
-        let act: Vec<Vec<(u32, u32)>> = self
-            .groups
-            .par_iter()
-            .with_min_len(64)
-            .map(|g| {
-                let xi = self.xi[g.node as usize];
-                self.cand[g.start as usize..g.end as usize]
-                    .iter()
-                    .filter(|&&t| {
-                        let q = self.quad(x, g.node, t);
-                        barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - xi < self.params.dhat
-                    })
-                    .map(|&t| (g.node, t))
-                    .collect()
-            })
-            .collect();
-        self.active = act.into_iter().flatten().collect();
+        // A cut step asks for lists that hold it (it was cut, not limited
+        // by the pairs: sizing for the cut move alone would cut again).
+        let cut = f64::from_bits(self.cut_from.swap(0, Ordering::Relaxed));
+        let want = (REACH_PER_STEP * self.last_move.max(cut)).clamp(MIN_REACH, self.reach);
+        let moved = self.lists.moved(x);
+        if 2.0 * (moved + 2.0 * self.last_move.max(cut)) > self.lists.reach
+            || self.lists.reach > 2.0 * want
+        {
+            self.lists = self.find(x, want, 0.0);
+        }
+        self.set_active(x);
     }
 
     fn energy(&self, x: &[V3]) -> Option<f64> {
-        let mut e = 0.0;
-        for v in self.eval_groups(x) {
-            match v {
-                Some((ev, _)) => e += ev,
-                None => return Some(f64::INFINITY),
+        self.with_lists(x, |lists| {
+            let mut e = 0.0;
+            for v in self.eval_groups(lists, x) {
+                match v {
+                    Some((ev, _)) => e += ev,
+                    None => return Some(f64::INFINITY),
+                }
             }
-        }
-        match self.edges.acting(x, &self.params) {
-            Some(acting) => Some(acting.iter().fold(e, |s, p| s + p.2)),
-            None => Some(f64::INFINITY),
-        }
+            match self.edges.acting(&lists.edge_cand, x, &self.params) {
+                Some(acting) => Some(acting.iter().fold(e, |s, p| s + p.2)),
+                None => Some(f64::INFINITY),
+            }
+        })
     }
 
     /// An inadmissible group (d ≤ ξ) adds nothing: the solver never takes
     /// such a state ([`Term::admissible`]).
     fn add_force(&self, x: &[V3], f: &mut [V3]) {
-        for (g, v) in self.groups.iter().zip(self.eval_groups(x)) {
-            let Some((_, grads)) = v else { continue };
-            for (t, gr) in grads {
-                let v = self.tris[t as usize];
-                f[g.node as usize] -= gr[0];
-                for k in 0..3 {
-                    f[v[k] as usize] -= gr[k + 1];
+        self.with_lists(x, |lists| {
+            for (g, v) in lists.groups.iter().zip(self.eval_groups(lists, x)) {
+                let Some((_, grads)) = v else { continue };
+                for (t, gr) in grads {
+                    let v = self.tris[t as usize];
+                    f[g.node as usize] -= gr[0];
+                    for k in 0..3 {
+                        f[v[k] as usize] -= gr[k + 1];
+                    }
                 }
             }
-        }
-        if let Some(acting) = self.edges.acting(x, &self.params) {
-            self.edges.add_force(&acting, f);
-        }
+            if let Some(acting) = self.edges.acting(&lists.edge_cand, x, &self.params) {
+                self.edges.add_force(&acting, f);
+            }
+        })
     }
-
     fn couplings(&self, out: &mut Vec<[u32; 2]>) {
         // The triangle's own vertex pairs are mesh edges already.
         for &(n, t) in &self.active {
@@ -418,47 +650,59 @@ impl Term for LeafletBarrier {
         Some(self.mask(x))
     }
 
+    /// A step is cut to what the lists cover: pairs outside them had
+    /// s ≥ d̂ + R where they were built, at least d̂ + R − 2·moved now, and
+    /// a step of c·dmax takes at most 2c·dmax from them, so they keep
+    /// their KEEP share for c ≤ (1 − KEEP)(d̂ + R − 2·moved)/(2·dmax); the
+    /// line search's states stay covered for c ≤ (R/2 − moved)/dmax. The
+    /// next update sizes the lists for the step taken (a cut step is at
+    /// least twice the last one: `update` keeps that much room).
     fn max_step(&self, x: &[V3], dx: &[V3]) -> f64 {
         let dmax = dx.iter().map(|v| v.norm()).fold(0.0, f64::max);
         if dmax == 0.0 {
             return 1.0;
         }
-        // The tree is fitted to x (update ran at x): every triangle a node
-        // can reach lies within ξ + |Δx_i| + max |Δx| of it now.
-        (0..x.len())
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|i| {
-                let r = self.xi[i] + dx[i].norm() + dmax;
-                let mut t_min: f64 = 1.0;
-                self.bvh.query_sphere(&x[i], r, |t| {
-                    if self.skip(i as u32, t) {
-                        return;
-                    }
-                    let q = self.quad(x, i as u32, t);
-                    let v = self.tris[t as usize];
-                    let dq = [
-                        dx[i],
-                        dx[v[0] as usize],
-                        dx[v[1] as usize],
-                        dx[v[2] as usize],
-                    ];
-                    t_min = t_min.min(barrier::toi(&q, &dq, self.xi[i], KEEP, CCD_ITER));
-                });
-                t_min
-            })
-            // min is exact whatever the order: thread-independent.
-            .reduce(|| 1.0, f64::min)
-            .min(
-                self.edges
-                    .max_step(x, dx, &self.bvh, &self.params, self.reach),
-            )
+        if !dmax.is_finite() {
+            return 0.0;
+        }
+        let lists = &self.lists;
+        let moved = lists.moved(x);
+        let c = ((1.0 - KEEP) * (self.params.dhat + lists.reach - 2.0 * moved) / (2.0 * dmax))
+            .min((0.5 * lists.reach - moved) / dmax);
+        // (A hair short when cut: x + c Δx − x rounds.)
+        let cover = if c >= 1.0 {
+            1.0
+        } else {
+            c.max(0.0) * (1.0 - 1e-9)
+        };
+        if cover == 0.0 {
+            return 0.0;
+        }
+        if cover < 1.0 {
+            self.cut_from.store(dmax.to_bits(), Ordering::Relaxed);
+        }
+        let cut: Vec<V3>;
+        let dx = if cover < 1.0 {
+            cut = dx.iter().map(|v| v * cover).collect();
+            &cut[..]
+        } else {
+            dx
+        };
+        let t = self
+            .node_max_step(lists, x, dx)
+            .min(self.edges.max_step(&lists.edge_cand, x, dx));
+        cover * t
     }
 
     fn admissible(&self, x: &[V3]) -> bool {
-        if self.eval_groups(x).iter().any(|v| v.is_none())
-            || self.edges.acting(x, &self.params).is_none()
-        {
+        let admissible = self.with_lists(x, |lists| {
+            !self.eval_groups(lists, x).iter().any(|v| v.is_none())
+                && self
+                    .edges
+                    .acting(&lists.edge_cand, x, &self.params)
+                    .is_some()
+        });
+        if !admissible {
             return false;
         }
         let bvh = Bvh::build(x, &self.tris);
