@@ -326,7 +326,7 @@ pub(super) fn newton_with_continuation(
             break;
         }
         if seconds_left() <= 0.0 {
-            notes.push(format!("time limit {} s reached", stop.max_seconds));
+            notes.push(format!("time limit {:.1} s reached", stop.max_seconds));
             break;
         }
         let r0 = all.as_ref().map_or(f64::NAN, |o| o.initial_residual_n);
@@ -629,10 +629,17 @@ pub fn close_on(
     let solve_s = t1.elapsed().as_secs_f64();
     let mut outcome = outcome;
     if !outcome.converged && sew_s > 0.0 && outcome.reason.contains("time limit") {
-        outcome.reason = format!(
-            "{} (time_limit {} s for the whole close; suturing took {sew_s:.1} s of it)",
-            outcome.reason, cfg.time_limit
-        );
+        outcome.reason = if outcome.iterations == 0 {
+            format!(
+                "no time left to close: suturing took {sew_s:.1} s of time_limit {} s",
+                cfg.time_limit
+            )
+        } else {
+            format!(
+                "{} (time_limit {} s for the whole close; suturing took {sew_s:.1} s of it)",
+                outcome.reason, cfg.time_limit
+            )
+        };
     }
     // A solver that ran away (relaxation with too large a step) can leave
     // finite but absurd positions: far beyond the leaflets' own size.

@@ -430,6 +430,7 @@ fn solve_round(
     first: bool,
     pattern: &mut Option<Pattern>,
 ) -> Outcome {
+    let t0 = Instant::now();
     if !first {
         let start = x.clone();
         closure::set_projected(sys, false);
@@ -449,7 +450,13 @@ fn solve_round(
         }
         *x = start;
     }
-    closure::newton_with_continuation(sys, x, stop, nopt)
+    // The fallback gets what the first attempt left of the round's time,
+    // not the whole of it again (a round ran 113 s on a 60 s limit).
+    let left = Stop {
+        max_seconds: (stop.max_seconds - t0.elapsed().as_secs_f64()).max(0.0),
+        ..stop.clone()
+    };
+    closure::newton_with_continuation(sys, x, &left, nopt)
 }
 
 /// ‖R‖ (N) of the auxiliary problem at `x`, `None` when `x` is not
@@ -585,7 +592,7 @@ pub fn suture(
     for round in 0..s.max_rounds {
         let left = stop.max_seconds - t0.elapsed().as_secs_f64();
         if left <= 0.0 {
-            stalled = Some(format!("time limit {} s reached", stop.max_seconds));
+            stalled = Some(format!("time limit {:.1} s reached", stop.max_seconds));
             break;
         }
         let t1 = Instant::now();

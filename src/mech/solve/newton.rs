@@ -107,7 +107,7 @@ pub fn newton_reusing(
         }
         if t0.elapsed().as_secs_f64() > opt.stop.max_seconds {
             out.reason = format!(
-                "time limit {} s reached at residual {:.3e} N",
+                "time limit {:.1} s reached at residual {:.3e} N",
                 opt.stop.max_seconds, rn
             );
             break;
