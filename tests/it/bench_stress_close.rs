@@ -3,28 +3,22 @@
 
 use crate::common::*;
 
+/// Coarse cases of seed 7 on one thread, with `which` (`--cases` or
+/// `--only`) and a CSV.
+fn stress(which: &[&str], csv: &std::path::Path) -> std::process::Output {
+    let mut a = vec!["bench", "stress-close", "--seed", "7", "--h-min", "2.5"];
+    a.extend(["--h-max", "3", "--time-limit", "30", "--threads", "1"]);
+    a.extend(which);
+    let csv = s(csv);
+    a.extend(["--csv", csv.as_str()]);
+    coapt(&a)
+}
+
 #[test]
 fn stress_close_reports_each_case_as_it_finishes_and_counts_them() {
     let dir = tmpdir("stress-close");
     let csv = dir.join("stress.csv");
-    let o = coapt(&[
-        "bench",
-        "stress-close",
-        "--cases",
-        "3",
-        "--seed",
-        "7",
-        "--h-min",
-        "2.5",
-        "--h-max",
-        "3",
-        "--time-limit",
-        "30",
-        "--csv",
-        &s(&csv),
-        "--threads",
-        "1",
-    ]);
+    let o = stress(&["--cases", "3"], &csv);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let err = stderr(&o);
     let progress: Vec<&str> = err.lines().filter(|l| l.starts_with("case ")).collect();
@@ -52,24 +46,7 @@ fn stress_close_reports_each_case_as_it_finishes_and_counts_them() {
     );
     // `--only` replays one case of the sequence: the same row but the time.
     let one = dir.join("one.csv");
-    let o2 = coapt(&[
-        "bench",
-        "stress-close",
-        "--only",
-        "2",
-        "--seed",
-        "7",
-        "--h-min",
-        "2.5",
-        "--h-max",
-        "3",
-        "--time-limit",
-        "30",
-        "--csv",
-        &s(&one),
-        "--threads",
-        "1",
-    ]);
+    let o2 = stress(&["--only", "2"], &one);
     assert_eq!(o2.status.code(), Some(0), "{}", stderr(&o2));
     let replayed = std::fs::read_to_string(&one).unwrap();
     let without_time = |r: &str| {
