@@ -11,8 +11,9 @@
 //! Optional: `poisson` (svk), `jm` (gent, default 2.3), `k1`, `k2`, `kappa`
 //! (goh), `msm_law` ("linear" with `young`, "seed000-isotropic",
 //! "seed000-anisotropic"), `contact_margin` (the leaflet barrier's reach
-//! d̂ beyond the thickness: mid-surfaces closer than thickness + d̂ push
-//! apart; default 0.5 × thickness), `contact_alpha` (stiffness factor of
+//! d̂: mid-surfaces closer than thickness + d̂/2 push apart, and sheets
+//! pressed at the closing pressure rest a thickness apart; default 0.5 ×
+//! thickness), `contact_alpha` (stiffness factor of
 //! the node-to-triangle penalty, `contact::penalty`; the barrier's
 //! stiffness follows from the pressure instead), `plane_offset` (contact
 //! planes moved off the plane of symmetry into each leaflet's side, e.g.
