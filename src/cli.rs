@@ -447,6 +447,9 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                         "non-finite" => 2,
                         _ => 3,
                     }] += 1;
+                    if log.quiet {
+                        return;
+                    }
                     eprintln!(
                         "case {:>4} {:<10} {:>4} its {:>8.2} s | {}/{cases} done: {} converged, {} failed, {} non-finite, {} hang",
                         r.case.index,

@@ -46,8 +46,10 @@ fn stress_close_reports_each_case_as_it_finishes_and_counts_them() {
     );
     // `--only` replays one case of the sequence: the same row but the time.
     let one = dir.join("one.csv");
-    let o2 = stress(&["--only", "2"], &one);
+    let o2 = stress(&["--only", "2", "--quiet"], &one);
     assert_eq!(o2.status.code(), Some(0), "{}", stderr(&o2));
+    // --quiet keeps the running count off stderr.
+    assert!(!stderr(&o2).contains("done:"), "{}", stderr(&o2));
     let replayed = std::fs::read_to_string(&one).unwrap();
     let without_time = |r: &str| {
         let c: Vec<&str> = r.split(',').collect();
