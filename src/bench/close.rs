@@ -558,7 +558,7 @@ pub fn command() -> Command {
                 .value_delimiter(',')
                 .action(clap::ArgAction::Append)
                 .value_parser(super::close_grid::MODELS)
-                .help("grid models (default msm,neo-hookean,goh: seed 000 spring law, μ 900 kPa, pipelines/close.toml's GOH)"),
+                .help("grid models (default msm,neo-hookean,goh: seed 000 closure-benchmark springs E 1 MPa on the flat template, μ 900 kPa, pipelines/close.toml's GOH)"),
         )
         .arg(
             Arg::new("solvers")

@@ -80,8 +80,10 @@ pub struct Options {
 }
 
 /// The `close.toml` text of one row: pipelines/close.toml with the model's
-/// material (msm: seed 000's isotropic law; neo-Hookean μ 900 kPa; GOH as
-/// in the file), the contact kind, solver and time limit set. Parsed by
+/// material (msm: the springs of seed 000's closure benchmark, E 1 MPa, whose
+/// 44 s is the time the ≤ 5 s target answers — the seed's three-step
+/// pericardium law is `msm_law = "seed000-isotropic"`; neo-Hookean μ 900 kPa;
+/// GOH as in the file), the contact kind, solver and time limit set. Parsed by
 /// `mech::config::parse`, so every other key keeps its pipeline value.
 pub fn config_text(
     model: &str,
@@ -101,7 +103,8 @@ pub fn config_text(
                 t.remove(k);
             }
             t.insert("model".into(), s("msm"));
-            t.insert("msm_law".into(), s("seed000-isotropic"));
+            t.insert("msm_law".into(), s("linear"));
+            t.insert("young".into(), s("1 MPa"));
         }
         "neo-hookean" => {
             for k in material {
@@ -728,8 +731,9 @@ mod tests {
         let msm = config::parse(&config_text("msm", "relax", "planes", 5.0).unwrap()).unwrap();
         assert_eq!(
             msm.model,
-            config::Model::Msm(crate::mech::material::msm::seed000_isotropic())
+            config::Model::Msm(crate::mech::material::msm::Law::Linear { young: 1.0 })
         );
+        assert_eq!(msm.reference, config::Reference::Flat);
         assert_eq!(msm.solver, config::SolverKind::Relax);
         assert_eq!(
             (msm.thickness, msm.pressure),

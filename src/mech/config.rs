@@ -21,11 +21,13 @@
 //! seed's planes through the axis), `tolerance` (default
 //! "1e-7 N"), `relative_tolerance` (default 1e-7), `max_iterations`,
 //! `time_limit` (default "600 s"; it bounds the whole close, suturing
-//! included), `reference` ("sutured", the default: the
+//! included), `reference` ("sutured", the default of the membranes: the
 //! configuration after suturing is stress-free, as in seed 001; "placed":
-//! the placed template is, so suturing leaves stress; "flat": the flat
-//! template is, leaving the stress of both placing and suturing in the
-//! leaflet), `bending` (true: add the bending stiffness D = E't³/12 of a
+//! the placed template is, so suturing leaves stress; "flat", the MSM's
+//! default: the flat template is, leaving the stress of both placing and
+//! suturing in the leaflet; seed 000's springs rest on the flat template's
+//! mesh, and on the sutured one a third of the triangles are obtuse, which
+//! three edge springs cannot hold, see `material::msm`), `bending` (true: add the bending stiffness D = E't³/12 of a
 //! shell, default false).
 //!
 //! The suturing pre-stage (seed 001 Algorithm 1, [`super::suture`]) has its
@@ -344,7 +346,16 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
             ));
         }
     };
-    let reference = match raw.reference.as_deref().unwrap_or("sutured") {
+    // Seed 000 puts its springs on the advancing-front mesh of the flat
+    // template, and Van Gelder's stiffness needs its non-obtuse triangles
+    // (seed 004 §2.3.1): on the sutured mesh a third of the triangles are
+    // obtuse and the MSM does not converge below h 2 mm (msm.rs). So the
+    // MSM's springs rest at the cut pericardium's lengths unless asked.
+    let default_reference = match model {
+        Model::Msm(_) => "flat",
+        _ => "sutured",
+    };
+    let reference = match raw.reference.as_deref().unwrap_or(default_reference) {
         "sutured" => Reference::Sutured,
         "placed" => Reference::Placed,
         "flat" => Reference::Flat,
@@ -477,5 +488,26 @@ mod tests {
         let c = parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\nplane_offset = \"0.25 mm\"\n").unwrap();
         assert_eq!(c.plane_offset, 0.25);
         assert!(parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\nplane_offset = \"-1 mm\"\n").is_err());
+    }
+
+    #[test]
+    fn the_msm_rests_on_the_flat_template_unless_told_otherwise() {
+        let base = "thickness = \"0.5 mm\"\npressure = \"80 mmHg\"\n";
+        let msm = parse(&format!("model = \"msm\"\n{base}")).unwrap();
+        assert_eq!(msm.reference, Reference::Flat);
+        let msm = parse(&format!("model = \"msm\"\nreference = \"sutured\"\n{base}")).unwrap();
+        assert_eq!(msm.reference, Reference::Sutured);
+        let nh = parse(&format!(
+            "model = \"neo-hookean\"\nmu = \"300 kPa\"\n{base}"
+        ))
+        .unwrap();
+        assert_eq!(nh.reference, Reference::Sutured);
+        assert_eq!(nh.to_json()["reference"], "sutured");
+        assert_eq!(
+            parse(&format!("model = \"msm\"\n{base}"))
+                .unwrap()
+                .to_json()["reference"],
+            "flat"
+        );
     }
 }
