@@ -396,7 +396,9 @@ fn close_row(row: &mut Row, mesh: &Mesh, time_limit_s: f64) -> Result<()> {
             row.reason = o.reason.clone();
             row.status = if o.converged {
                 Status::Converged
-            } else if o.reason.contains("time limit") || row.wall_s >= time_limit_s {
+            } else if o.stopped_by == crate::mech::solve::Stopped::TimeLimit
+                || row.wall_s >= time_limit_s
+            {
                 Status::TimeLimit
             } else {
                 Status::NotConverged

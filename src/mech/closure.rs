@@ -9,7 +9,7 @@ use super::contact::barrier::BarrierParams;
 use super::contact::leaflet_barrier::LeafletBarrier;
 use super::contact::planes::Plane;
 use super::element::{RefTri, V3};
-use super::solve::{self, NewtonOptions, Outcome, RelaxOptions, Stop};
+use super::solve::{self, NewtonOptions, Outcome, RelaxOptions, Stop, Stopped};
 use super::sparse::Dofs;
 use super::suture::{self, Sutured, Wall};
 use super::system::{PressureMode, System, Term, norm};
@@ -316,6 +316,7 @@ pub(super) fn newton_with_continuation(
 ) -> Outcome {
     let mut all: Option<Outcome> = None;
     let mut notes = Vec::new();
+    let mut stopped_by = None;
     // The time limit bounds the whole solve, not each phase of each round.
     let t0 = std::time::Instant::now();
     let seconds_left = || stop.max_seconds - t0.elapsed().as_secs_f64();
@@ -327,6 +328,7 @@ pub(super) fn newton_with_continuation(
         }
         if seconds_left() <= 0.0 {
             notes.push(format!("time limit {:.1} s reached", stop.max_seconds));
+            stopped_by = Some(Stopped::TimeLimit);
             break;
         }
         let r0 = all.as_ref().map_or(f64::NAN, |o| o.initial_residual_n);
@@ -406,6 +408,11 @@ pub(super) fn newton_with_continuation(
         o
     });
     o.converged = false;
+    o.stopped_by = stopped_by.unwrap_or(match o.stopped_by {
+        // Five rounds, each ending in Newton's own iteration limit.
+        Stopped::Converged | Stopped::NotStarted => Stopped::IterationLimit,
+        other => other,
+    });
     o.reason = notes.join("; ");
     o
 }
@@ -427,6 +434,7 @@ fn merge(prev: Option<Outcome>, mut next: Outcome) -> Outcome {
             p.seconds += next.seconds;
             p.residual_n = next.residual_n;
             p.converged = next.converged;
+            p.stopped_by = next.stopped_by;
             p
         }
     }
@@ -489,6 +497,7 @@ pub fn close_on(
                     solve_s: 0.0,
                     pressure_sign: pressure_signs(l, &axis, n_leaflets),
                     outcome: Outcome {
+                        stopped_by: Stopped::SuturingFailed,
                         reason: format!("suturing (seed 001 Algorithm 1) failed: {}", s.reason),
                         iterations: s.iterations,
                         residual_n: s.rounds.last().map_or(0.0, |r| r.residual_n),
@@ -533,7 +542,7 @@ pub fn close_on(
         (Reference::Placed, _) => placed.x.clone(),
         (Reference::Flat, Some(uv)) => uv.iter().map(|p| V3::new(p[0], p[1], 0.0)).collect(),
         (Reference::Flat, None) => {
-            return Err("reference = \"flat\" needs point data ref_uv".into());
+            return Err("reference = \"flat\" (the MSM's default) needs the leaflets' point data ref_uv, the flat template's coordinates that `coapt leaflets` writes; set reference = \"sutured\" to rest on the sutured state instead".into());
         }
     };
     let mut refs = Vec::with_capacity(l.tris.len());
@@ -628,7 +637,7 @@ pub fn close_on(
     };
     let solve_s = t1.elapsed().as_secs_f64();
     let mut outcome = outcome;
-    if !outcome.converged && sew_s > 0.0 && outcome.reason.contains("time limit") {
+    if !outcome.converged && sew_s > 0.0 && outcome.stopped_by == Stopped::TimeLimit {
         outcome.reason = if outcome.iterations == 0 {
             format!(
                 "no time left to close: suturing took {sew_s:.1} s of time_limit {} s",
@@ -661,6 +670,7 @@ pub fn close_on(
     let limit_n = cfg.tolerance.max(LOAD_FRACTION * load_n);
     if outcome.converged && !(outcome.residual_n <= limit_n) {
         outcome.converged = false;
+        outcome.stopped_by = Stopped::NotAnEquilibrium;
         outcome.reason = format!(
             "residual {:.3e} N is more than {LOAD_FRACTION:.0e} of the pressure load ({load_n:.3e} N): the relative tolerance was met from a start of {:.3e} N, not an equilibrium; {}",
             outcome.residual_n, outcome.initial_residual_n, outcome.reason
@@ -668,6 +678,7 @@ pub fn close_on(
     }
     if moved > 100.0 * span && x.iter().all(|p| p.iter().all(|v| v.is_finite())) {
         outcome.converged = false;
+        outcome.stopped_by = Stopped::Diverged;
         outcome.reason = format!(
             "diverged: a node moved {moved:.3e} mm, more than 100 times the leaflets' size ({span:.1} mm); {}",
             outcome.reason
@@ -735,5 +746,33 @@ mod tests {
         );
         let why = failure_cause(&a, &[1.0, 0.01, 0.5], &[1.1, 1.2, 1.0], 0.3).unwrap();
         assert!(why.starts_with("triangle 1 collapsed to 1.0 %"), "{why}");
+    }
+
+    /// What stopped the solve is told as a value, not only in words: a
+    /// cohort script (and the grid) branch on it.
+    #[test]
+    fn the_outcome_says_what_stopped_it() {
+        let (l, axis) = crate::bench::close::ozaki_cylinder(2.0).unwrap();
+        let cfg = |extra: &str| {
+            crate::mech::config::parse(&format!(
+                "model = \"svk\"\nyoung = \"1 MPa\"\npoisson = 0\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\n{extra}\n[suture]\nmode = \"off\"\n"
+            ))
+            .unwrap()
+        };
+        let done = close(&l, &cfg(""), Some(axis)).unwrap().outcome;
+        assert!(done.converged, "{}", done.reason);
+        assert_eq!(done.stopped_by, Stopped::Converged);
+        let few = close(&l, &cfg("max_iterations = 3"), Some(axis))
+            .unwrap()
+            .outcome;
+        assert!(!few.converged);
+        assert_eq!(few.stopped_by, Stopped::IterationLimit, "{}", few.reason);
+        let late = close(&l, &cfg("time_limit = \"0.000001 s\""), Some(axis))
+            .unwrap()
+            .outcome;
+        assert!(!late.converged);
+        assert_eq!(late.stopped_by, Stopped::TimeLimit, "{}", late.reason);
+        assert!(late.reason.contains("time limit"), "{}", late.reason);
+        assert!(late.residual_n.is_finite(), "{}", late.residual_n);
     }
 }

@@ -275,6 +275,7 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         "pressure_sign_per_leaflet": closed.pressure_sign,
         "solver": {
             "converged": o.converged,
+            "stopped_by": o.stopped_by,
             "reason": o.reason,
             "iterations": o.iterations,
             "residual_n": o.residual_n,
@@ -286,6 +287,7 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         "low_pressure": low.as_ref().map(|l| json!({
             "pressure_mmhg": cfg.effective_height_pressure.map(|p| p / crate::units::MMHG_IN_MPA),
             "converged": l.outcome.converged,
+            "stopped_by": l.outcome.stopped_by,
             "reason": l.outcome.reason,
             "iterations": l.outcome.iterations,
             "residual_n": l.outcome.residual_n,

@@ -139,6 +139,11 @@ fn a_closure_that_does_not_converge_exits_1_with_its_history_and_no_mesh() {
     };
     // The closure itself (no suturing) stops at its iteration limit.
     let (_, v) = run(&format!("{base}\n[suture]\nmode = \"off\"\n"));
+    assert_eq!(
+        v["solver"]["stopped_by"], "iteration_limit",
+        "{}",
+        v["solver"]
+    );
     let h = v["solver"]["history"].as_array().unwrap();
     assert_eq!(h.len(), 2, "one record per iteration");
     for r in h {
@@ -150,6 +155,7 @@ fn a_closure_that_does_not_converge_exits_1_with_its_history_and_no_mesh() {
     // Suturing's auxiliary problem gets the same limit and says so.
     let (err, v) = run(base);
     assert!(err.contains("suturing"), "{err}");
+    assert_eq!(v["solver"]["stopped_by"], "suturing_failed");
     let su = &v["suturing"];
     assert_eq!(su["status"], "failed");
     let r = &su["rounds"][0];
@@ -163,6 +169,7 @@ fn a_closure_that_does_not_converge_exits_1_with_its_history_and_no_mesh() {
         "model = \"goh\"\nmu = \"900 kPa\"\nk1 = \"1100 kPa\"\nk2 = 1000\nkappa = 0.29\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"none\"\nreference = \"flat\"\n[suture]\nmode = \"off\"\n",
     );
     assert!(err.contains("of the pressure load"), "{err}");
+    assert_eq!(v["solver"]["stopped_by"], "not_an_equilibrium");
     assert!(v["solver"]["residual_n"].as_f64().unwrap() > 1.0, "{v}");
 }
 
@@ -177,6 +184,7 @@ fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
     let cfg = repo().join("pipelines/close.toml");
     let log = close_on_one_and_two_threads(&d, &surface, &cfg);
     assert_eq!(log["solver"]["converged"], true);
+    assert_eq!(log["solver"]["stopped_by"], "converged");
     assert!(log["solver"]["residual_n"].as_f64().unwrap() <= 1e-7);
     let before = vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
     let after = vtp::read_mesh(&d.join("closed1.vtp")).unwrap();

@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use super::{NewtonOptions, Outcome, RelaxOptions, newton, relax};
+use super::{NewtonOptions, Outcome, RelaxOptions, Stopped, newton, relax};
 use crate::mech::element::V3;
 use crate::mech::system::System;
 
@@ -22,6 +22,7 @@ pub fn combined(
     let left = || limit - t0.elapsed().as_secs_f64();
     for round in 0..rounds.max(1) {
         if left() <= 0.0 {
+            all.stopped_by = Stopped::TimeLimit;
             all.reason = format!("time limit {limit} s reached after {round} rounds");
             break;
         }
@@ -36,6 +37,7 @@ pub fn combined(
         all.residual_n = r.residual_n;
         if r.converged {
             all.converged = true;
+            all.stopped_by = r.stopped_by;
             all.reason = format!("relaxation round {}: {}", round + 1, r.reason);
             break;
         }
@@ -49,6 +51,7 @@ pub fn combined(
         all.iterations += n.iterations;
         all.history.extend(n.history);
         all.residual_n = n.residual_n;
+        all.stopped_by = n.stopped_by;
         all.reason = format!("round {}: Newton: {}", round + 1, n.reason);
         if n.converged {
             all.converged = true;

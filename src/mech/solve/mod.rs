@@ -59,9 +59,37 @@ pub struct Record {
     pub gmres_iterations: usize,
 }
 
+/// What stopped a solve, for programs (a cohort's scripts, the benchmarks)
+/// to branch on; `Outcome::reason` says it in words with the numbers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stopped {
+    /// Not stopped: no step was taken yet.
+    NotStarted,
+    Converged,
+    IterationLimit,
+    TimeLimit,
+    /// The line search refused `max_rejections` steps in a row.
+    LineSearch,
+    /// The tangent could not be factorised even with a large shift.
+    Singular,
+    /// A triangle inverted or collapsed.
+    Inadmissible,
+    /// The residual stopped being a finite number (relaxation).
+    NonFinite,
+    /// Suturing (seed 001 Algorithm 1) failed before the closure started.
+    SuturingFailed,
+    /// Reported converged, but the residual is large against the pressure
+    /// load: the relative tolerance was met from an absurd start.
+    NotAnEquilibrium,
+    /// Nodes ran off to many times the leaflets' size.
+    Diverged,
+}
+
 #[derive(Debug, Clone, Serialize)]
 pub struct Outcome {
     pub converged: bool,
+    pub stopped_by: Stopped,
     /// Why it stopped, in words.
     pub reason: String,
     pub iterations: usize,
@@ -76,6 +104,7 @@ impl Outcome {
     pub fn start() -> Outcome {
         Outcome {
             converged: false,
+            stopped_by: Stopped::NotStarted,
             reason: String::new(),
             iterations: 0,
             residual_n: f64::NAN,

@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::{Outcome, Record, Stop, contact_pairs};
+use super::{Outcome, Record, Stop, Stopped, contact_pairs};
 use crate::mech::element::V3;
 use crate::mech::sparse::Pattern;
 use crate::mech::system::{System, max_norm, norm};
@@ -78,6 +78,7 @@ pub fn newton_reusing(
         let r = match sys.residual(x) {
             Ok(r) => r,
             Err(e) => {
+                out.stopped_by = Stopped::Inadmissible;
                 out.reason = format!(
                     "inadmissible state at the start: triangle {} inverted or collapsed",
                     e.triangle
@@ -92,6 +93,7 @@ pub fn newton_reusing(
         out.residual_n = rn;
         if out.done(rn, &opt.stop) {
             out.converged = true;
+            out.stopped_by = Stopped::Converged;
             out.reason = format!(
                 "residual {:.3e} N ≤ max({:.1e} N, {:.1e} × initial)",
                 rn, opt.stop.abs_n, opt.stop.rel
@@ -99,6 +101,7 @@ pub fn newton_reusing(
             break;
         }
         if out.iterations >= opt.stop.max_iterations {
+            out.stopped_by = Stopped::IterationLimit;
             out.reason = format!(
                 "iteration limit {} reached at residual {:.3e} N",
                 opt.stop.max_iterations, rn
@@ -106,6 +109,7 @@ pub fn newton_reusing(
             break;
         }
         if t0.elapsed().as_secs_f64() > opt.stop.max_seconds {
+            out.stopped_by = Stopped::TimeLimit;
             out.reason = format!(
                 "time limit {:.1} s reached at residual {:.3e} N",
                 opt.stop.max_seconds, rn
@@ -154,6 +158,7 @@ pub fn newton_reusing(
         let pat = pattern.as_mut().expect("built");
         let mut vals = vec![0.0; pat.nnz()];
         if let Err(e) = sys.tangent(x, pat, &mut vals) {
+            out.stopped_by = Stopped::Inadmissible;
             out.reason = format!("inadmissible state: triangle {}", e.triangle);
             break;
         }
@@ -205,6 +210,7 @@ pub fn newton_reusing(
         };
         rec.gmres_iterations = pat.stats.gmres_iterations - before.gmres_iterations;
         let Some(mut d) = d else {
+            out.stopped_by = Stopped::Singular;
             out.reason =
                 format!("tangent could not be factorised even with a shift of {shift:.1e}");
             break;
@@ -312,6 +318,7 @@ pub fn newton_reusing(
                 shift = if shift == 0.0 { 1e-4 } else { shift * 10.0 };
                 if rejections > opt.max_rejections {
                     out.history.push(rec);
+                    out.stopped_by = Stopped::LineSearch;
                     out.reason = format!(
                         "line search failed {} times in a row at residual {:.3e} N (shift {:.1e})",
                         rejections, rn, shift

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::{Outcome, Record, Stop, contact_pairs};
+use super::{Outcome, Record, Stop, Stopped, contact_pairs};
 use crate::mech::element::V3;
 use crate::mech::system::{System, max_norm, norm};
 
@@ -56,6 +56,7 @@ pub fn relax(sys: &mut System, x: &mut Vec<V3>, opt: &RelaxOptions) -> Outcome {
         let r = match sys.residual(x) {
             Ok(r) => r,
             Err(e) => {
+                out.stopped_by = Stopped::Inadmissible;
                 out.reason = format!(
                     "inadmissible state: triangle {} inverted or collapsed",
                     e.triangle
@@ -70,15 +71,18 @@ pub fn relax(sys: &mut System, x: &mut Vec<V3>, opt: &RelaxOptions) -> Outcome {
         }
         out.residual_n = rn;
         if !rn.is_finite() {
+            out.stopped_by = Stopped::NonFinite;
             out.reason = "residual is not finite".into();
             break;
         }
         if out.done(rn, &opt.stop) {
             out.converged = true;
+            out.stopped_by = Stopped::Converged;
             out.reason = format!("residual {:.3e} N reached the tolerance", rn);
             break;
         }
         if out.iterations >= opt.stop.max_iterations {
+            out.stopped_by = Stopped::IterationLimit;
             out.reason = format!(
                 "iteration limit {} reached at residual {:.3e} N",
                 opt.stop.max_iterations, rn
@@ -86,6 +90,7 @@ pub fn relax(sys: &mut System, x: &mut Vec<V3>, opt: &RelaxOptions) -> Outcome {
             break;
         }
         if t0.elapsed().as_secs_f64() > opt.stop.max_seconds {
+            out.stopped_by = Stopped::TimeLimit;
             out.reason = format!(
                 "time limit {:.1} s reached at residual {:.3e} N",
                 opt.stop.max_seconds, rn
