@@ -704,7 +704,15 @@ pub fn close_on(
     if !outcome.converged {
         let load = cfg.pressure * 0.5 * span / (cfg.plane_strain_modulus() * cfg.thickness);
         let ref_area: Vec<f64> = sys.refs.iter().map(|r| r.area).collect();
-        if let Some(why) = failure_cause(&ref_area, &area_stretch, &max_stretch, load) {
+        let why = failure_cause(&ref_area, &area_stretch, &max_stretch, load).or_else(|| {
+            match outcome.stopped_by {
+                Stopped::IterationLimit | Stopped::TimeLimit => {
+                    super::stall::stall_cause(&outcome.history)
+                }
+                _ => None,
+            }
+        });
+        if let Some(why) = why {
             outcome.reason = format!("{why}: {}", outcome.reason);
         }
     }

@@ -9,7 +9,8 @@
 //! has a potential (`verify`: closed or clamped membranes) Newton uses the
 //! energy and Cholesky. `suture` sews the placed template to the wall
 //! first (seed 001 Algorithm 1). `stage` is the `close` stage, `config` its
-//! `close.toml`.
+//! `close.toml`; a failed closure names its cause (`closure`'s balloon or
+//! collapse, else `stall`: converging, cycling, held back or rising).
 
 pub mod bending;
 pub mod contact;
@@ -26,6 +27,7 @@ pub mod verify;
 pub mod closure;
 pub mod config;
 pub mod stage;
+pub mod stall;
 pub mod suture;
 pub mod terms;
 #[cfg(test)]
