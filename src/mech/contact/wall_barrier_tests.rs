@@ -323,16 +323,29 @@ fn nodes_starting_near_or_beyond_the_wall_get_lowered_offsets_or_none() {
         assert!(geo.acts()[0] && !geo.acts()[1] && geo.acts()[2]);
         assert_eq!(geo.offsets()[0], 0.5 * T);
         // 0.1 mm from the wall (about: a mesh sags by R(1 − cos 7.5°)):
-        // the offset is half the start distance, the start admissible.
+        // offset and margin are half the start distance each.
         let d0 = geo.offsets()[3] * 2.0;
         assert!((d0 - 0.1).abs() < 0.1, "{d0}");
-        assert!(geo.acts()[3] && geo.node_gap(3, &x[3], 1.0).0 > 0.0);
+        assert!((geo.margins()[3] - 0.5 * d0).abs() < 1e-12);
+        assert_eq!(geo.margins()[0], DHAT);
         assert!(!geo.acts()[6] && !geo.acts()[7] && !geo.acts()[8]);
         let term = WallBarrier::new(Arc::new(geo));
+        // Admissible, and no node feels the wall at the start.
         assert!(term.admissible(&x));
-        let m = term.contact_mask(&x).unwrap();
+        assert!(force(&term, &x).iter().all(|f| *f == V3::zeros()));
+        assert!(term.contact_mask(&x).unwrap().iter().all(|&m| m == 0));
+        // Moved a quarter of its start distance towards the wall: pushed
+        // back, marked; at its offset: inadmissible.
+        let out = x[3].xy().normalize();
+        let mut y = x.clone();
+        y[3] += V3::new(out.x, out.y, 0.0) * (0.25 * d0);
+        let f = force(&term, &y);
+        assert!(f[3].dot(&V3::new(out.x, out.y, 0.0)) < 0.0);
+        let m = term.contact_mask(&y).unwrap();
         assert_eq!(m[3], WALL_BIT);
         assert_eq!(m[0] | m[6], 0);
+        y[3] += V3::new(out.x, out.y, 0.0) * (0.3 * d0);
+        assert!(!term.admissible(&y));
         let s = term.geometry().summary(&x);
         assert_eq!((s.exempt_nodes, s.lowered_offsets), (3, 3));
     }
