@@ -608,8 +608,10 @@ pub fn close_on(
             None => sutured_cylinder(l, &axis),
         };
         // One node–wall pair per node (nothing pushes back from the wall):
-        // twice the leaflet pairs' κ rests a pressed sheet at s = d̂/2.
-        let params = BarrierParams::from_pressure(cfg.contact_margin, 2.0 * cfg.pressure.max(1e-6));
+        // twice the leaflet pairs' κ rests a pressed sheet at s = d̂/2
+        // (|P|: a library caller may reverse the load onto the wall).
+        let params =
+            BarrierParams::from_pressure(cfg.contact_margin, 2.0 * cfg.pressure.abs().max(1e-6));
         let free: Vec<bool> = l.boundary.iter().map(|&b| b != 1).collect();
         let geo = Arc::new(WallGeometry::new(
             shape,

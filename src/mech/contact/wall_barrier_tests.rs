@@ -462,3 +462,76 @@ fn a_patch_blown_outward_stays_off_the_mesh_wall() {
     assert!(least > 0.5 * T && least < 0.5 * T + DHAT, "{least}");
     assert!(mask.iter().filter(|&&m| m == WALL_BIT).count() > 10);
 }
+
+/// The peer leaflet (seed 001's template sutured to a 12 mm cylinder,
+/// h 1 mm, neo-Hookean with bending) under a reversed load of 80 mmHg:
+/// pushed out of the lumen, through the wall without the term; with
+/// `wall_contact` it lies on the cylinder through its suture line, no free
+/// node beyond R − t/2.
+#[test]
+fn a_leaflet_pushed_outward_lies_on_the_cylinder_wall() {
+    use crate::bench::close::{R as RC, config_text_with, ozaki_cylinder};
+    use crate::mech::closure::close_on;
+    use crate::mech::config;
+    use crate::mech::suture::Wall;
+    let (l, axis) = ozaki_cylinder(1.0).unwrap();
+    let text = config_text_with("neo-hookean", "newton", 120.0, true)
+        .replace("contact = \"planes\"", "contact = \"none\"");
+    let mut cfg = config::parse(&text).unwrap();
+    cfg.pressure = -cfg.pressure;
+    // Over the nodes that act: those not on or beyond the wall at the
+    // start (after suturing, the row next to the suture line lies on the
+    // wall's tangent planes, outside the cylinder).
+    let acting = |x0: &[V3]| -> Vec<bool> {
+        (0..x0.len())
+            .map(|i| l.boundary[i] != 1 && x0[i].xy().norm() < RC)
+            .collect()
+    };
+    let rmax_of = |x: &[V3], act: &[bool]| {
+        (0..x.len())
+            .filter(|&i| act[i])
+            .map(|i| x[i].xy().norm())
+            .fold(0.0, f64::max)
+    };
+    let wall = Wall::Cylinder(axis);
+    let free = close_on(&l, &cfg, Some(axis), Some(&wall), None).unwrap();
+    let act = acting(&free.suturing.as_ref().unwrap().x);
+    let rmax = |x: &[V3]| rmax_of(x, &act);
+    eprintln!(
+        "reversed, no wall: converged {} in {} its, largest r {:.3} mm ({})",
+        free.outcome.converged,
+        free.outcome.iterations,
+        rmax(&free.x),
+        free.outcome.reason
+    );
+    assert!(rmax(&free.x) > RC, "{}", rmax(&free.x));
+    cfg.wall_contact = true;
+    let held = close_on(&l, &cfg, Some(axis), Some(&wall), free.suturing.as_ref()).unwrap();
+    let w = held.wall_contact.as_ref().unwrap();
+    eprintln!(
+        "reversed, wall: converged {} in {} its, largest r {:.4} mm ({}); {w:?}",
+        held.outcome.converged,
+        held.outcome.iterations,
+        rmax(&held.x),
+        held.outcome.reason
+    );
+    assert!(held.outcome.converged, "{}", held.outcome.reason);
+    // Every acting node keeps min(t/2, d₀/2) from the wall, d₀ its start
+    // distance: t/2 wherever it started at least a thickness away.
+    let x0 = &free.suturing.as_ref().unwrap().x;
+    let mut full = 0.0f64;
+    for i in (0..l.x.len()).filter(|&i| act[i]) {
+        let d0 = RC - x0[i].xy().norm();
+        let d = RC - held.x[i].xy().norm();
+        assert!(d > (0.5 * T).min(0.5 * d0), "node {i}: {d} from {d0}");
+        if d0 >= T {
+            full = full.max(held.x[i].xy().norm());
+        }
+    }
+    assert!(full < RC - 0.5 * T && full > RC - 0.5 * T - DHAT, "{full}");
+    assert_eq!(w.wall, "cylinder");
+    assert!(w.nodes_touching > 10, "{w:?}");
+    assert!(w.min_distance_full_offset_mm.unwrap() >= 0.5 * T);
+    let marked = held.contact.iter().filter(|&&m| m & WALL_BIT != 0).count();
+    assert_eq!(marked, w.nodes_touching);
+}
