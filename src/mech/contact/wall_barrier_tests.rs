@@ -529,6 +529,13 @@ fn a_leaflet_pushed_outward_lies_on_the_cylinder_wall() {
         }
     }
     assert!(full < RC - 0.5 * T && full > RC - 0.5 * T - DHAT, "{full}");
+    // The exempt row (started on the tangent planes, outside): how far out
+    // it ends, for the record.
+    let out = (0..l.x.len())
+        .filter(|&i| l.boundary[i] != 1 && !act[i])
+        .map(|i| held.x[i].xy().norm() - RC)
+        .fold(f64::NEG_INFINITY, f64::max);
+    eprintln!("exempt nodes end at most {out:.4} mm outside the wall");
     assert_eq!(w.wall, "cylinder");
     assert!(w.nodes_touching > 10, "{w:?}");
     assert!(w.min_distance_full_offset_mm.unwrap() >= 0.5 * T);
