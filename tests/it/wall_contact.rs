@@ -77,7 +77,7 @@ fn wall_contact_keeps_the_sample_off_the_wall_and_off_changes_nothing() {
     assert_eq!(w["offset_mm"], 0.25);
     assert!(w["acting_nodes"].as_u64().unwrap() > 100, "{w}");
     // Next to the suture line nodes start within the margin.
-    assert!(w["lowered_offsets"].as_u64().unwrap() > 0, "{w}");
+    assert!(w["started_within_margin"].as_u64().unwrap() > 0, "{w}");
     let least = w["min_distance_full_offset_mm"].as_f64().unwrap();
     assert!(least >= 0.25, "{w}");
     assert!(w["min_distance_mm"].as_f64().unwrap() > 0.0, "{w}");

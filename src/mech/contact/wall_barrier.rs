@@ -156,7 +156,7 @@ pub struct WallSummary {
     pub exempt_nodes: usize,
     /// Acting nodes whose margin (and where d₀ < t, offset) was narrowed:
     /// they start within ξ + d̂ of the wall.
-    pub lowered_offsets: usize,
+    pub started_within_margin: usize,
     /// Acting nodes within the margin (s < d̂) at the final state.
     pub nodes_touching: usize,
     /// Node–triangle pairs within the margin (mesh; the cylinder: nodes).
@@ -179,7 +179,7 @@ pub struct WallGeometry {
     acts: Vec<bool>,
     area: Vec<f64>,
     exempt: usize,
-    lowered: usize,
+    narrowed: usize,
 }
 
 /// One node's share: energy, gradient and (when asked) Hessian; `None`
@@ -270,7 +270,7 @@ impl WallGeometry {
         let mut xi = vec![offset; x.len()];
         let mut dhat = vec![params.dhat; x.len()];
         let mut acts = vec![false; x.len()];
-        let (mut exempt, mut lowered) = (0, 0);
+        let (mut exempt, mut narrowed) = (0, 0);
         for i in 0..x.len() {
             if !free[i] {
                 continue;
@@ -288,7 +288,7 @@ impl WallGeometry {
             if d0 < offset + params.dhat {
                 xi[i] = offset.min(0.5 * d0);
                 dhat[i] = d0 - xi[i];
-                lowered += 1;
+                narrowed += 1;
             }
         }
         WallGeometry {
@@ -300,7 +300,7 @@ impl WallGeometry {
             acts,
             area,
             exempt,
-            lowered,
+            narrowed,
         }
     }
 
@@ -543,7 +543,7 @@ impl WallGeometry {
             kappa_n_per_mm3: self.params.kappa,
             acting_nodes: self.acts.iter().filter(|&&a| a).count(),
             exempt_nodes: self.exempt,
-            lowered_offsets: self.lowered,
+            started_within_margin: self.narrowed,
             nodes_touching: 0,
             pairs_touching: 0,
             min_distance_mm: None,

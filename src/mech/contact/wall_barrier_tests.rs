@@ -299,7 +299,7 @@ fn steps_never_carry_a_node_through_the_mesh() {
 }
 
 #[test]
-fn nodes_starting_near_or_beyond_the_wall_get_lowered_offsets_or_none() {
+fn nodes_starting_near_or_beyond_the_wall_get_narrowed_margins_or_none() {
     for shape in [cylinder_shape(), mesh_shape()] {
         // Three separate triangles: far, near the wall, across it (the
         // first two outvote the third on the mesh's lumen side).
@@ -347,7 +347,7 @@ fn nodes_starting_near_or_beyond_the_wall_get_lowered_offsets_or_none() {
         y[3] += V3::new(out.x, out.y, 0.0) * (0.3 * d0);
         assert!(!term.admissible(&y));
         let s = term.geometry().summary(&x);
-        assert_eq!((s.exempt_nodes, s.lowered_offsets), (3, 3));
+        assert_eq!((s.exempt_nodes, s.started_within_margin), (3, 3));
     }
 }
 
