@@ -22,7 +22,7 @@
 //!   with ξ large against a segmented wall's triangles (t/2 = 0.25 mm,
 //!   edges of 0.3 mm) a node over a face feels its neighbours too: a
 //!   sheet pressed at the closing pressure rests a little farther than
-//!   d̂/2 (on a 0.31 mm cylinder mesh, s = 0.155 mm against 0.117 mm on
+//!   d̂/2 (on a 0.31 mm cylinder mesh, s = 0.143 mm against 0.107 mm on
 //!   the analytic cylinder, d̂ = 0.25 mm; the test
 //!   `a_patch_blown_outward_stays_off_the_mesh_wall`).
 //!
