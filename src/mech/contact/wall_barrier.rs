@@ -21,10 +21,11 @@
 //!   A node over a wall edge or vertex counts the triangles around it, and
 //!   with ξ large against a segmented wall's triangles (t/2 = 0.25 mm,
 //!   edges of 0.3 mm) a node over a face feels its neighbours too: a
-//!   sheet pressed at the closing pressure rests a little farther than
-//!   d̂/2 (on a 0.31 mm cylinder mesh, s = 0.143 mm against 0.107 mm on
-//!   the analytic cylinder, d̂ = 0.25 mm; the test
-//!   `a_patch_blown_outward_stays_off_the_mesh_wall`).
+//!   sheet pressed on a mesh rests farther off than on the exact surface
+//!   (a clamped patch blown onto a 12 mm cylinder at 80 mmHg, d̂ =
+//!   0.25 mm: centre at s = 0.143 mm off a 0.31 mm mesh of it, 0.107 mm
+//!   off the analytic cylinder; the tests
+//!   `a_patch_blown_outward_stays_off_the_*`).
 //!
 //! The wall does not move, so only the node's three coordinates enter:
 //! ∇d = u = (x − p)/d, and ∇²d = 0 over a face, (I − eeᵀ − uuᵀ)/d over an
