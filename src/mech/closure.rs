@@ -1,6 +1,7 @@
 //! Close a set of placed leaflets under diastolic pressure: the library
 //! function behind the `close` stage and `coapt bench close`.
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use super::bending::{self, Bending};
@@ -8,6 +9,7 @@ use super::config::{CloseConfig, ContactKind, Reference, SolverKind};
 use super::contact::barrier::BarrierParams;
 use super::contact::leaflet_barrier::LeafletBarrier;
 use super::contact::planes::Plane;
+use super::contact::wall_barrier::{WallBarrier, WallGeometry, WallShape, WallSummary};
 use super::element::{RefTri, V3};
 use super::solve::{self, NewtonOptions, Outcome, RelaxOptions, Stop, Stopped};
 use super::sparse::Dofs;
@@ -48,7 +50,9 @@ pub struct Axis {
 pub struct Closed {
     pub x: Vec<V3>,
     pub outcome: Outcome,
-    /// Bit b: the node touches leaflet b (or plane b in plane mode).
+    /// Bit b: the node touches leaflet b (or plane b in plane mode); bit 7
+    /// ([`super::contact::wall_barrier::WALL_BIT`]): it is within the wall
+    /// barrier's margin (`wall_contact`).
     pub contact: Vec<u8>,
     /// Area stretch J and largest principal stretch per triangle.
     pub area_stretch: Vec<f64>,
@@ -59,6 +63,8 @@ pub struct Closed {
     /// The suturing pre-stage, when it ran (its `x` is where the closure
     /// started).
     pub suturing: Option<Sutured>,
+    /// The wall barrier's record at the final state (`wall_contact`).
+    pub wall_contact: Option<WallSummary>,
 }
 
 /// Lug corners: sutured nodes that share a triangle edge with a free-edge node.
@@ -507,6 +513,7 @@ pub fn close_on(
                     },
                     x: s.x.clone(),
                     suturing: Some(s),
+                    wall_contact: None,
                 });
             }
             Some(s)
@@ -593,6 +600,41 @@ pub fn close_on(
         }
         _ => {}
     }
+    let wall_geo = if cfg.wall_contact {
+        if cfg.solver != SolverKind::Newton {
+            return Err(
+                "wall_contact = true needs solver = \"newton\" (its steps are filtered so that no node passes the wall)"
+                    .into(),
+            );
+        }
+        let shape = match wall {
+            Some(Wall::Mesh { x, tris, bvh }) => WallShape::Mesh {
+                x: x.clone(),
+                tris: tris.clone(),
+                bvh: bvh.clone(),
+            },
+            Some(Wall::Cylinder(a)) => sutured_cylinder(l, a),
+            None => sutured_cylinder(l, &axis),
+        };
+        // One node–wall pair per node (nothing pushes back from the wall):
+        // twice the leaflet pairs' κ rests a pressed sheet at s = d̂/2
+        // (|P|: a library caller may reverse the load onto the wall).
+        let params =
+            BarrierParams::from_pressure(cfg.contact_margin, 2.0 * cfg.pressure.abs().max(1e-6));
+        let free: Vec<bool> = l.boundary.iter().map(|&b| b != 1).collect();
+        let geo = Arc::new(WallGeometry::new(
+            shape,
+            &l.x,
+            &l.tris,
+            &free,
+            params,
+            0.5 * cfg.thickness,
+        ));
+        terms.push(Box::new(WallBarrier::new(geo.clone())));
+        Some(geo)
+    } else {
+        None
+    };
     if cfg.bending {
         terms.push(Box::new(Bending::new(
             &ref_x,
@@ -695,12 +737,14 @@ pub fn close_on(
     for t in sys.terms.iter_mut() {
         t.update(&x);
     }
-    let contact = sys
-        .terms
-        .iter()
-        .find_map(|t| t.contact_mask(&x))
-        .unwrap_or_else(|| vec![0; x.len()]);
+    let mut contact = vec![0u8; x.len()];
+    for m in sys.terms.iter().filter_map(|t| t.contact_mask(&x)) {
+        for (c, b) in contact.iter_mut().zip(m) {
+            *c |= b;
+        }
+    }
     let (area_stretch, max_stretch) = stretches(&x, &sys.refs, &sys.tris);
+    let wall_contact = wall_geo.map(|g| g.summary(&x));
     if !outcome.converged {
         let load = cfg.pressure * 0.5 * span / (cfg.plane_strain_modulus() * cfg.thickness);
         let ref_area: Vec<f64> = sys.refs.iter().map(|r| r.area).collect();
@@ -726,7 +770,25 @@ pub fn close_on(
         solve_s,
         pressure_sign: signs,
         suturing,
+        wall_contact,
     })
+}
+
+/// The cylinder about `axis` through the sutured nodes (their mean
+/// distance from it): the wall a suture line sewn to `Wall::Cylinder` lies on.
+fn sutured_cylinder(l: &Leaflets, axis: &Axis) -> WallShape {
+    let r: Vec<f64> = (0..l.x.len())
+        .filter(|&i| l.boundary[i] == 1)
+        .map(|i| {
+            let d = l.x[i] - axis.origin;
+            (d - axis.dir * d.dot(&axis.dir)).norm()
+        })
+        .collect();
+    WallShape::Cylinder {
+        origin: axis.origin,
+        dir: axis.dir,
+        radius: r.iter().sum::<f64>() / r.len().max(1) as f64,
+    }
 }
 
 #[cfg(test)]

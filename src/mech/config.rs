@@ -27,8 +27,22 @@
 //! default: the flat template is, leaving the stress of both placing and
 //! suturing in the leaflet; seed 000's springs rest on the flat template's
 //! mesh, and on the sutured one a third of the triangles are obtuse, which
-//! three edge springs cannot hold, see `material::msm`), `bending` (true: add the bending stiffness D = E't³/12 of a
-//! shell, default false).
+//! three edge springs cannot hold, see `material::msm`), `bending` (true:
+//! add the bending stiffness D = E't³/12 of a
+//! shell, default false), `wall_contact` (true: free leaflet nodes are kept
+//! off the aortic wall, `contact::wall_barrier`; default false). With it
+//! every free node's mid-surface stays at least half the thickness from
+//! the wall (aorta.vtp's wall triangles, or the cylinder about the axis
+//! through the suture line without a surface): a log barrier acting within
+//! `contact_margin` of that, stiff enough that a leaflet pressed on the
+//! wall by the closing pressure rests half the margin off it, and steps cut
+//! so no node passes the wall. Nodes that start closer (next to the suture
+//! line) keep at least half their start distance; nodes that start on or
+//! beyond the wall are left alone. It works with every `contact` and needs
+//! `solver = "newton"`. Its cost: one search of the wall's tree per free
+//! node per evaluation (a node far from the wall: one failed descent), so
+//! little unless many nodes lie on the wall; `closure.json` records it
+//! under `wall_contact`.
 //!
 //! The suturing pre-stage (seed 001 Algorithm 1, [`super::suture`]) has its
 //! own table; every key is optional, the defaults are the seed's except k0:
@@ -79,6 +93,7 @@ struct Raw {
     time_limit: Option<String>,
     reference: Option<String>,
     bending: Option<bool>,
+    wall_contact: Option<bool>,
     effective_height_pressure: Option<String>,
     suture: Option<RawSuture>,
 }
@@ -158,6 +173,8 @@ pub struct CloseConfig {
     /// Add the leaflet's bending stiffness D = E't³/12 (discrete-shell
     /// hinges) to the membrane.
     pub bending: bool,
+    /// Keep free leaflet nodes off the aortic wall (`contact::wall_barrier`).
+    pub wall_contact: bool,
     /// Also close at this (low) pressure, MPa, for the effective height
     /// (the seeds measure h_E at 3 mmHg); `None`: only the closing pressure.
     pub effective_height_pressure: Option<f64>,
@@ -219,6 +236,7 @@ impl CloseConfig {
             "effective_height_pressure_mmhg": self.effective_height_pressure.map(|p| p / units::MMHG_IN_MPA),
             "reference": format!("{:?}", self.reference).to_lowercase(),
             "bending": self.bending,
+            "wall_contact": self.wall_contact,
             "suture": {
                 "mode": format!("{:?}", self.suture.mode).to_lowercase(),
                 "mu_mpa": self.suture.mu,
@@ -392,6 +410,7 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
         )?,
         reference,
         bending: raw.bending.unwrap_or(false),
+        wall_contact: raw.wall_contact.unwrap_or(false),
         effective_height_pressure: match q(
             Kind::Pressure,
             &raw.effective_height_pressure,
@@ -487,6 +506,10 @@ mod tests {
         assert!(parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\neffective_height_pressure = \"90 mmHg\"\n").is_err());
         let c = parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\nplane_offset = \"0.25 mm\"\n").unwrap();
         assert_eq!(c.plane_offset, 0.25);
+        assert!(!c.wall_contact);
+        let c = parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\nwall_contact = true\n").unwrap();
+        assert!(c.wall_contact && c.to_json()["wall_contact"] == true);
+        assert!(parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\nwall_contact = \"yes\"\n").is_err());
         assert!(parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\nplane_offset = \"-1 mm\"\n").is_err());
     }
 

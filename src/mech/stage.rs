@@ -5,6 +5,7 @@ use serde_json::{Value as Json, json};
 
 use super::closure::{self, Axis, Leaflets};
 use super::config;
+use super::contact::wall_barrier::WALL_BIT;
 use super::element::V3;
 use super::suture::{self, Wall};
 use crate::geom::bvh::Bvh;
@@ -259,7 +260,9 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
     // tests between different leaflets (BVH broad phase).
     let bvh = Bvh::build(&closed.x, &leaflets.tris);
     let crossing = tri_tri::intersecting_pairs(&closed.x, &leaflets.tris, &leaflets.leaflet, &bvh);
-    let log = json!({
+    // Touching another leaflet (or plane), not the wall (its own record).
+    let in_contact = |c: &[u8]| c.iter().filter(|&&m| m & !WALL_BIT != 0).count();
+    let mut log = json!({
         "frame": "LPS",
         "config": cfg.to_json(),
         "model": cfg.model_name(),
@@ -282,7 +285,7 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
             "initial_residual_n": o.initial_residual_n,
             "history": o.history,
         },
-        "nodes_in_contact": closed.contact.iter().filter(|&&m| m != 0).count(),
+        "nodes_in_contact": in_contact(&closed.contact),
         "intersecting_triangle_pairs": crossing.len(),
         "low_pressure": low.as_ref().map(|l| json!({
             "pressure_mmhg": cfg.effective_height_pressure.map(|p| p / crate::units::MMHG_IN_MPA),
@@ -294,6 +297,12 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         })),
         "timing_s": {"setup": closed.setup_s, "suture": closed.suturing.as_ref().map(|s| s.seconds), "solve": closed.solve_s, "low_pressure_solve": low.as_ref().map(|l| l.solve_s)},
     });
+    if let (Some(w), Some(o)) = (&closed.wall_contact, log.as_object_mut()) {
+        o.insert(
+            "wall_contact".into(),
+            serde_json::to_value(w).expect("json"),
+        );
+    }
     let text = serde_json::to_string_pretty(&log).expect("json") + "\n";
     let low_failed = low.as_ref().filter(|l| !l.outcome.converged);
     if !o.converged || low_failed.is_some() {
@@ -365,7 +374,7 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         "converged": true,
         "iterations": o.iterations,
         "residual_n": o.residual_n,
-        "nodes_in_contact": closed.contact.iter().filter(|&&m| m != 0).count(),
+        "nodes_in_contact": in_contact(&closed.contact),
         "intersecting_triangle_pairs": crossing.len(),
         "solve_s": closed.solve_s,
     }))

@@ -18,3 +18,4 @@ mod segment;
 mod snakemake;
 mod surface;
 mod valve;
+mod wall_contact;

@@ -23,6 +23,7 @@ pub mod jet;
 pub mod leaflet_barrier;
 pub mod penalty;
 pub mod planes;
+pub mod wall_barrier;
 
 #[cfg(test)]
 mod barrier_tests;
