@@ -48,11 +48,15 @@ pub fn class_colour(class: ContactClass, leaflet: usize) -> Rgb8 {
     }
 }
 
+/// Bit 7 of closed.vtp's `contact` marks a node touching the aortic wall
+/// (`wall_contact = true`), not another leaflet: no colour of its own.
+const WALL_BIT: u8 = 1 << 7;
+
 /// Class of a node from its contact bitmask (bit j: touches leaflet j),
 /// ignoring the bit of its own leaflet.
 pub fn classify(mask: u8, own: Option<usize>) -> ContactClass {
     let own_bit = own.filter(|&j| j < 8).map_or(0, |j| 1u8 << j);
-    match (mask & !own_bit).count_ones() {
+    match (mask & !own_bit & !WALL_BIT).count_ones() {
         0 => ContactClass::Free,
         1 => ContactClass::Pair,
         _ => ContactClass::Triple,
@@ -121,6 +125,9 @@ mod tests {
         assert_eq!(classify(0b111, Some(1)), ContactClass::Triple);
         assert_eq!(classify(0b100, None), ContactClass::Pair);
         assert_eq!(classify(0xFF, Some(200)), ContactClass::Triple);
+        // The wall bit is not a leaflet.
+        assert_eq!(classify(0b1000_0000, Some(0)), ContactClass::Free);
+        assert_eq!(classify(0b1000_0010, Some(0)), ContactClass::Pair);
     }
 
     #[test]
