@@ -224,7 +224,7 @@ impl EdgePairs {
                     min: bx.min - V3::repeat(r),
                     max: bx.max + V3::repeat(r),
                 };
-                bvh.query_aabb(&query, |tb| {
+                bvh.query_aabb_apart(&query, body, |tb| {
                     for b in self.tri_edges[tb as usize] {
                         if self.owner[b as usize] != tb || self.body[b as usize] == body {
                             continue;
@@ -335,6 +335,52 @@ impl EdgePairs {
         v.into_iter().collect()
     }
 
+    /// `e0` plus the energy of the candidate pairs at `x`, added in
+    /// candidate order (as [`EdgePairs::acting`] lists them); `None` when a
+    /// pair has s ≤ 0.
+    pub fn energy(
+        &self,
+        cand: &[(u32, u32)],
+        x: &[V3],
+        params: &BarrierParams,
+        e0: f64,
+    ) -> Option<f64> {
+        let (mid, half) = self.spheres(x);
+        let v: Vec<Option<f64>> = cand
+            .par_iter()
+            .with_min_len(256)
+            .map(|&(a, b)| {
+                let xi = self.pair_xi(a, b);
+                let gap = (mid[a as usize] - mid[b as usize]).norm()
+                    - half[a as usize]
+                    - half[b as usize];
+                if gap - xi >= params.dhat {
+                    return Some(0.0);
+                }
+                let q = self.quad(x, a, b);
+                let pr = edge_barrier::proximity(&q);
+                if pr.dist - xi >= params.dhat {
+                    return Some(0.0);
+                }
+                let r = edge_barrier::pair_eval_at(
+                    &q,
+                    &pr,
+                    xi,
+                    self.pair_weight(a, b),
+                    self.eps(a, b),
+                    params,
+                    false,
+                )?;
+                Some(r.0)
+            })
+            .collect();
+        let mut e = e0;
+        for p in v {
+            e += p?;
+        }
+        Some(e)
+    }
+
     /// Adds −gradient of the acting pairs to `f`.
     pub fn add_force(&self, acting: &[Acting], f: &mut [V3]) {
         for &(a, b, _, g) in acting {
@@ -390,12 +436,21 @@ impl EdgePairs {
     pub fn max_step(&self, cand: &[(u32, u32)], x: &[V3], dx: &[V3]) -> f64 {
         let moved = |e: [u32; 2]| dx[e[0] as usize].norm().max(dx[e[1] as usize].norm());
         // A pair's distance falls by at most its edges' largest moves: one
-        // farther than those moves / (1 − KEEP) keeps its share.
+        // farther than those moves / (1 − KEEP) keeps its share; the gap
+        // of the edges' spheres is a lower bound of the distance that
+        // rules most pairs out without one.
+        let (mid, half) = self.spheres(x);
         cand.par_iter()
             .with_min_len(256)
             .map(|&(a, b)| {
                 let xi = self.pair_xi(a, b);
                 let m = moved(self.edges[a as usize]) + moved(self.edges[b as usize]);
+                let gap = (mid[a as usize] - mid[b as usize]).norm()
+                    - half[a as usize]
+                    - half[b as usize];
+                if gap - xi >= m / (1.0 - KEEP) {
+                    return 1.0;
+                }
                 let q = self.quad(x, a, b);
                 if edge_barrier::proximity(&q).dist - xi >= m / (1.0 - KEEP) {
                     return 1.0;

@@ -75,7 +75,7 @@ use rayon::prelude::*;
 
 use super::barrier::{self, BarrierParams, Hess12, Proximity};
 use super::edge_pairs::EdgePairs;
-use crate::geom::bvh::Bvh;
+use crate::geom::bvh::{Aabb, Bvh};
 use crate::geom::tri_tri;
 use crate::mech::element::V3;
 use crate::mech::sparse::{Dofs, Pattern};
@@ -174,6 +174,19 @@ pub struct LeafletBarrier {
     start_crossings: Vec<(u32, u32)>,
     projected: bool,
     edges: EdgePairs,
+    /// The last state [`LeafletBarrier::energy_at`] evaluated and its
+    /// energy (`None`: inadmissible); valid while the offsets are, i.e.
+    /// for the barrier's life (lists never change an energy).
+    last_energy: Mutex<Option<(Vec<V3>, Option<f64>)>>,
+}
+
+/// The triangle tree, labelled by leaflet (queries skip a leaflet's own
+/// subtrees: on a closing valve most of what lies within reach of an item
+/// is its own leaflet).
+fn tree(x: &[V3], tris: &[[u32; 3]], tri_body: &[u16]) -> Bvh {
+    let mut b = Bvh::build(x, tris);
+    b.set_groups(tri_body);
+    b
 }
 
 /// Reference lumped node areas (mm²): a third of the incident areas.
@@ -244,7 +257,7 @@ impl LeafletBarrier {
                 node_body[i as usize] = *b;
             }
         }
-        let bvh = Bvh::build(x, tris);
+        let bvh = tree(x, tris, tri_body);
         let mut me = LeafletBarrier {
             tris: tris.to_vec(),
             node_body,
@@ -269,6 +282,7 @@ impl LeafletBarrier {
             active: vec![],
             start_crossings: vec![],
             projected: false,
+            last_energy: Mutex::new(None),
             edges: EdgePairs::new(x, tris, tri_body, fixed, &bvh, &params, xi),
             bvh,
         };
@@ -328,15 +342,20 @@ impl LeafletBarrier {
             .map(|i| {
                 let r = self.xi[i] + far + slack;
                 let mut found: Vec<u32> = vec![];
-                self.bvh.query_sphere(&y[i], r, |t| {
-                    if !self.skip(i as u32, t) {
-                        let q = self.quad(y, i as u32, t);
-                        let d = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist;
-                        if d - self.xi[i] < far {
-                            found.push(t);
+                if self.node_fixed[i] {
+                    return (vec![], vec![]);
+                }
+                // Subtrees of the node's own leaflet hold no pair.
+                self.bvh
+                    .query_sphere_apart(&y[i], r, self.node_body[i], |t| {
+                        if !self.skip(i as u32, t) {
+                            let q = self.quad(y, i as u32, t);
+                            let d = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist;
+                            if d - self.xi[i] < far {
+                                found.push(t);
+                            }
                         }
-                    }
-                });
+                    });
                 found.sort_unstable_by_key(|&t| (self.tri_body[t as usize], t));
                 let mut keys = vec![];
                 let mut lists: Vec<Vec<u32>> = vec![];
@@ -478,6 +497,101 @@ impl LeafletBarrier {
             .collect()
     }
 
+    /// The node–triangle and edge–edge energy at `x` from `lists` (which
+    /// hold every acting pair), summed in the order [`Term::add_force`]
+    /// visits the pairs; `None` when a pair is inadmissible (d ≤ ξ). No
+    /// gradients: the line search asks for energies only.
+    fn energy_in(&self, lists: &Lists, x: &[V3]) -> Option<f64> {
+        let per: Vec<Option<f64>> = lists
+            .groups
+            .par_iter()
+            .with_min_len(64)
+            .map(|g| {
+                let i = g.node as usize;
+                let mut e = 0.0;
+                for &t in &lists.cand[g.start as usize..g.end as usize] {
+                    let q = self.quad(x, g.node, t);
+                    let p = barrier::proximity(&q[0], &q[1], &q[2], &q[3]);
+                    if p.dist - self.xi[i] >= self.params.dhat {
+                        continue;
+                    }
+                    e += barrier::pair_eval_at(
+                        &q,
+                        &p,
+                        self.xi[i],
+                        self.node_area[i],
+                        &self.params,
+                        false,
+                    )?
+                    .0;
+                }
+                Some(e)
+            })
+            .collect();
+        let mut e = 0.0;
+        for v in per {
+            e += v?;
+        }
+        self.edges.energy(&lists.edge_cand, x, &self.params, e)
+    }
+
+    /// [`LeafletBarrier::energy_in`] at `x`, remembered for the next call
+    /// at the same state (the line search asks [`Term::admissible`], then
+    /// [`Term::energy`], of each trial state).
+    fn energy_at(&self, x: &[V3]) -> Option<f64> {
+        {
+            let last = self.last_energy.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some((y, e)) = last.as_ref() {
+                if same_state(y, x) {
+                    return *e;
+                }
+            }
+        }
+        let e = self.with_lists(x, |lists| self.energy_in(lists, x));
+        *self.last_energy.lock().unwrap_or_else(|e| e.into_inner()) = Some((x.to_vec(), e));
+        e
+    }
+
+    /// Whether triangles of different leaflets cross at `x` that may not:
+    /// those that did not cross at the start, unless both are on the
+    /// suture line. The tree is refitted to `x` (the same boxes a fresh
+    /// build has, so the same pairs are tested) and skips each triangle's
+    /// own leaflet; the first forbidden crossing ends the search.
+    fn crossing_free(&self, x: &[V3]) -> bool {
+        let mut bvh = self.bvh.clone();
+        bvh.refit(x);
+        let tris = &self.tris;
+        (0..tris.len()).into_par_iter().with_min_len(64).all(|i| {
+            let ti = tris[i];
+            let vi = ti.map(|k| &x[k as usize]);
+            if tri_tri::is_degenerate(vi[0], vi[1], vi[2]) {
+                return true;
+            }
+            let body = self.tri_body[i];
+            let bx = Aabb::of_triangle(vi[0], vi[1], vi[2]);
+            let mut ok = true;
+            bvh.query_aabb_apart(&bx, body, |j| {
+                if !ok || j as usize <= i || self.tri_body[j as usize] == body {
+                    return;
+                }
+                let tj = tris[j as usize];
+                if tj.iter().any(|v| ti.contains(v)) {
+                    return;
+                }
+                let p = (i as u32, j);
+                if self.start_crossings.binary_search(&p).is_ok()
+                    || (self.on_suture_line(p.0) && self.on_suture_line(p.1))
+                {
+                    return;
+                }
+                if tri_tri::tri_tri_intersect(vi, tj.map(|k| &x[k as usize])) {
+                    ok = false;
+                }
+            });
+            ok
+        })
+    }
+
     /// Bit b set on a node whose distance to leaflet b is within ξ + d̂.
     fn mask(&self, x: &[V3]) -> Vec<u8> {
         self.with_lists(x, |lists| {
@@ -548,8 +662,13 @@ impl Term for LeafletBarrier {
         *self.spare.get_mut().unwrap_or_else(|e| e.into_inner()) = None;
         self.bvh.refit(x);
         if self.bvh.cost() > 2.0 * self.build_cost {
-            self.bvh = Bvh::build(x, &self.tris);
+            self.bvh = tree(x, &self.tris, &self.tri_body);
             self.build_cost = self.bvh.cost();
+            // The edge pairs are summed in tree order.
+            *self
+                .last_energy
+                .get_mut()
+                .unwrap_or_else(|e| e.into_inner()) = None;
         }
         // A cut step asks for lists that hold it (it was cut, not limited
         // by the pairs: sizing for the cut move alone would cut again).
@@ -565,19 +684,7 @@ impl Term for LeafletBarrier {
     }
 
     fn energy(&self, x: &[V3]) -> Option<f64> {
-        self.with_lists(x, |lists| {
-            let mut e = 0.0;
-            for v in self.eval_groups(lists, x) {
-                match v {
-                    Some((ev, _)) => e += ev,
-                    None => return Some(f64::INFINITY),
-                }
-            }
-            match self.edges.acting(&lists.edge_cand, x, &self.params) {
-                Some(acting) => Some(acting.iter().fold(e, |s, p| s + p.2)),
-                None => Some(f64::INFINITY),
-            }
-        })
+        Some(self.energy_at(x).unwrap_or(f64::INFINITY))
     }
 
     /// An inadmissible group (d ≤ ξ) adds nothing: the solver never takes
@@ -695,21 +802,16 @@ impl Term for LeafletBarrier {
     }
 
     fn admissible(&self, x: &[V3]) -> bool {
-        let admissible = self.with_lists(x, |lists| {
-            !self.eval_groups(lists, x).iter().any(|v| v.is_none())
-                && self
-                    .edges
-                    .acting(&lists.edge_cand, x, &self.params)
-                    .is_some()
-        });
-        if !admissible {
-            return false;
-        }
-        let bvh = Bvh::build(x, &self.tris);
-        let c = tri_tri::intersecting_pairs(x, &self.tris, &self.tri_body, &bvh);
-        c.iter().all(|p| {
-            self.start_crossings.binary_search(p).is_ok()
-                || (self.on_suture_line(p.0) && self.on_suture_line(p.1))
-        })
+        self.energy_at(x).is_some() && self.crossing_free(x)
     }
+}
+
+/// Bitwise equality of two states.
+fn same_state(a: &[V3], b: &[V3]) -> bool {
+    a.len() == b.len()
+        && a.iter().zip(b).all(|(p, q)| {
+            p.x.to_bits() == q.x.to_bits()
+                && p.y.to_bits() == q.y.to_bits()
+                && p.z.to_bits() == q.z.to_bits()
+        })
 }
