@@ -189,6 +189,34 @@ fn tree(x: &[V3], tris: &[[u32; 3]], tri_body: &[u16]) -> Bvh {
     b
 }
 
+/// Per triangle at `x` a ball holding it: (centroid, largest distance of a
+/// vertex from it). A node farther than r + b from the centre is farther
+/// than b from the triangle: most candidate pairs are ruled out by that
+/// before their closest point is sought.
+fn tri_balls(x: &[V3], tris: &[[u32; 3]]) -> Vec<(V3, f64)> {
+    tris.par_iter()
+        .with_min_len(256)
+        .map(|t| {
+            let v = t.map(|k| x[k as usize]);
+            let c = (v[0] + v[1] + v[2]) / 3.0;
+            let r2 = (v[0] - c)
+                .norm_squared()
+                .max((v[1] - c).norm_squared())
+                .max((v[2] - c).norm_squared());
+            (c, r2.sqrt())
+        })
+        .collect()
+}
+
+/// Node `p` is certainly at least `b` from the triangle of `ball` (with a
+/// relative margin far above the round-off of the test, so a pair this
+/// rules out is one the exact distance rules out too).
+#[inline]
+fn beyond(ball: &(V3, f64), p: &V3, b: f64) -> bool {
+    let lim = (ball.1 + b) * (1.0 + 1e-9);
+    (p - ball.0).norm_squared() > lim * lim
+}
+
 /// Reference lumped node areas (mm²): a third of the incident areas.
 fn node_areas(x: &[V3], tris: &[[u32; 3]]) -> Vec<f64> {
     let mut a = vec![0.0; x.len()];
@@ -336,6 +364,7 @@ impl LeafletBarrier {
         // Per node: its (node, body) keys and their candidate lists.
         type Found = (Vec<(u32, u16)>, Vec<Vec<u32>>);
         let far = self.params.dhat + reach;
+        let balls = tri_balls(y, &self.tris);
         let per: Vec<Found> = (0..y.len())
             .into_par_iter()
             .with_min_len(64)
@@ -348,7 +377,9 @@ impl LeafletBarrier {
                 // Subtrees of the node's own leaflet hold no pair.
                 self.bvh
                     .query_sphere_apart(&y[i], r, self.node_body[i], |t| {
-                        if !self.skip(i as u32, t) {
+                        if !self.skip(i as u32, t)
+                            && !beyond(&balls[t as usize], &y[i], self.xi[i] + far)
+                        {
                             let q = self.quad(y, i as u32, t);
                             let d = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist;
                             if d - self.xi[i] < far {
@@ -418,6 +449,7 @@ impl LeafletBarrier {
     /// state, which the lists cover).
     fn set_active(&mut self, x: &[V3]) {
         let lists = &self.lists;
+        let balls = tri_balls(x, &self.tris);
         let act: Vec<Vec<(u32, u32)>> = lists
             .groups
             .par_iter()
@@ -427,6 +459,13 @@ impl LeafletBarrier {
                 lists.cand[g.start as usize..g.end as usize]
                     .iter()
                     .filter(|&&t| {
+                        if beyond(
+                            &balls[t as usize],
+                            &x[g.node as usize],
+                            xi + self.params.dhat,
+                        ) {
+                            return false;
+                        }
                         let q = self.quad(x, g.node, t);
                         barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - xi < self.params.dhat
                     })
@@ -467,6 +506,7 @@ impl LeafletBarrier {
     /// `None` when a pair is inadmissible (d ≤ ξ).
     #[allow(clippy::type_complexity)]
     fn eval_groups(&self, lists: &Lists, x: &[V3]) -> Vec<Option<(f64, Vec<(u32, [V3; 4])>)>> {
+        let balls = tri_balls(x, &self.tris);
         lists
             .groups
             .par_iter()
@@ -476,6 +516,9 @@ impl LeafletBarrier {
                 let mut e = 0.0;
                 let mut grads = vec![];
                 for &t in &lists.cand[g.start as usize..g.end as usize] {
+                    if beyond(&balls[t as usize], &x[i], self.xi[i] + self.params.dhat) {
+                        continue;
+                    }
                     let q = self.quad(x, g.node, t);
                     let p = barrier::proximity(&q[0], &q[1], &q[2], &q[3]);
                     if p.dist - self.xi[i] >= self.params.dhat {
@@ -502,6 +545,7 @@ impl LeafletBarrier {
     /// visits the pairs; `None` when a pair is inadmissible (d ≤ ξ). No
     /// gradients: the line search asks for energies only.
     fn energy_in(&self, lists: &Lists, x: &[V3]) -> Option<f64> {
+        let balls = tri_balls(x, &self.tris);
         let per: Vec<Option<f64>> = lists
             .groups
             .par_iter()
@@ -510,6 +554,9 @@ impl LeafletBarrier {
                 let i = g.node as usize;
                 let mut e = 0.0;
                 for &t in &lists.cand[g.start as usize..g.end as usize] {
+                    if beyond(&balls[t as usize], &x[i], self.xi[i] + self.params.dhat) {
+                        continue;
+                    }
                     let q = self.quad(x, g.node, t);
                     let p = barrier::proximity(&q[0], &q[1], &q[2], &q[3]);
                     if p.dist - self.xi[i] >= self.params.dhat {
@@ -611,6 +658,7 @@ impl LeafletBarrier {
     /// pair's s above `KEEP` × its start value, `lists` holding every pair
     /// that could lose more.
     fn node_max_step(&self, lists: &Lists, x: &[V3], dx: &[V3]) -> f64 {
+        let balls = tri_balls(x, &self.tris);
         lists
             .groups
             .par_iter()
@@ -630,6 +678,9 @@ impl LeafletBarrier {
                     // The distance falls by at most the node's move plus
                     // the triangle's largest.
                     let m = d[0].norm() + d[1].norm().max(d[2].norm()).max(d[3].norm());
+                    if beyond(&balls[t as usize], &x[i], self.xi[i] + m / (1.0 - KEEP)) {
+                        continue;
+                    }
                     let s = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - self.xi[i];
                     if s >= m / (1.0 - KEEP) {
                         continue;
