@@ -74,7 +74,7 @@ use std::sync::{Arc, Mutex};
 use rayon::prelude::*;
 
 use super::barrier::{self, BarrierParams, Hess12, Proximity};
-use super::edge_pairs::EdgePairs;
+use super::edge_pairs::{Cand, EdgePairs};
 use crate::geom::bvh::{Aabb, Bvh};
 use crate::geom::tri_tri;
 use crate::mech::element::V3;
@@ -104,7 +104,7 @@ struct Lists {
     x0: Vec<V3>,
     groups: Vec<Group>,
     cand: Vec<u32>,
-    edge_cand: Vec<(u32, u32)>,
+    edge_cand: Vec<Cand>,
 }
 
 impl Lists {
@@ -475,7 +475,7 @@ impl LeafletBarrier {
             .collect();
         self.active = act.into_iter().flatten().collect();
         self.edges
-            .set_active(x, &self.lists.edge_cand, &self.params);
+            .set_active(x, &self.lists.x0, &self.lists.edge_cand, &self.params);
     }
 
     /// The closest candidate triangle of a group at `x` (ties: lower index).
@@ -579,7 +579,8 @@ impl LeafletBarrier {
         for v in per {
             e += v?;
         }
-        self.edges.energy(&lists.edge_cand, x, &self.params, e)
+        self.edges
+            .energy(&lists.edge_cand, &lists.x0, x, &self.params, e)
     }
 
     /// [`LeafletBarrier::energy_in`] at `x`, remembered for the next call
@@ -752,7 +753,10 @@ impl Term for LeafletBarrier {
                     }
                 }
             }
-            if let Some(acting) = self.edges.acting(&lists.edge_cand, x, &self.params) {
+            if let Some(acting) = self
+                .edges
+                .acting(&lists.edge_cand, &lists.x0, x, &self.params)
+            {
                 self.edges.add_force(&acting, f);
             }
         })
@@ -846,9 +850,12 @@ impl Term for LeafletBarrier {
         } else {
             dx
         };
-        let t = self
-            .node_max_step(lists, x, dx)
-            .min(self.edges.max_step(&lists.edge_cand, x, dx));
+        let t = self.node_max_step(lists, x, dx).min(self.edges.max_step(
+            &lists.edge_cand,
+            &lists.x0,
+            x,
+            dx,
+        ));
         cover * t
     }
 
