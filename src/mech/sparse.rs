@@ -11,6 +11,7 @@ use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::{cholesky, lu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
+use rayon::prelude::*;
 use std::sync::{Arc, Mutex};
 
 pub const NONE: u32 = u32::MAX;
@@ -302,9 +303,15 @@ impl Pattern {
         }
         let n = 3 * K;
         let mut slots = vec![NONE; elems.len() * n * n];
-        for (nodes, s) in elems.iter().zip(slots.chunks_exact_mut(n * n)) {
-            self.for_each_slot(dofs, nodes, |r, c, slot| s[r * n + c] = slot as u32);
-        }
+        // Each element's table is its own: filled in parallel, the same
+        // tables whatever the thread count.
+        slots
+            .par_chunks_exact_mut(n * n)
+            .with_min_len(256)
+            .zip(elems.par_iter())
+            .for_each(|(s, nodes)| {
+                self.for_each_slot(dofs, nodes, |r, c, slot| s[r * n + c] = slot as u32);
+            });
         let slots: Arc<[u32]> = slots.into();
         cache.push((flat, slots.clone()));
         slots
