@@ -82,7 +82,7 @@ pub fn segment_segment(a0: &V3, a1: &V3, b0: &V3, b1: &V3) -> SegProximity {
             (u, SegRegion::PointEdge(p))
         };
         let d2 = (x - (q0 + e * u)).norm_squared();
-        if best.is_some() && !(d2 < best_d2) {
+        if best.is_some() && d2.partial_cmp(&best_d2) != Some(std::cmp::Ordering::Less) {
             continue;
         }
         let dist = d2.sqrt();
