@@ -127,6 +127,15 @@ pub struct Bvh {
     /// Current box of every triangle (global index; only the tree's
     /// triangles are kept up to date).
     tri_boxes: Vec<Aabb>,
+    /// Per tree node, the groups (bodies) of its triangles as bits
+    /// ([`group_bit`]); empty until [`Bvh::set_groups`].
+    groups: Vec<u64>,
+}
+
+/// The bit of group `g` in a node's group mask; groups from 63 on share
+/// the last bit (such a node is never skipped for them).
+fn group_bit(g: u16) -> u64 {
+    1u64 << u32::from(g.min(63))
 }
 
 impl Bvh {
@@ -144,6 +153,7 @@ impl Bvh {
             order: ids.to_vec(),
             tris: tris.to_vec(),
             tri_boxes: vec![Aabb::empty(); tris.len()],
+            groups: Vec::new(),
         };
         for &t in ids {
             bvh.tri_boxes[t as usize] = tri_box(x, &tris[t as usize]);
@@ -232,6 +242,53 @@ impl Bvh {
         }
     }
 
+    /// Labels every triangle with a group (`group[t]`, e.g. its leaflet),
+    /// so [`Bvh::query_aabb_apart`] and [`Bvh::query_sphere_apart`] can skip
+    /// whole subtrees of one group. The labels depend on the topology only:
+    /// refits keep them.
+    pub fn set_groups(&mut self, group: &[u16]) {
+        let mut m = vec![0u64; self.nodes.len()];
+        // Pre-order: children come after their parent.
+        for i in (0..self.nodes.len()).rev() {
+            let n = &self.nodes[i];
+            m[i] = if n.count > 0 {
+                let (f, c) = (n.first as usize, n.count as usize);
+                self.order[f..f + c].iter().fold(0, |b, &t| {
+                    b | group.get(t as usize).map_or(!0, |&g| group_bit(g))
+                })
+            } else {
+                m[n.first as usize] | m[n.right as usize]
+            };
+        }
+        self.groups = m;
+    }
+
+    /// [`Bvh::query_aabb`] without the subtrees that hold only triangles of
+    /// group `g` (after [`Bvh::set_groups`]; otherwise none is skipped):
+    /// the same triangles of other groups in the same order. Triangles of
+    /// `g` in mixed leaves are still reported.
+    pub fn query_aabb_apart(&self, query: &Aabb, g: u16, mut f: impl FnMut(u32)) {
+        self.traverse_apart(|b| b.overlaps(query), g, &mut f);
+    }
+
+    /// [`Bvh::query_sphere`] without the subtrees that hold only triangles
+    /// of group `g` (as [`Bvh::query_aabb_apart`]).
+    pub fn query_sphere_apart(&self, center: &V3, radius: f64, g: u16, mut f: impl FnMut(u32)) {
+        let r2 = radius * radius;
+        if !(finite(center) && r2.is_finite()) {
+            return;
+        }
+        self.traverse_apart(|b| !b.is_empty() && b.dist2(center) <= r2, g, &mut f);
+    }
+
+    fn traverse_apart(&self, hit: impl Fn(&Aabb) -> bool, g: u16, f: &mut impl FnMut(u32)) {
+        if self.groups.len() != self.nodes.len() || g >= 63 {
+            return self.traverse(hit, f);
+        }
+        let own = group_bit(g);
+        self.walk(hit, |i| self.groups[i] & !own == 0, f);
+    }
+
     /// Number of triangles in the tree.
     pub fn len(&self) -> usize {
         self.order.len()
@@ -289,6 +346,18 @@ impl Bvh {
     }
 
     fn traverse(&self, hit: impl Fn(&Aabb) -> bool, f: &mut impl FnMut(u32)) {
+        self.walk(hit, |_| false, f);
+    }
+
+    /// Depth-first over the nodes whose boxes `hit` and that `skip` does
+    /// not rule out (by node index), reporting the leaves' triangles whose
+    /// boxes hit.
+    fn walk(
+        &self,
+        hit: impl Fn(&Aabb) -> bool,
+        skip: impl Fn(usize) -> bool,
+        f: &mut impl FnMut(u32),
+    ) {
         if self.nodes.is_empty() {
             return;
         }
@@ -298,8 +367,9 @@ impl Bvh {
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
-            let n = &self.nodes[stack[top] as usize];
-            if !hit(&n.aabb) {
+            let i = stack[top] as usize;
+            let n = &self.nodes[i];
+            if skip(i) || !hit(&n.aabb) {
                 continue;
             }
             if n.count > 0 {

@@ -61,6 +61,9 @@ pub fn segment_segment(a0: &V3, a1: &V3, b0: &V3, b1: &V3) -> SegProximity {
     // The border: each endpoint against the other segment; the first of
     // equal minima wins (the distance is the same either way).
     let mut best: Option<SegProximity> = None;
+    // The best's squared distance: a candidate with no smaller square has
+    // no smaller distance (sqrt is monotone), so its root is not taken.
+    let mut best_d2 = f64::INFINITY;
     for p in 0..4u8 {
         let (x, q0, q1, j0) = match p {
             0 => (a0, b0, b1, 2u8),
@@ -78,7 +81,11 @@ pub fn segment_segment(a0: &V3, a1: &V3, b0: &V3, b1: &V3) -> SegProximity {
         } else {
             (u, SegRegion::PointEdge(p))
         };
-        let dist = (x - (q0 + e * u)).norm();
+        let d2 = (x - (q0 + e * u)).norm_squared();
+        if best.is_some() && d2.partial_cmp(&best_d2) != Some(std::cmp::Ordering::Less) {
+            continue;
+        }
+        let dist = d2.sqrt();
         let (s, t) = if p < 2 {
             (f64::from(p), u)
         } else {
@@ -86,6 +93,7 @@ pub fn segment_segment(a0: &V3, a1: &V3, b0: &V3, b1: &V3) -> SegProximity {
         };
         if best.as_ref().is_none_or(|b| dist < b.dist) {
             best = Some(SegProximity { dist, s, t, region });
+            best_d2 = d2;
         }
     }
     best.expect("four candidates")

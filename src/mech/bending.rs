@@ -22,6 +22,7 @@
 //! that scale, and bending fixes the width of the folds independently of h.
 
 use nalgebra::{Matrix3, SMatrix, SVector};
+use rayon::prelude::*;
 
 use super::element::V3;
 use super::sparse::{Dofs, Pattern};
@@ -262,7 +263,25 @@ impl Bending {
     fn points(&self, h: &Hinge, x: &[V3]) -> [V3; 4] {
         h.nodes.map(|i| x[i as usize])
     }
+
+    /// Energies and gradients of every hinge, evaluated in parallel and
+    /// returned in hinge order (the caller sums in that order: the same
+    /// result whatever the thread count).
+    fn grads(&self, x: &[V3]) -> Vec<Option<(f64, Grad12)>> {
+        self.hinges
+            .par_iter()
+            .with_min_len(512)
+            .map(|h| {
+                h.eval(&self.points(h, x), false, true)
+                    .map(|e| (e.energy, e.grad))
+            })
+            .collect()
+    }
 }
+
+/// Hinges whose Hessians are evaluated together before they are added in
+/// order (bounds the buffer: 1 kB per hinge).
+const TANGENT_CHUNK: usize = 2048;
 
 impl Term for Bending {
     fn name(&self) -> &'static str {
@@ -270,20 +289,14 @@ impl Term for Bending {
     }
 
     fn energy(&self, x: &[V3]) -> Option<f64> {
-        Some(
-            self.hinges
-                .iter()
-                .filter_map(|h| h.eval(&self.points(h, x), false, true))
-                .map(|e| e.energy)
-                .sum(),
-        )
+        Some(self.grads(x).into_iter().flatten().map(|e| e.0).sum())
     }
 
     fn add_force(&self, x: &[V3], f: &mut [V3]) {
-        for h in &self.hinges {
-            if let Some(e) = h.eval(&self.points(h, x), false, true) {
+        for (h, e) in self.hinges.iter().zip(self.grads(x)) {
+            if let Some((_, grad)) = e {
                 for (k, &n) in h.nodes.iter().enumerate() {
-                    f[n as usize] -= e.grad.fixed_rows::<3>(3 * k).into_owned();
+                    f[n as usize] -= grad.fixed_rows::<3>(3 * k).into_owned();
                 }
             }
         }
@@ -303,9 +316,23 @@ impl Term for Bending {
     fn add_tangent(&self, x: &[V3], dofs: &Dofs, pat: &Pattern, vals: &mut [f64]) {
         let nodes: Vec<[u32; 4]> = self.hinges.iter().map(|h| h.nodes).collect();
         let slots = pat.element_slots(dofs, &nodes);
-        for (h, s) in self.hinges.iter().zip(slots.chunks_exact(144)) {
-            if let Some(e) = h.eval(&self.points(h, x), true, self.gauss_newton) {
-                Pattern::add_block_at(vals, s, &e.hess.expect("asked for"));
+        for (hs, ss) in self
+            .hinges
+            .chunks(TANGENT_CHUNK)
+            .zip(slots.chunks(144 * TANGENT_CHUNK))
+        {
+            let blocks: Vec<Option<Hess12>> = hs
+                .par_iter()
+                .with_min_len(256)
+                .map(|h| {
+                    h.eval(&self.points(h, x), true, self.gauss_newton)
+                        .and_then(|e| e.hess)
+                })
+                .collect();
+            for (b, s) in blocks.iter().zip(ss.chunks_exact(144)) {
+                if let Some(b) = b {
+                    Pattern::add_block_at(vals, s, b);
+                }
             }
         }
     }

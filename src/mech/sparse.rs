@@ -11,6 +11,7 @@ use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::{cholesky, lu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
+use rayon::prelude::*;
 use std::sync::{Arc, Mutex};
 
 pub const NONE: u32 = u32::MAX;
@@ -53,8 +54,6 @@ pub struct Pattern {
     row_off: Vec<u32>,
     col_ptr: Vec<usize>,
     row_idx: Vec<u32>,
-    /// The couplings it was built from (to detect a change).
-    pub key: Vec<[u32; 2]>,
     /// The coupling list, as a system last listed it, that gave `key`:
     /// an identical list needs no sort to be recognised.
     pub listed: Vec<[u32; 2]>,
@@ -107,33 +106,48 @@ fn par() -> Par {
 impl Pattern {
     /// `pairs`: node pairs that interact (any order, duplicates allowed).
     pub fn new(n_nodes: usize, dofs: &Dofs, pairs: &[[u32; 2]]) -> Pattern {
-        let mut key: Vec<[u32; 2]> = pairs
-            .iter()
-            .map(|&[a, b]| if a < b { [a, b] } else { [b, a] })
-            .chain((0..n_nodes as u32).map(|i| [i, i]))
-            .collect();
-        key.sort_unstable();
-        key.dedup();
-        let mut deg = vec![0u32; n_nodes + 1];
-        for &[a, b] in &key {
-            deg[a as usize + 1] += 1;
+        // Per node its neighbours (itself included), bucketed by node and
+        // sorted within each bucket: no sort of the whole pair list (a
+        // closure with contact lists ~10⁵ pairs and changes them at every
+        // step).
+        let mut deg = vec![1u32; n_nodes + 1];
+        deg[0] = 0;
+        for &[a, b] in pairs {
             if a != b {
+                deg[a as usize + 1] += 1;
                 deg[b as usize + 1] += 1;
             }
         }
         for i in 0..n_nodes {
             deg[i + 1] += deg[i];
         }
-        let nb_off = deg.clone();
-        let mut fill = deg;
-        let mut nb = vec![0u32; nb_off[n_nodes] as usize];
-        for &[a, b] in &key {
-            nb[fill[a as usize] as usize] = b;
-            fill[a as usize] += 1;
+        let mut fill = deg.clone();
+        let mut all = vec![0u32; deg[n_nodes] as usize];
+        for i in 0..n_nodes {
+            all[fill[i] as usize] = i as u32;
+            fill[i] += 1;
+        }
+        for &[a, b] in pairs {
             if a != b {
-                nb[fill[b as usize] as usize] = a;
+                all[fill[a as usize] as usize] = b;
+                fill[a as usize] += 1;
+                all[fill[b as usize] as usize] = a;
                 fill[b as usize] += 1;
             }
+        }
+        let mut nb_off = vec![0u32; n_nodes + 1];
+        let mut nb = Vec::with_capacity(all.len());
+        for i in 0..n_nodes {
+            let s = &mut all[deg[i] as usize..deg[i + 1] as usize];
+            s.sort_unstable();
+            let mut last = None;
+            for &v in s.iter() {
+                if last != Some(v) {
+                    nb.push(v);
+                    last = Some(v);
+                }
+            }
+            nb_off[i + 1] = nb.len() as u32;
         }
         let free = |n: u32| {
             (0..3)
@@ -142,8 +156,6 @@ impl Pattern {
         };
         let mut row_off = vec![0u32; nb.len()];
         for i in 0..n_nodes {
-            let s = &mut nb[nb_off[i] as usize..nb_off[i + 1] as usize];
-            s.sort_unstable();
             let mut acc = 0;
             for k in nb_off[i] as usize..nb_off[i + 1] as usize {
                 row_off[k] = acc;
@@ -185,7 +197,6 @@ impl Pattern {
             row_off,
             col_ptr,
             row_idx,
-            key,
             listed: pairs.to_vec(),
             llt: None,
             lu: None,
@@ -194,6 +205,33 @@ impl Pattern {
             stats: SolveStats::default(),
             slot_tables: Mutex::new(Vec::new()),
         }
+    }
+
+    /// Whether the node pairs `pairs` (any order, duplicates allowed, with
+    /// or without the diagonal) couple exactly the nodes this pattern
+    /// couples: then [`Pattern::new`] would build the same pattern again.
+    /// Checked by lookups, without sorting the list.
+    pub fn couples_exactly(&self, pairs: &[[u32; 2]]) -> bool {
+        let n = self.nb_off.len() - 1;
+        let mut seen = vec![false; self.nb.len()];
+        for &[a, b] in pairs {
+            if a == b {
+                continue;
+            }
+            let (lo, hi) = (a.min(b) as usize, a.max(b));
+            if lo >= n {
+                return false;
+            }
+            let (s, e) = (self.nb_off[lo] as usize, self.nb_off[lo + 1] as usize);
+            match self.nb[s..e].binary_search(&hi) {
+                Ok(k) => seen[s + k] = true,
+                Err(_) => return false,
+            }
+        }
+        (0..n).all(|i| {
+            let (s, e) = (self.nb_off[i] as usize, self.nb_off[i + 1] as usize);
+            (s..e).all(|k| self.nb[k] <= i as u32 || seen[k])
+        })
     }
 
     pub fn nnz(&self) -> usize {
@@ -265,9 +303,15 @@ impl Pattern {
         }
         let n = 3 * K;
         let mut slots = vec![NONE; elems.len() * n * n];
-        for (nodes, s) in elems.iter().zip(slots.chunks_exact_mut(n * n)) {
-            self.for_each_slot(dofs, nodes, |r, c, slot| s[r * n + c] = slot as u32);
-        }
+        // Each element's table is its own: filled in parallel, the same
+        // tables whatever the thread count.
+        slots
+            .par_chunks_exact_mut(n * n)
+            .with_min_len(256)
+            .zip(elems.par_iter())
+            .for_each(|(s, nodes)| {
+                self.for_each_slot(dofs, nodes, |r, c, slot| s[r * n + c] = slot as u32);
+            });
         let slots: Arc<[u32]> = slots.into();
         cache.push((flat, slots.clone()));
         slots
@@ -634,6 +678,54 @@ mod tests {
         }
         pat.add_diagonal(&mut vals, &vec![0.1; dofs.n_eq]);
         (dofs, tris, pat, vals)
+    }
+
+    #[test]
+    fn a_pattern_is_its_pair_set_whatever_the_order_and_repeats() {
+        let (dofs, tris, pat) = strip(9);
+        let mut pairs: Vec<[u32; 2]> = Vec::new();
+        for t in &tris {
+            pairs.extend([[t[2], t[0]], [t[1], t[2]], [t[0], t[1]], [t[1], t[0]]]);
+        }
+        pairs.push([4, 4]);
+        // A far coupling (contact-like) both ways round.
+        pairs.extend([[0, 17], [17, 0]]);
+        let mut rng = crate::rng::SplitMix64::new(7);
+        for i in (1..pairs.len()).rev() {
+            let j = (rng.range(0.0, (i + 1) as f64) as usize).min(i);
+            pairs.swap(i, j);
+        }
+        let a = Pattern::new(18, &dofs, &pairs);
+        // The same set listed plainly gives the same matrix structure.
+        let mut plain: Vec<[u32; 2]> = pairs.iter().map(|&[x, y]| [x.min(y), x.max(y)]).collect();
+        plain.sort_unstable();
+        plain.dedup();
+        let b = Pattern::new(18, &dofs, &plain);
+        assert_eq!(a.nb, b.nb);
+        assert_eq!(a.nb_off, b.nb_off);
+        assert_eq!(a.col_ptr, b.col_ptr);
+        assert_eq!(a.row_idx, b.row_idx);
+        // Every node's neighbours sorted, each once, itself included.
+        for i in 0..18 {
+            let nb = &a.nb[a.nb_off[i] as usize..a.nb_off[i + 1] as usize];
+            assert!(nb.windows(2).all(|w| w[0] < w[1]));
+            assert!(nb.contains(&(i as u32)));
+        }
+        assert!(a.nb[a.nb_off[17] as usize..a.nb_off[18] as usize].contains(&0));
+        assert!(a.couples_exactly(&pairs) && a.couples_exactly(&plain));
+        assert!(b.couples_exactly(&pairs));
+        // One pair fewer, one more, or a node out of range: not the same.
+        let k = plain.iter().position(|p| p == &[0, 17]).unwrap();
+        let mut fewer = plain.clone();
+        fewer.remove(k);
+        assert!(!a.couples_exactly(&fewer));
+        let mut more = plain.clone();
+        more.push([3, 12]);
+        assert!(!a.couples_exactly(&more));
+        more.pop();
+        more.push([2, 40]);
+        assert!(!a.couples_exactly(&more));
+        let _ = pat;
     }
 
     #[test]

@@ -61,6 +61,27 @@ pub struct EdgePairs {
 /// A pair's forces are those of one acting pair.
 type Acting = (u32, u32, f64, [V3; 4]);
 
+/// A candidate pair (lower edge, higher edge) and its s = d − ξ at the
+/// state its list was found at.
+pub type Cand = (u32, u32, f64);
+
+/// Below this (mm) a lower bound of s is not trusted to rule a pair out:
+/// far above the round-off of the bound, far below any s that matters.
+const BOUND_MARGIN: f64 = 1e-9;
+
+/// Per node, how far it moved from `x0` (the candidates' state) to `x`;
+/// ∞ when `x0` is not a state of the same mesh (nothing is ruled out).
+fn moves(x0: &[V3], x: &[V3]) -> Vec<f64> {
+    if x0.len() != x.len() {
+        return vec![f64::INFINITY; x.len()];
+    }
+    x0.par_iter()
+        .with_min_len(1024)
+        .zip(x.par_iter())
+        .map(|(p, q)| (q - p).norm())
+        .collect()
+}
+
 impl EdgePairs {
     pub fn new(
         x: &[V3],
@@ -150,6 +171,15 @@ impl EdgePairs {
         [ea[0], ea[1], eb[0], eb[1]]
     }
 
+    /// A lower bound of the pair's s at a state whose nodes moved `mv`
+    /// from where the pair had `s0`: the distance of two segments falls by
+    /// at most the largest move of each one's ends.
+    fn s_below(&self, mv: &[f64], a: u32, b: u32, s0: f64) -> f64 {
+        let (ea, eb) = (self.edges[a as usize], self.edges[b as usize]);
+        s0 - (mv[ea[0] as usize].max(mv[ea[1] as usize])
+            + mv[eb[0] as usize].max(mv[eb[1] as usize]))
+    }
+
     fn pair_xi(&self, a: u32, b: u32) -> f64 {
         self.xi[a as usize].min(self.xi[b as usize])
     }
@@ -201,12 +231,12 @@ impl EdgePairs {
         params: &BarrierParams,
         reach: f64,
         slack: f64,
-    ) -> Vec<(u32, u32)> {
+    ) -> Vec<Cand> {
         let xi_max = self.xi.iter().fold(0.0, |m: f64, &v| m.max(v));
         let r = xi_max + params.dhat + reach + 2.0 * slack;
         let (mid, half) = self.spheres(y);
         let tris = bvh.len() as u32;
-        let per: Vec<Vec<(u32, u32)>> = (0..tris)
+        let per: Vec<Vec<Cand>> = (0..tris)
             .into_par_iter()
             .with_min_len(32)
             .map(|ta| {
@@ -224,7 +254,7 @@ impl EdgePairs {
                     min: bx.min - V3::repeat(r),
                     max: bx.max + V3::repeat(r),
                 };
-                bvh.query_aabb(&query, |tb| {
+                bvh.query_aabb_apart(&query, body, |tb| {
                     for b in self.tri_edges[tb as usize] {
                         if self.owner[b as usize] != tb || self.body[b as usize] == body {
                             continue;
@@ -249,7 +279,7 @@ impl EdgePairs {
                             let q = self.quad(y, lo, hi);
                             let s = edge_barrier::proximity(&q).dist - self.pair_xi(lo, hi);
                             if s < params.dhat + reach {
-                                out.push((lo, hi));
+                                out.push((lo, hi, s));
                             }
                         }
                     }
@@ -261,12 +291,16 @@ impl EdgePairs {
     }
 
     /// Keeps the pairs of `cand` within the margin at `x` for the tangent.
-    pub fn set_active(&mut self, x: &[V3], cand: &[(u32, u32)], params: &BarrierParams) {
+    pub fn set_active(&mut self, x: &[V3], x0: &[V3], cand: &[Cand], params: &BarrierParams) {
         let (mid, half) = self.spheres(x);
+        let mv = moves(x0, x);
         self.active = cand
             .par_iter()
             .with_min_len(256)
-            .filter(|&&(a, b)| {
+            .filter(|&&(a, b, s0)| {
+                if self.s_below(&mv, a, b, s0) >= params.dhat + BOUND_MARGIN {
+                    return false;
+                }
                 let xi = self.pair_xi(a, b);
                 let gap = (mid[a as usize] - mid[b as usize]).norm()
                     - half[a as usize]
@@ -274,7 +308,7 @@ impl EdgePairs {
                 gap - xi < params.dhat
                     && edge_barrier::proximity(&self.quad(x, a, b)).dist - xi < params.dhat
             })
-            .copied()
+            .map(|&(a, b, _)| (a, b))
             .collect();
     }
 
@@ -299,15 +333,20 @@ impl EdgePairs {
     /// gradient blocks, in candidate order; `None` when a pair has s ≤ 0.
     pub fn acting(
         &self,
-        cand: &[(u32, u32)],
+        cand: &[Cand],
+        x0: &[V3],
         x: &[V3],
         params: &BarrierParams,
     ) -> Option<Vec<Acting>> {
         let (mid, half) = self.spheres(x);
+        let mv = moves(x0, x);
         let v: Vec<Option<Acting>> = cand
             .par_iter()
             .with_min_len(256)
-            .filter_map(|&(a, b)| {
+            .filter_map(|&(a, b, s0)| {
+                if self.s_below(&mv, a, b, s0) >= params.dhat + BOUND_MARGIN {
+                    return None;
+                }
                 let gap = (mid[a as usize] - mid[b as usize]).norm()
                     - half[a as usize]
                     - half[b as usize];
@@ -333,6 +372,57 @@ impl EdgePairs {
             })
             .collect();
         v.into_iter().collect()
+    }
+
+    /// `e0` plus the energy of the candidate pairs at `x`, added in
+    /// candidate order (as [`EdgePairs::acting`] lists them); `None` when a
+    /// pair has s ≤ 0.
+    pub fn energy(
+        &self,
+        cand: &[Cand],
+        x0: &[V3],
+        x: &[V3],
+        params: &BarrierParams,
+        e0: f64,
+    ) -> Option<f64> {
+        let (mid, half) = self.spheres(x);
+        let mv = moves(x0, x);
+        let v: Vec<Option<f64>> = cand
+            .par_iter()
+            .with_min_len(256)
+            .map(|&(a, b, s0)| {
+                if self.s_below(&mv, a, b, s0) >= params.dhat + BOUND_MARGIN {
+                    return Some(0.0);
+                }
+                let xi = self.pair_xi(a, b);
+                let gap = (mid[a as usize] - mid[b as usize]).norm()
+                    - half[a as usize]
+                    - half[b as usize];
+                if gap - xi >= params.dhat {
+                    return Some(0.0);
+                }
+                let q = self.quad(x, a, b);
+                let pr = edge_barrier::proximity(&q);
+                if pr.dist - xi >= params.dhat {
+                    return Some(0.0);
+                }
+                let r = edge_barrier::pair_eval_at(
+                    &q,
+                    &pr,
+                    xi,
+                    self.pair_weight(a, b),
+                    self.eps(a, b),
+                    params,
+                    false,
+                )?;
+                Some(r.0)
+            })
+            .collect();
+        let mut e = e0;
+        for p in v {
+            e += p?;
+        }
+        Some(e)
     }
 
     /// Adds −gradient of the acting pairs to `f`.
@@ -387,15 +477,28 @@ impl EdgePairs {
     /// Largest fraction of `dx` from `x` keeping every pair's s above
     /// `KEEP` × its start value, `cand` holding every pair that could lose
     /// more.
-    pub fn max_step(&self, cand: &[(u32, u32)], x: &[V3], dx: &[V3]) -> f64 {
+    pub fn max_step(&self, cand: &[Cand], x0: &[V3], x: &[V3], dx: &[V3]) -> f64 {
         let moved = |e: [u32; 2]| dx[e[0] as usize].norm().max(dx[e[1] as usize].norm());
         // A pair's distance falls by at most its edges' largest moves: one
-        // farther than those moves / (1 − KEEP) keeps its share.
+        // farther than those moves / (1 − KEEP) keeps its share; the gap
+        // of the edges' spheres is a lower bound of the distance that
+        // rules most pairs out without one.
+        let (mid, half) = self.spheres(x);
+        let mv = moves(x0, x);
         cand.par_iter()
             .with_min_len(256)
-            .map(|&(a, b)| {
+            .map(|&(a, b, s0)| {
                 let xi = self.pair_xi(a, b);
                 let m = moved(self.edges[a as usize]) + moved(self.edges[b as usize]);
+                if self.s_below(&mv, a, b, s0) >= m / (1.0 - KEEP) + BOUND_MARGIN {
+                    return 1.0;
+                }
+                let gap = (mid[a as usize] - mid[b as usize]).norm()
+                    - half[a as usize]
+                    - half[b as usize];
+                if gap - xi >= m / (1.0 - KEEP) {
+                    return 1.0;
+                }
                 let q = self.quad(x, a, b);
                 if edge_barrier::proximity(&q).dist - xi >= m / (1.0 - KEEP) {
                     return 1.0;

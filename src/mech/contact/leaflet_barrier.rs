@@ -74,8 +74,8 @@ use std::sync::{Arc, Mutex};
 use rayon::prelude::*;
 
 use super::barrier::{self, BarrierParams, Hess12, Proximity};
-use super::edge_pairs::EdgePairs;
-use crate::geom::bvh::Bvh;
+use super::edge_pairs::{Cand, EdgePairs};
+use crate::geom::bvh::{Aabb, Bvh};
 use crate::geom::tri_tri;
 use crate::mech::element::V3;
 use crate::mech::sparse::{Dofs, Pattern};
@@ -104,7 +104,7 @@ struct Lists {
     x0: Vec<V3>,
     groups: Vec<Group>,
     cand: Vec<u32>,
-    edge_cand: Vec<(u32, u32)>,
+    edge_cand: Vec<Cand>,
 }
 
 impl Lists {
@@ -174,6 +174,47 @@ pub struct LeafletBarrier {
     start_crossings: Vec<(u32, u32)>,
     projected: bool,
     edges: EdgePairs,
+    /// The last state [`LeafletBarrier::energy_at`] evaluated and its
+    /// energy (`None`: inadmissible); valid while the offsets are, i.e.
+    /// for the barrier's life (lists never change an energy).
+    last_energy: Mutex<Option<(Vec<V3>, Option<f64>)>>,
+}
+
+/// The triangle tree, labelled by leaflet (queries skip a leaflet's own
+/// subtrees: on a closing valve most of what lies within reach of an item
+/// is its own leaflet).
+fn tree(x: &[V3], tris: &[[u32; 3]], tri_body: &[u16]) -> Bvh {
+    let mut b = Bvh::build(x, tris);
+    b.set_groups(tri_body);
+    b
+}
+
+/// Per triangle at `x` a ball holding it: (centroid, largest distance of a
+/// vertex from it). A node farther than r + b from the centre is farther
+/// than b from the triangle: most candidate pairs are ruled out by that
+/// before their closest point is sought.
+fn tri_balls(x: &[V3], tris: &[[u32; 3]]) -> Vec<(V3, f64)> {
+    tris.par_iter()
+        .with_min_len(256)
+        .map(|t| {
+            let v = t.map(|k| x[k as usize]);
+            let c = (v[0] + v[1] + v[2]) / 3.0;
+            let r2 = (v[0] - c)
+                .norm_squared()
+                .max((v[1] - c).norm_squared())
+                .max((v[2] - c).norm_squared());
+            (c, r2.sqrt())
+        })
+        .collect()
+}
+
+/// Node `p` is certainly at least `b` from the triangle of `ball` (with a
+/// relative margin far above the round-off of the test, so a pair this
+/// rules out is one the exact distance rules out too).
+#[inline]
+fn beyond(ball: &(V3, f64), p: &V3, b: f64) -> bool {
+    let lim = (ball.1 + b) * (1.0 + 1e-9);
+    (p - ball.0).norm_squared() > lim * lim
 }
 
 /// Reference lumped node areas (mm²): a third of the incident areas.
@@ -244,7 +285,7 @@ impl LeafletBarrier {
                 node_body[i as usize] = *b;
             }
         }
-        let bvh = Bvh::build(x, tris);
+        let bvh = tree(x, tris, tri_body);
         let mut me = LeafletBarrier {
             tris: tris.to_vec(),
             node_body,
@@ -269,6 +310,7 @@ impl LeafletBarrier {
             active: vec![],
             start_crossings: vec![],
             projected: false,
+            last_energy: Mutex::new(None),
             edges: EdgePairs::new(x, tris, tri_body, fixed, &bvh, &params, xi),
             bvh,
         };
@@ -322,21 +364,29 @@ impl LeafletBarrier {
         // Per node: its (node, body) keys and their candidate lists.
         type Found = (Vec<(u32, u16)>, Vec<Vec<u32>>);
         let far = self.params.dhat + reach;
+        let balls = tri_balls(y, &self.tris);
         let per: Vec<Found> = (0..y.len())
             .into_par_iter()
             .with_min_len(64)
             .map(|i| {
                 let r = self.xi[i] + far + slack;
                 let mut found: Vec<u32> = vec![];
-                self.bvh.query_sphere(&y[i], r, |t| {
-                    if !self.skip(i as u32, t) {
-                        let q = self.quad(y, i as u32, t);
-                        let d = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist;
-                        if d - self.xi[i] < far {
-                            found.push(t);
+                if self.node_fixed[i] {
+                    return (vec![], vec![]);
+                }
+                // Subtrees of the node's own leaflet hold no pair.
+                self.bvh
+                    .query_sphere_apart(&y[i], r, self.node_body[i], |t| {
+                        if !self.skip(i as u32, t)
+                            && !beyond(&balls[t as usize], &y[i], self.xi[i] + far)
+                        {
+                            let q = self.quad(y, i as u32, t);
+                            let d = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist;
+                            if d - self.xi[i] < far {
+                                found.push(t);
+                            }
                         }
-                    }
-                });
+                    });
                 found.sort_unstable_by_key(|&t| (self.tri_body[t as usize], t));
                 let mut keys = vec![];
                 let mut lists: Vec<Vec<u32>> = vec![];
@@ -399,6 +449,7 @@ impl LeafletBarrier {
     /// state, which the lists cover).
     fn set_active(&mut self, x: &[V3]) {
         let lists = &self.lists;
+        let balls = tri_balls(x, &self.tris);
         let act: Vec<Vec<(u32, u32)>> = lists
             .groups
             .par_iter()
@@ -408,6 +459,13 @@ impl LeafletBarrier {
                 lists.cand[g.start as usize..g.end as usize]
                     .iter()
                     .filter(|&&t| {
+                        if beyond(
+                            &balls[t as usize],
+                            &x[g.node as usize],
+                            xi + self.params.dhat,
+                        ) {
+                            return false;
+                        }
                         let q = self.quad(x, g.node, t);
                         barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - xi < self.params.dhat
                     })
@@ -417,7 +475,7 @@ impl LeafletBarrier {
             .collect();
         self.active = act.into_iter().flatten().collect();
         self.edges
-            .set_active(x, &self.lists.edge_cand, &self.params);
+            .set_active(x, &self.lists.x0, &self.lists.edge_cand, &self.params);
     }
 
     /// The closest candidate triangle of a group at `x` (ties: lower index).
@@ -448,6 +506,7 @@ impl LeafletBarrier {
     /// `None` when a pair is inadmissible (d ≤ ξ).
     #[allow(clippy::type_complexity)]
     fn eval_groups(&self, lists: &Lists, x: &[V3]) -> Vec<Option<(f64, Vec<(u32, [V3; 4])>)>> {
+        let balls = tri_balls(x, &self.tris);
         lists
             .groups
             .par_iter()
@@ -457,6 +516,9 @@ impl LeafletBarrier {
                 let mut e = 0.0;
                 let mut grads = vec![];
                 for &t in &lists.cand[g.start as usize..g.end as usize] {
+                    if beyond(&balls[t as usize], &x[i], self.xi[i] + self.params.dhat) {
+                        continue;
+                    }
                     let q = self.quad(x, g.node, t);
                     let p = barrier::proximity(&q[0], &q[1], &q[2], &q[3]);
                     if p.dist - self.xi[i] >= self.params.dhat {
@@ -478,6 +540,106 @@ impl LeafletBarrier {
             .collect()
     }
 
+    /// The node–triangle and edge–edge energy at `x` from `lists` (which
+    /// hold every acting pair), summed in the order [`Term::add_force`]
+    /// visits the pairs; `None` when a pair is inadmissible (d ≤ ξ). No
+    /// gradients: the line search asks for energies only.
+    fn energy_in(&self, lists: &Lists, x: &[V3]) -> Option<f64> {
+        let balls = tri_balls(x, &self.tris);
+        let per: Vec<Option<f64>> = lists
+            .groups
+            .par_iter()
+            .with_min_len(64)
+            .map(|g| {
+                let i = g.node as usize;
+                let mut e = 0.0;
+                for &t in &lists.cand[g.start as usize..g.end as usize] {
+                    if beyond(&balls[t as usize], &x[i], self.xi[i] + self.params.dhat) {
+                        continue;
+                    }
+                    let q = self.quad(x, g.node, t);
+                    let p = barrier::proximity(&q[0], &q[1], &q[2], &q[3]);
+                    if p.dist - self.xi[i] >= self.params.dhat {
+                        continue;
+                    }
+                    e += barrier::pair_eval_at(
+                        &q,
+                        &p,
+                        self.xi[i],
+                        self.node_area[i],
+                        &self.params,
+                        false,
+                    )?
+                    .0;
+                }
+                Some(e)
+            })
+            .collect();
+        let mut e = 0.0;
+        for v in per {
+            e += v?;
+        }
+        self.edges
+            .energy(&lists.edge_cand, &lists.x0, x, &self.params, e)
+    }
+
+    /// [`LeafletBarrier::energy_in`] at `x`, remembered for the next call
+    /// at the same state (the line search asks [`Term::admissible`], then
+    /// [`Term::energy`], of each trial state).
+    fn energy_at(&self, x: &[V3]) -> Option<f64> {
+        {
+            let last = self.last_energy.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some((y, e)) = last.as_ref() {
+                if same_state(y, x) {
+                    return *e;
+                }
+            }
+        }
+        let e = self.with_lists(x, |lists| self.energy_in(lists, x));
+        *self.last_energy.lock().unwrap_or_else(|e| e.into_inner()) = Some((x.to_vec(), e));
+        e
+    }
+
+    /// Whether triangles of different leaflets cross at `x` that may not:
+    /// those that did not cross at the start, unless both are on the
+    /// suture line. The tree is refitted to `x` (the same boxes a fresh
+    /// build has, so the same pairs are tested) and skips each triangle's
+    /// own leaflet; the first forbidden crossing ends the search.
+    fn crossing_free(&self, x: &[V3]) -> bool {
+        let mut bvh = self.bvh.clone();
+        bvh.refit(x);
+        let tris = &self.tris;
+        (0..tris.len()).into_par_iter().with_min_len(64).all(|i| {
+            let ti = tris[i];
+            let vi = ti.map(|k| &x[k as usize]);
+            if tri_tri::is_degenerate(vi[0], vi[1], vi[2]) {
+                return true;
+            }
+            let body = self.tri_body[i];
+            let bx = Aabb::of_triangle(vi[0], vi[1], vi[2]);
+            let mut ok = true;
+            bvh.query_aabb_apart(&bx, body, |j| {
+                if !ok || j as usize <= i || self.tri_body[j as usize] == body {
+                    return;
+                }
+                let tj = tris[j as usize];
+                if tj.iter().any(|v| ti.contains(v)) {
+                    return;
+                }
+                let p = (i as u32, j);
+                if self.start_crossings.binary_search(&p).is_ok()
+                    || (self.on_suture_line(p.0) && self.on_suture_line(p.1))
+                {
+                    return;
+                }
+                if tri_tri::tri_tri_intersect(vi, tj.map(|k| &x[k as usize])) {
+                    ok = false;
+                }
+            });
+            ok
+        })
+    }
+
     /// Bit b set on a node whose distance to leaflet b is within ξ + d̂.
     fn mask(&self, x: &[V3]) -> Vec<u8> {
         self.with_lists(x, |lists| {
@@ -497,6 +659,7 @@ impl LeafletBarrier {
     /// pair's s above `KEEP` × its start value, `lists` holding every pair
     /// that could lose more.
     fn node_max_step(&self, lists: &Lists, x: &[V3], dx: &[V3]) -> f64 {
+        let balls = tri_balls(x, &self.tris);
         lists
             .groups
             .par_iter()
@@ -516,6 +679,9 @@ impl LeafletBarrier {
                     // The distance falls by at most the node's move plus
                     // the triangle's largest.
                     let m = d[0].norm() + d[1].norm().max(d[2].norm()).max(d[3].norm());
+                    if beyond(&balls[t as usize], &x[i], self.xi[i] + m / (1.0 - KEEP)) {
+                        continue;
+                    }
                     let s = barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - self.xi[i];
                     if s >= m / (1.0 - KEEP) {
                         continue;
@@ -548,8 +714,13 @@ impl Term for LeafletBarrier {
         *self.spare.get_mut().unwrap_or_else(|e| e.into_inner()) = None;
         self.bvh.refit(x);
         if self.bvh.cost() > 2.0 * self.build_cost {
-            self.bvh = Bvh::build(x, &self.tris);
+            self.bvh = tree(x, &self.tris, &self.tri_body);
             self.build_cost = self.bvh.cost();
+            // The edge pairs are summed in tree order.
+            *self
+                .last_energy
+                .get_mut()
+                .unwrap_or_else(|e| e.into_inner()) = None;
         }
         // A cut step asks for lists that hold it (it was cut, not limited
         // by the pairs: sizing for the cut move alone would cut again).
@@ -565,19 +736,7 @@ impl Term for LeafletBarrier {
     }
 
     fn energy(&self, x: &[V3]) -> Option<f64> {
-        self.with_lists(x, |lists| {
-            let mut e = 0.0;
-            for v in self.eval_groups(lists, x) {
-                match v {
-                    Some((ev, _)) => e += ev,
-                    None => return Some(f64::INFINITY),
-                }
-            }
-            match self.edges.acting(&lists.edge_cand, x, &self.params) {
-                Some(acting) => Some(acting.iter().fold(e, |s, p| s + p.2)),
-                None => Some(f64::INFINITY),
-            }
-        })
+        Some(self.energy_at(x).unwrap_or(f64::INFINITY))
     }
 
     /// An inadmissible group (d ≤ ξ) adds nothing: the solver never takes
@@ -594,7 +753,10 @@ impl Term for LeafletBarrier {
                     }
                 }
             }
-            if let Some(acting) = self.edges.acting(&lists.edge_cand, x, &self.params) {
+            if let Some(acting) = self
+                .edges
+                .acting(&lists.edge_cand, &lists.x0, x, &self.params)
+            {
                 self.edges.add_force(&acting, f);
             }
         })
@@ -688,28 +850,26 @@ impl Term for LeafletBarrier {
         } else {
             dx
         };
-        let t = self
-            .node_max_step(lists, x, dx)
-            .min(self.edges.max_step(&lists.edge_cand, x, dx));
+        let t = self.node_max_step(lists, x, dx).min(self.edges.max_step(
+            &lists.edge_cand,
+            &lists.x0,
+            x,
+            dx,
+        ));
         cover * t
     }
 
     fn admissible(&self, x: &[V3]) -> bool {
-        let admissible = self.with_lists(x, |lists| {
-            !self.eval_groups(lists, x).iter().any(|v| v.is_none())
-                && self
-                    .edges
-                    .acting(&lists.edge_cand, x, &self.params)
-                    .is_some()
-        });
-        if !admissible {
-            return false;
-        }
-        let bvh = Bvh::build(x, &self.tris);
-        let c = tri_tri::intersecting_pairs(x, &self.tris, &self.tri_body, &bvh);
-        c.iter().all(|p| {
-            self.start_crossings.binary_search(p).is_ok()
-                || (self.on_suture_line(p.0) && self.on_suture_line(p.1))
-        })
+        self.energy_at(x).is_some() && self.crossing_free(x)
     }
+}
+
+/// Bitwise equality of two states.
+fn same_state(a: &[V3], b: &[V3]) -> bool {
+    a.len() == b.len()
+        && a.iter().zip(b).all(|(p, q)| {
+            p.x.to_bits() == q.x.to_bits()
+                && p.y.to_bits() == q.y.to_bits()
+                && p.z.to_bits() == q.z.to_bits()
+        })
 }

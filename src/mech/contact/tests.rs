@@ -107,6 +107,75 @@ fn bvh_matches_brute_force_before_and_after_refit() {
 }
 
 #[test]
+fn bvh_apart_queries_report_the_other_groups_in_tree_order() {
+    let mut r = SplitMix64::new(11);
+    let (mut x, tris) = soup(&mut r, 700, 5.0, 0.4);
+    // Groups by region (as leaflets are), a few past the 63 bits.
+    let group: Vec<u16> = tris
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            if i % 97 == 0 {
+                return 70;
+            }
+            let cx = (x[t[0] as usize].x + x[t[1] as usize].x + x[t[2] as usize].x) / 3.0;
+            if cx < -1.5 {
+                0
+            } else if cx < 1.5 {
+                1
+            } else {
+                2
+            }
+        })
+        .collect();
+    let mut bvh = Bvh::build(&x, &tris);
+    bvh.set_groups(&group);
+    let mut skipped = 0usize;
+    for round in 0..2 {
+        for _ in 0..200 {
+            let c = rv(&mut r, 6.0);
+            let rad = r.range(0.0, 2.0);
+            let q = Aabb::around(&c, rad);
+            for g in [0u16, 1, 2, 70] {
+                let mut all = vec![];
+                bvh.query_aabb(&q, |t| all.push(t));
+                let mut apart = vec![];
+                bvh.query_aabb_apart(&q, g, |t| apart.push(t));
+                let others = |v: &[u32]| -> Vec<u32> {
+                    v.iter()
+                        .copied()
+                        .filter(|&t| group[t as usize] != g)
+                        .collect()
+                };
+                assert_eq!(others(&apart), others(&all), "round {round} group {g}");
+                assert!(apart.len() <= all.len());
+                skipped += all.len() - apart.len();
+                let mut sa = vec![];
+                bvh.query_sphere(&c, rad, |t| sa.push(t));
+                let mut sp = vec![];
+                bvh.query_sphere_apart(&c, rad, g, |t| sp.push(t));
+                assert_eq!(others(&sp), others(&sa));
+                if g == 70 {
+                    assert_eq!(sp, sa, "groups past 63 skip nothing");
+                }
+            }
+        }
+        // Refits keep the labels (they follow the topology).
+        for p in x.iter_mut() {
+            *p += rv(&mut r, 0.3);
+        }
+        bvh.refit(&x);
+    }
+    assert!(skipped > 0, "no subtree of one group was skipped");
+    // Without labels nothing is skipped.
+    let plain = Bvh::build(&x, &tris);
+    let (mut a, mut b) = (vec![], vec![]);
+    plain.query_sphere(&V3::zeros(), 3.0, |t| a.push(t));
+    plain.query_sphere_apart(&V3::zeros(), 3.0, 1, |t| b.push(t));
+    assert_eq!(a, b);
+}
+
+#[test]
 fn bvh_is_deterministic_and_handles_nonfinite() {
     let mut r = SplitMix64::new(8);
     let (mut x, tris) = soup(&mut r, 100, 3.0, 0.3);

@@ -137,14 +137,7 @@ pub fn newton_reusing(
             // A new solve on the same system (the next suturing round).
             Some(p) if pairs == p.listed => false,
             Some(p) => {
-                let mut k: Vec<[u32; 2]> = pairs
-                    .iter()
-                    .map(|&[a, b]| if a < b { [a, b] } else { [b, a] })
-                    .collect();
-                k.extend((0..sys.n_nodes() as u32).map(|i| [i, i]));
-                k.sort_unstable();
-                k.dedup();
-                let changed = k != p.key;
+                let changed = !p.couples_exactly(&pairs);
                 if !changed {
                     p.listed = pairs.clone();
                 }
