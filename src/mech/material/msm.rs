@@ -94,15 +94,18 @@
 //! / 0.07 / 0.51 / 2.84 s; coaptation height 12.68 / 12.92 / 12.98 / 13.00
 //! mm, central 5.78 / 6.93 / 8.66 / 8.83 mm), against 32 / 43 / 300 / 300
 //! iterations (5.6e-2 and 1.87 N left at h 1 and 0.5) with the sutured
-//! reference. With true contact at h 0.5 mm (`--threads 2`) it still did
-//! not converge in 150 s (182 iterations, 5.5e-3 N). That reference is not
-//! free: it keeps the placing and suturing distortion as stress, and for the
-//! other models it changes the answer (same grid, h 0.5 mm, sutured →
-//! flat: neo-Hookean μ 900 kPa coaptation height 7.56 → 8.11 mm, central
-//! 6.44 mm → none, area 515 → 420 mm²; GOH 7.32 mm → reported "converged"
-//! at a residual of 3.9e41 N, the relative test passing on a huge initial
-//! residual). So it is left as an option, not made the MSM's default; the
-//! cure the seeds point to is a rest mesh without obtuse triangles, i.e. a
+//! reference. With true contact (seed 000's law, h 0.5 mm) it does not
+//! converge: the iterates cycle at about 4e-3 N over ~59 000 contact pairs;
+//! linear springs (E 1 MPa, seed 000's closure benchmark) converge in 31
+//! iterations, 4.2–4.4 s with suturing at `--threads 2`. That reference
+//! keeps the placing and suturing distortion as stress, and for the other
+//! models it changes the answer (same grid, h 0.5 mm, sutured → flat:
+//! neo-Hookean μ 900 kPa coaptation height 7.56 → 8.11 mm, central 6.44 mm
+//! → none, area 515 → 420 mm²; GOH 7.32 mm → a residual of 3.9e41 N, not an
+//! equilibrium). It is the MSM's default all the same (`config`): it is
+//! where seed 000 puts the springs, and the sutured mesh's obtuse triangles
+//! leave three springs nothing to hold. The cure the seeds point to for a
+//! sutured rest state is a rest mesh without obtuse triangles, i.e. a
 //! placement closer to an isometry of the template. Flipping the sutured
 //! mesh's spring network to Delaunay (springs across a hinge where the
 //! opposite angles sum over π; 575 flips at h 1 mm, angles over 120°: 235
