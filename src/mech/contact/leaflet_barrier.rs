@@ -502,6 +502,31 @@ impl LeafletBarrier {
         ]
     }
 
+    /// A group's candidate triangles whose pair acts at `x` (s < d̂; a NaN
+    /// distance is kept so that the evaluation refuses it), with the pair's
+    /// points and proximity, in list order: the order every sum over pairs
+    /// keeps.
+    fn within_reach<'a>(
+        &'a self,
+        lists: &'a Lists,
+        balls: &'a [(V3, f64)],
+        x: &'a [V3],
+        g: &'a Group,
+    ) -> impl Iterator<Item = (u32, [V3; 4], Proximity)> + 'a {
+        let i = g.node as usize;
+        let reach = self.xi[i] + self.params.dhat;
+        lists.cand[g.start as usize..g.end as usize]
+            .iter()
+            .filter_map(move |&t| {
+                if beyond(&balls[t as usize], &x[i], reach) {
+                    return None;
+                }
+                let q = self.quad(x, g.node, t);
+                let p = barrier::proximity(&q[0], &q[1], &q[2], &q[3]);
+                (!(p.dist - self.xi[i] >= self.params.dhat)).then_some((t, q, p))
+            })
+    }
+
     /// Per group: its energy and the gradient blocks of its acting pairs;
     /// `None` when a pair is inadmissible (d ≤ ξ).
     #[allow(clippy::type_complexity)]
@@ -515,15 +540,7 @@ impl LeafletBarrier {
                 let i = g.node as usize;
                 let mut e = 0.0;
                 let mut grads = vec![];
-                for &t in &lists.cand[g.start as usize..g.end as usize] {
-                    if beyond(&balls[t as usize], &x[i], self.xi[i] + self.params.dhat) {
-                        continue;
-                    }
-                    let q = self.quad(x, g.node, t);
-                    let p = barrier::proximity(&q[0], &q[1], &q[2], &q[3]);
-                    if p.dist - self.xi[i] >= self.params.dhat {
-                        continue;
-                    }
+                for (t, q, p) in self.within_reach(lists, &balls, x, g) {
                     let (ep, gr, _) = barrier::pair_eval_at(
                         &q,
                         &p,
@@ -553,15 +570,7 @@ impl LeafletBarrier {
             .map(|g| {
                 let i = g.node as usize;
                 let mut e = 0.0;
-                for &t in &lists.cand[g.start as usize..g.end as usize] {
-                    if beyond(&balls[t as usize], &x[i], self.xi[i] + self.params.dhat) {
-                        continue;
-                    }
-                    let q = self.quad(x, g.node, t);
-                    let p = barrier::proximity(&q[0], &q[1], &q[2], &q[3]);
-                    if p.dist - self.xi[i] >= self.params.dhat {
-                        continue;
-                    }
+                for (_, q, p) in self.within_reach(lists, &balls, x, g) {
                     e += barrier::pair_eval_at(
                         &q,
                         &p,
