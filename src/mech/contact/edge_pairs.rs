@@ -39,6 +39,7 @@ use super::barrier::{BarrierParams, Hess12};
 use super::edge_barrier::{self, mollifier_eps};
 use super::leaflet_barrier::{CCD_ITER, KEEP, least_near, start_offset};
 use crate::geom::bvh::{Aabb, Bvh};
+use crate::geom::segment_distance::SegProximity;
 use crate::mech::element::V3;
 use crate::mech::sparse::{Dofs, Pattern};
 
@@ -297,19 +298,35 @@ impl EdgePairs {
         self.active = cand
             .par_iter()
             .with_min_len(256)
-            .filter(|&&(a, b, s0)| {
-                if self.s_below(&mv, a, b, s0) >= params.dhat + BOUND_MARGIN {
-                    return false;
-                }
-                let xi = self.pair_xi(a, b);
-                let gap = (mid[a as usize] - mid[b as usize]).norm()
-                    - half[a as usize]
-                    - half[b as usize];
-                gap - xi < params.dhat
-                    && edge_barrier::proximity(&self.quad(x, a, b)).dist - xi < params.dhat
-            })
+            .filter(|&&c| self.within_reach(&mv, &mid, &half, x, params, c).is_some())
             .map(|&(a, b, _)| (a, b))
             .collect();
+    }
+
+    /// A candidate pair that acts at `x` (s < d̂), with its points,
+    /// proximity and offset; `None` when the bound from its distance at
+    /// discovery, the edges' spheres or the exact distance rule it out.
+    /// `mv`, `mid`, `half`: [`moves`] and [`EdgePairs::spheres`] at `x`.
+    fn within_reach(
+        &self,
+        mv: &[f64],
+        mid: &[V3],
+        half: &[f64],
+        x: &[V3],
+        params: &BarrierParams,
+        (a, b, s0): Cand,
+    ) -> Option<([V3; 4], SegProximity, f64)> {
+        if self.s_below(mv, a, b, s0) >= params.dhat + BOUND_MARGIN {
+            return None;
+        }
+        let xi = self.pair_xi(a, b);
+        let gap = (mid[a as usize] - mid[b as usize]).norm() - half[a as usize] - half[b as usize];
+        if gap - xi >= params.dhat {
+            return None;
+        }
+        let q = self.quad(x, a, b);
+        let pr = edge_barrier::proximity(&q);
+        (!(pr.dist - xi >= params.dhat)).then_some((q, pr, xi))
     }
 
     /// Per edge its midpoint and half length at `x`: a pair whose spheres
@@ -343,22 +360,9 @@ impl EdgePairs {
         let v: Vec<Option<Acting>> = cand
             .par_iter()
             .with_min_len(256)
-            .filter_map(|&(a, b, s0)| {
-                if self.s_below(&mv, a, b, s0) >= params.dhat + BOUND_MARGIN {
-                    return None;
-                }
-                let gap = (mid[a as usize] - mid[b as usize]).norm()
-                    - half[a as usize]
-                    - half[b as usize];
-                if gap - self.pair_xi(a, b) >= params.dhat {
-                    return None;
-                }
-                let q = self.quad(x, a, b);
-                let pr = edge_barrier::proximity(&q);
-                let xi = self.pair_xi(a, b);
-                if pr.dist - xi >= params.dhat {
-                    return None;
-                }
+            .filter_map(|&c| {
+                let (a, b, _) = c;
+                let (q, pr, xi) = self.within_reach(&mv, &mid, &half, x, params, c)?;
                 let r = edge_barrier::pair_eval_at(
                     &q,
                     &pr,
@@ -390,22 +394,11 @@ impl EdgePairs {
         let v: Vec<Option<f64>> = cand
             .par_iter()
             .with_min_len(256)
-            .map(|&(a, b, s0)| {
-                if self.s_below(&mv, a, b, s0) >= params.dhat + BOUND_MARGIN {
+            .map(|&c| {
+                let (a, b, _) = c;
+                let Some((q, pr, xi)) = self.within_reach(&mv, &mid, &half, x, params, c) else {
                     return Some(0.0);
-                }
-                let xi = self.pair_xi(a, b);
-                let gap = (mid[a as usize] - mid[b as usize]).norm()
-                    - half[a as usize]
-                    - half[b as usize];
-                if gap - xi >= params.dhat {
-                    return Some(0.0);
-                }
-                let q = self.quad(x, a, b);
-                let pr = edge_barrier::proximity(&q);
-                if pr.dist - xi >= params.dhat {
-                    return Some(0.0);
-                }
+                };
                 let r = edge_barrier::pair_eval_at(
                     &q,
                     &pr,

@@ -455,21 +455,8 @@ impl LeafletBarrier {
             .par_iter()
             .with_min_len(64)
             .map(|g| {
-                let xi = self.xi[g.node as usize];
-                lists.cand[g.start as usize..g.end as usize]
-                    .iter()
-                    .filter(|&&t| {
-                        if beyond(
-                            &balls[t as usize],
-                            &x[g.node as usize],
-                            xi + self.params.dhat,
-                        ) {
-                            return false;
-                        }
-                        let q = self.quad(x, g.node, t);
-                        barrier::proximity(&q[0], &q[1], &q[2], &q[3]).dist - xi < self.params.dhat
-                    })
-                    .map(|&t| (g.node, t))
+                self.within_reach(lists, &balls, x, g)
+                    .map(|(t, _, _)| (g.node, t))
                     .collect()
             })
             .collect();
