@@ -54,8 +54,8 @@ pub struct Pattern {
     row_off: Vec<u32>,
     col_ptr: Vec<usize>,
     row_idx: Vec<u32>,
-    /// The coupling list, as a system last listed it, that gave `key`:
-    /// an identical list needs no sort to be recognised.
+    /// The coupling list, as a system last listed it, that gave this pattern:
+    /// an identical list is recognised without a lookup.
     pub listed: Vec<[u32; 2]>,
     llt: Option<LltFactor>,
     lu: Option<LuFactor>,

@@ -174,10 +174,6 @@ pub struct LeafletBarrier {
     start_crossings: Vec<(u32, u32)>,
     projected: bool,
     edges: EdgePairs,
-    /// The last state [`LeafletBarrier::energy_at`] evaluated and its
-    /// energy (`None`: inadmissible); valid while the offsets are, i.e.
-    /// for the barrier's life (lists never change an energy).
-    last_energy: Mutex<Option<(Vec<V3>, Option<f64>)>>,
 }
 
 /// The triangle tree, labelled by leaflet (queries skip a leaflet's own
@@ -310,7 +306,6 @@ impl LeafletBarrier {
             active: vec![],
             start_crossings: vec![],
             projected: false,
-            last_energy: Mutex::new(None),
             edges: EdgePairs::new(x, tris, tri_body, fixed, &bvh, &params, xi),
             bvh,
         };
@@ -579,21 +574,9 @@ impl LeafletBarrier {
             .energy(&lists.edge_cand, &lists.x0, x, &self.params, e)
     }
 
-    /// [`LeafletBarrier::energy_in`] at `x`, remembered for the next call
-    /// at the same state (the line search asks [`Term::admissible`], then
-    /// [`Term::energy`], of each trial state).
+    /// [`LeafletBarrier::energy_in`] at `x`, with lists that cover it.
     fn energy_at(&self, x: &[V3]) -> Option<f64> {
-        {
-            let last = self.last_energy.lock().unwrap_or_else(|e| e.into_inner());
-            if let Some((y, e)) = last.as_ref() {
-                if same_state(y, x) {
-                    return *e;
-                }
-            }
-        }
-        let e = self.with_lists(x, |lists| self.energy_in(lists, x));
-        *self.last_energy.lock().unwrap_or_else(|e| e.into_inner()) = Some((x.to_vec(), e));
-        e
+        self.with_lists(x, |lists| self.energy_in(lists, x))
     }
 
     /// Whether triangles of different leaflets cross at `x` that may not:
@@ -712,11 +695,6 @@ impl Term for LeafletBarrier {
         if self.bvh.cost() > 2.0 * self.build_cost {
             self.bvh = tree(x, &self.tris, &self.tri_body);
             self.build_cost = self.bvh.cost();
-            // The edge pairs are summed in tree order.
-            *self
-                .last_energy
-                .get_mut()
-                .unwrap_or_else(|e| e.into_inner()) = None;
         }
         // A cut step asks for lists that hold it (it was cut, not limited
         // by the pairs: sizing for the cut move alone would cut again).
@@ -858,14 +836,4 @@ impl Term for LeafletBarrier {
     fn admissible(&self, x: &[V3]) -> bool {
         self.energy_at(x).is_some() && self.crossing_free(x)
     }
-}
-
-/// Bitwise equality of two states.
-fn same_state(a: &[V3], b: &[V3]) -> bool {
-    a.len() == b.len()
-        && a.iter().zip(b).all(|(p, q)| {
-            p.x.to_bits() == q.x.to_bits()
-                && p.y.to_bits() == q.y.to_bits()
-                && p.z.to_bits() == q.z.to_bits()
-        })
 }
