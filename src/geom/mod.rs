@@ -10,6 +10,7 @@ pub mod closest_point;
 pub mod frame;
 pub mod landmarks;
 pub mod polydata;
+pub mod resample;
 pub mod segment_distance;
 pub mod tri_tri;
 pub mod trimesh;

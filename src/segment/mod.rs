@@ -13,6 +13,7 @@
 //! 4. [`morphology`]: opening with a ball, seed component, holes filled;
 //!    [`vaj`]: the LV separated at the ventriculo-aortic junction.
 
+pub mod anchor;
 pub mod debug_png;
 pub mod edt;
 pub mod filter;
@@ -21,6 +22,7 @@ pub mod idt;
 pub mod morphology;
 pub mod reach;
 pub mod roi;
+pub mod root_fill;
 pub mod stage;
 pub mod track;
 pub mod vaj;
@@ -32,7 +34,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::geom::{Landmarks, Point3, Volume};
+use crate::geom::{Landmarks, Point3, Volume, resample};
 use crate::{Error, Result};
 use hough::HoughParams;
 use track::{TrackPoint, annulus_values, median, slice_f32};
@@ -89,6 +91,8 @@ pub struct Report {
     pub reach: Option<reach::Reach>,
     pub idt: IdtReport,
     pub vaj: VajReport,
+    /// The native cusps' space closed into the root, when the VAJ is known.
+    pub root_fill: Option<root_fill::RootFill>,
     pub volumes_ml: Volumes,
     pub landmarks_check: Option<String>,
     pub timings_s: Vec<(String, f64)>,
@@ -126,11 +130,110 @@ pub struct Volumes {
 pub struct Segmentation {
     /// uint8 0/1 on the cropped grid (its own exact affine).
     pub mask: Volume<u8>,
+    /// The CT on the axis-aligned LPS grid the segmentation ran on.
+    pub work: Volume<i16>,
     pub report: Report,
     /// Circleness of the top slice (for debug images).
     pub top_circleness: hough::CircleMap,
     pub top_k: usize,
 }
+
+/// Finest and coarsest spacing of the work grid (mm): scans at 1.5–2 mm are
+/// sampled at half their spacing so the filters, the opening ball and the
+/// Hough edges have voxels to work with; an oblique scan finer than 0.5 mm
+/// is not worth a finer interpolated grid.
+const WORK_MAX_SPACING_MM: f64 = 1.0;
+const WORK_MIN_SPACING_MM: f64 = 0.5;
+/// The work box around the landmarks (mm): the root and LVOT below, the
+/// ascending aorta up to the arch above.
+const LANDMARK_BOX_MM: (f64, f64, f64) = (60.0, 60.0, 110.0);
+/// How far up the commissure axis the region of interest holds the aorta
+/// (mm; the box adds its landmark margin): the STJ lies 0–5 mm above the
+/// commissures, and the report measures up to 40 mm above it.
+const ASCENDING_ABOVE_MM: f64 = 40.0;
+/// Most voxels of a work grid (i16): 1 GiB.
+const WORK_MAX_VOXELS: usize = 1 << 29;
+
+/// The CT on an axis-aligned LPS grid (k toward the head), around the
+/// commissures when they are known: every step after this one reasons in
+/// axial slices and millimetres, whatever the scan's orientation.
+fn work_volume(ct: &Volume<i16>, commissures: Option<&[Point3; 3]>) -> Result<Volume<i16>> {
+    let (lo, hi) = match commissures {
+        Some(c) => {
+            let (b, above) = (LANDMARK_BOX_MM.0, LANDMARK_BOX_MM.2);
+            let min = |a: usize| c.iter().map(|p| p[a]).fold(f64::INFINITY, f64::min);
+            let max = |a: usize| c.iter().map(|p| p[a]).fold(f64::NEG_INFINITY, f64::max);
+            (
+                Point3::new(min(0) - b, min(1) - b, min(2) - LANDMARK_BOX_MM.1),
+                Point3::new(max(0) + b, max(1) + b, max(2) + above),
+            )
+        }
+        None => (
+            Point3::from([f64::NEG_INFINITY; 3]),
+            Point3::from([f64::INFINITY; 3]),
+        ),
+    };
+    let grid = resample::LpsGrid::covering(ct, lo, hi, WORK_MAX_SPACING_MM, WORK_MIN_SPACING_MM)
+        .ok_or_else(|| {
+            Error::failed(
+                "segment",
+                "the commissure landmarks C1–C3 lie outside the CT's field of view: are they from this scan?",
+            )
+        })?;
+    if grid.len() > WORK_MAX_VOXELS {
+        return Err(Error::failed(
+            "segment",
+            format!(
+                "the region to segment would be {}×{}×{} voxels at {:.2} mm, more than {WORK_MAX_VOXELS}: crop the CT to the chest or give the commissure landmarks",
+                grid.dims[0], grid.dims[1], grid.dims[2], grid.spacing[0]
+            ),
+        ));
+    }
+    resample::resample_i16(ct, &grid, AIR_HU)
+}
+
+/// Where the native cusps may lie: from the VAJ plane to just above the
+/// commissures (or 25 mm without them), within 1.6 root radii of the line
+/// from the annulus centre to the commissures' centre (the sinuses bulge to
+/// about 1.3 times the commissure radius).
+fn root_slab(
+    pl: &vaj::Plane,
+    commissures: &[Point3],
+    nadirs: Option<&[Point3]>,
+    track_r: Option<f64>,
+) -> root_fill::RootSlab {
+    let base = Point3::from(pl.point_mm);
+    let normal = crate::geom::Vector3::from(pl.normal);
+    let circle = |v: &[Point3]| {
+        <[Point3; 3]>::try_from(v)
+            .ok()
+            .and_then(|c| anchor::circumcircle(&c))
+    };
+    let annulus = nadirs.and_then(circle);
+    let axis_point = annulus.map_or(base, |a| a.0);
+    let (top, axis, r) = match circle(commissures) {
+        Some((cc, _, rc)) => (
+            commissures
+                .iter()
+                .map(|c| pl.height(c))
+                .fold(f64::NEG_INFINITY, f64::max)
+                + 3.0,
+            (cc - axis_point).try_normalize(1e-9).unwrap_or(normal),
+            rc.max(annulus.map_or(0.0, |a| a.2)),
+        ),
+        None => (25.0, normal, track_r.unwrap_or(15.0)),
+    };
+    root_fill::RootSlab {
+        vaj: *pl,
+        top_mm: top,
+        axis_point_mm: [axis_point.x, axis_point.y, axis_point.z],
+        axis: [axis.x, axis.y, axis.z],
+        radius_mm: 1.6 * r,
+    }
+}
+
+/// The value of the work grid outside the scan.
+const AIR_HU: i16 = -1024;
 
 struct Clock(Instant, Vec<(String, f64)>);
 impl Clock {
@@ -148,7 +251,16 @@ pub fn segment(
     p: &SegmentParams,
 ) -> Result<Segmentation> {
     let mut clock = Clock(Instant::now(), Vec::new());
-    let found = track::find_aorta(ct, &p.hough)?;
+    let commissures3 = landmarks
+        .and_then(|l| l.require(&["C1", "C2", "C3"]).ok())
+        .and_then(|v| <[Point3; 3]>::try_from(v).ok());
+    let work = work_volume(ct, commissures3.as_ref())?;
+    let ct = &work;
+    clock.lap("work_grid");
+    let found = match &commissures3 {
+        Some(c) => anchor::from_commissures(ct, c, &p.hough)?,
+        None => track::find_aorta(ct, &p.hough)?,
+    };
     clock.lap("hough_track");
     let sp = ct.spacing();
     let [ni, nj, _] = ct.dims();
@@ -198,10 +310,23 @@ pub fn segment(
     let tracked_length = (track::world(ct, last) - seed_w).norm();
 
     // --- Region of interest ---------------------------------------------------
-    let lm_points: Vec<Point3> = landmarks
+    let mut lm_points: Vec<Point3> = landmarks
         .map(|l| l.points.iter().map(|(_, q)| *q).collect())
         .unwrap_or_default();
-    let reach = reach::lumen_reach(ct, &found.track, threshold, blood);
+    // The ascending aorta the valve and the report need reaches well above
+    // the STJ even where the axial track stops early (a tilted or
+    // elliptical section): the box holds the axis that far up.
+    if let Some((centre, axis, _)) = commissures3.as_ref().and_then(anchor::circumcircle) {
+        let up = if axis.z < 0.0 { -axis } else { axis };
+        lm_points.push(centre + up * ASCENDING_ABOVE_MM);
+    }
+    // With landmarks the root is known and the box around them and the
+    // track bounds the search; without, the lumen is followed on a coarse
+    // grid to see how far the root and the LV entrance lie.
+    let reach = match commissures3 {
+        Some(_) => None,
+        None => reach::lumen_reach(ct, &found.track, threshold, blood),
+    };
     clock.lap("lumen_reach");
     let box_ = roi::roi_box(ct, &found.track, found.dk, &lm_points, reach.as_ref());
     // `roi_vol` carries the cropped grid (dims, exact affine); `img` its HU.
@@ -372,6 +497,21 @@ pub fn segment(
         keep = morphology::flood_fill(&keep, dims, ground);
         vaj_report.plane = Some(pl);
     }
+    let root_fill = plane.map(|pl| {
+        let slab = root_slab(
+            &pl,
+            &commissures,
+            nadirs.as_deref(),
+            found.track.last().map(|t| t.r_mm),
+        );
+        let added = root_fill::fill_cusps(&mut keep, dims, rsp, world, &slab);
+        root_fill::RootFill {
+            slab,
+            close_mm: root_fill::CLOSE_MM,
+            added_ml: added as f64 * vox_ml,
+        }
+    });
+    clock.lap("root_fill");
     let final_n = keep.iter().filter(|&&v| v).count();
     vaj_report.removed_ml = (opened_n - final_n) as f64 * vox_ml;
     clock.lap("vaj");
@@ -437,6 +577,7 @@ pub fn segment(
             cut_curve,
         },
         vaj: vaj_report,
+        root_fill,
         volumes_ml: Volumes {
             threshold_region: region_n as f64 * vox_ml,
             idt_region: k as f64 * vox_ml,
@@ -450,6 +591,7 @@ pub fn segment(
         mask,
         report,
         top_circleness: found.top_map,
+        work,
         top_k: found.top_k,
     })
 }

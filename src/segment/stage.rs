@@ -81,7 +81,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     // Debug images are not artifacts of the chain: written after the
     // outputs, outside the transaction.
     let debug = match params.path("debug_dir") {
-        Some(d) => super::debug_png::write_all(std::path::Path::new(d), &ct, &seg)?,
+        Some(d) => super::debug_png::write_all(std::path::Path::new(d), &seg.work, &seg)?,
         None => Vec::new(),
     };
     progress.set(1.0);

@@ -247,7 +247,7 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
 }
 
 /// The circle in slice `k` continuing `last`, if there is one.
-fn track_step(
+pub(super) fn track_step(
     ct: &Volume<i16>,
     k: usize,
     last: &TrackPoint,
