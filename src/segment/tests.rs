@@ -494,3 +494,30 @@ fn a_region_truncated_at_the_annulus_is_still_cut() {
     let z = vaj_height(root_tube(|_, _, z| z >= 0.3));
     assert!((0.0..=2.5).contains(&z), "VAJ at z = {z:.2} mm");
 }
+
+/// Regression: a slab half-width over two stations (voxels over 1 mm) made
+/// the first stations' window empty and `judge` panicked ("slice index
+/// starts at 3 but ends at 2", a 1.5 mm CT cropped below the arch). The
+/// profile: STJ, a sinus bulge, the descent, the LVOT plateau from 35 on.
+#[test]
+fn vaj_judge_takes_a_wide_slab_and_finds_the_knee() {
+    let area: Vec<f64> = (0..70)
+        .map(|s| match s {
+            0..=9 => 500.0,
+            10..=14 => 500.0 + 60.0 * (s - 9) as f64,
+            15..=24 => 800.0,
+            25..=34 => 800.0 - 40.0 * (s - 24) as f64,
+            _ => 400.0,
+        })
+        .collect();
+    for w in [0.5, 1.5, 2.2, 3.0, 4.5] {
+        let (vaj, at) = super::vaj::judge(&area, w).expect("long enough to judge");
+        let vaj = vaj.expect("the sinus is seen");
+        assert!(
+            (33..=37).contains(&vaj),
+            "slab {w} mm: VAJ at station {vaj}"
+        );
+        // The section there (3-station mean) is the LVOT's, not the sinus'.
+        assert!((400.0..=440.0).contains(&at), "slab {w} mm: area {at} mm²");
+    }
+}

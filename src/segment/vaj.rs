@@ -325,7 +325,10 @@ pub fn judge(area: &[f64], w: f64) -> Option<(Option<usize>, f64)> {
     // Mean over the stations within `k` of `x`, none before `s0` nor at or
     // past `end`.
     let mean = |x: usize, k: usize, end: usize| {
-        let (lo, hi) = (x.saturating_sub(k).max(s0), (x + k).min(end - 1));
+        // Stations before `s0` read the first judged ones (a slab wider
+        // than two stations, voxels over 1 mm, put s0 past x + k).
+        let lo = x.saturating_sub(k).max(s0);
+        let hi = (x + k).min(end - 1).max(lo);
         area[lo..=hi].iter().sum::<f64>() / (hi - lo + 1) as f64
     };
     let judged: Vec<f64> = (0..m).map(|x| mean(x, 1, m)).collect();
