@@ -91,6 +91,8 @@ pub struct Report {
     pub reach: Option<reach::Reach>,
     pub idt: IdtReport,
     pub vaj: VajReport,
+    /// The mask against a tube of the tracked radius (the leak check).
+    pub tube: TubeCheck,
     /// The native cusps' space closed into the root, when the VAJ is known.
     pub root_fill: Option<root_fill::RootFill>,
     pub volumes_ml: Volumes,
@@ -229,6 +231,56 @@ fn root_slab(
         axis_point_mm: [axis_point.x, axis_point.y, axis_point.z],
         axis: [axis.x, axis.y, axis.z],
         radius_mm: 1.6 * r,
+    }
+}
+
+/// Most volume of the mask, in tubes of the tracked radius over its length:
+/// the sinuses add about a fifth to the root + ascending aorta (1.0–1.2 on
+/// the real CT and the phantoms); the left atrium or the ventricle behind a
+/// leak add one to three times more.
+const MAX_TUBE_RATIO: f64 = 2.0;
+
+/// The mask against a tube of the tracked radius, for `segment.json`.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct TubeCheck {
+    pub radius_mm: f64,
+    pub length_mm: f64,
+    pub ratio: f64,
+}
+
+/// Volume of `mask` over that of a tube of the track's median radius, as
+/// long as the mask's extent along the aorta (from the VAJ plane toward the
+/// seed, or along the head–feet axis without a plane).
+fn tube_check(
+    mask: &[bool],
+    world: impl Fn(usize) -> Point3,
+    track: &[TrackPoint],
+    seed: &Point3,
+    plane: Option<&vaj::Plane>,
+    vox_ml: f64,
+) -> TubeCheck {
+    let axis = plane
+        .and_then(|p| (seed - Point3::from(p.point_mm)).try_normalize(1e-9))
+        .unwrap_or_else(crate::geom::Vector3::z);
+    let (mut lo, mut hi, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0usize);
+    for (v, _) in mask.iter().enumerate().filter(|(_, m)| **m) {
+        let h = world(v).coords.dot(&axis);
+        lo = lo.min(h);
+        hi = hi.max(h);
+        n += 1;
+    }
+    let mut radii: Vec<f64> = track.iter().map(|t| t.r_mm).collect();
+    let r = median(&mut radii);
+    let length = if n > 0 { hi - lo } else { 0.0 };
+    let tube_ml = std::f64::consts::PI * r * r * length / 1000.0;
+    TubeCheck {
+        radius_mm: r,
+        length_mm: length,
+        ratio: if tube_ml > 0.0 {
+            n as f64 * vox_ml / tube_ml
+        } else {
+            0.0
+        },
     }
 }
 
@@ -513,8 +565,28 @@ pub fn segment(
     });
     clock.lap("root_fill");
     let final_n = keep.iter().filter(|&&v| v).count();
-    vaj_report.removed_ml = (opened_n - final_n) as f64 * vox_ml;
+    vaj_report.removed_ml = (opened_n.saturating_sub(final_n)) as f64 * vox_ml;
     clock.lap("vaj");
+    let tube = tube_check(
+        &keep,
+        world,
+        &found.track,
+        &seed_w,
+        vaj_report.plane.as_ref(),
+        vox_ml,
+    );
+    if tube.ratio > MAX_TUBE_RATIO {
+        return Err(Error::failed(
+            "segment",
+            format!(
+                "the segmented lumen ({:.0} ml over {:.0} mm along the aorta) is {:.1} times the volume of a tube of the tracked radius {:.1} mm: it has leaked into a neighbouring chamber (left atrium or ventricle), and a leaked mask is not passed on; give the landmarks C1–C3 and N1–N3, which bound the root, or crop the CT closer to the aorta",
+                final_n as f64 * vox_ml,
+                tube.length_mm,
+                tube.ratio,
+                tube.radius_mm
+            ),
+        ));
+    }
 
     let landmarks_check = landmarks.map(|_| {
         if commissures.is_empty() {
@@ -578,6 +650,7 @@ pub fn segment(
         },
         vaj: vaj_report,
         root_fill,
+        tube,
         volumes_ml: Volumes {
             threshold_region: region_n as f64 * vox_ml,
             idt_region: k as f64 * vox_ml,

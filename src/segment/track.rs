@@ -138,16 +138,52 @@ fn top_slice(ct: &Volume<i16>) -> (usize, isize) {
     (k as usize, dk)
 }
 
-/// Find the ascending aorta on the top slice and track it toward the root.
-pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
-    let [ni, nj, nk] = ct.dims();
+/// Spacing of the axial levels searched (mm) and how far below the top
+/// slice the search goes: a chest CT's top slice may lie above the arch
+/// (neck vessels only) or in it (no circle), and the ascending aorta is
+/// a circle beside the descending aorta just below the arch.
+const LEVEL_STEP_MM: f64 = 5.0;
+const SEARCH_DEPTH_MM: f64 = 150.0;
+/// Below a level holding one lumen, how far a level holding two is sought
+/// to tell which of the two the first one was (mm).
+const PAIR_LOOKAHEAD_MM: f64 = 40.0;
+/// The descending aorta lies at least this far posterior of the ascending
+/// aorta (mm; 40–90 mm in adults).
+const PAIR_MIN_POSTERIOR_MM: f64 = 25.0;
+/// Two circles of successive levels within this distance (mm, in the axial
+/// plane) are the same vessel.
+const SAME_VESSEL_MM: f64 = 15.0;
+
+/// The circles of one axial level and what was judged of them.
+struct Level {
+    k: usize,
+    candidates: Vec<Candidate>,
+    /// The lumens, with their world centres, anterior first.
+    lumens: Vec<(Point3, Circle)>,
+    map: CircleMap,
+}
+
+impl Level {
+    /// The most anterior lumen and, if one lies well posterior of it, the
+    /// descending aorta.
+    fn pair(&self) -> Option<(usize, usize)> {
+        let (w0, _) = self.lumens.first()?;
+        let da = self
+            .lumens
+            .iter()
+            .position(|(w, _)| w.y - w0.y >= PAIR_MIN_POSTERIOR_MM)?;
+        Some((0, da))
+    }
+}
+
+fn judge_level(ct: &Volume<i16>, k: usize, hp: &HoughParams) -> Level {
+    let [ni, nj, _] = ct.dims();
     let sp = ct.spacing();
-    let (top_k, dk) = top_slice(ct);
-    let img = slice_f32(ct, top_k);
+    let img = slice_f32(ct, k);
     let map = circleness(&img, ni, nj, sp[0], sp[1], hp);
     let peaks = map.peaks(sp[0], sp[1], 0.25, 8);
     let mut candidates = Vec::new();
-    let mut best: Option<(f64, Circle)> = None;
+    let mut lumens = Vec::new();
     for p in &peaks {
         let inside = median(&mut annulus_values(
             &img,
@@ -168,7 +204,7 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
             0.95 * p.r_mm,
         );
         let ring = ring_v.iter().sum::<f64>() / ring_v.len().max(1) as f64;
-        let w = ct.index_to_world([p.i, p.j, top_k as f64]);
+        let w = ct.index_to_world([p.i, p.j, k as f64]);
         let verdict = if p.c < C_SEED {
             format!("circleness {:.2} < {C_SEED}", p.c)
         } else if inside < hp.bright_min {
@@ -179,11 +215,9 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
         } else if ring > inside + BONE_RIM_HU {
             format!("rim {ring:.0} HU brighter than inside {inside:.0} HU: bone")
         } else {
+            lumens.push((w, *p));
             "lumen".to_string()
         };
-        if verdict == "lumen" && best.is_none_or(|(y, _)| w.y < y) {
-            best = Some((w.y, *p));
-        }
         candidates.push(Candidate {
             centre_mm: [w.x, w.y, w.z],
             r_mm: p.r_mm,
@@ -193,42 +227,147 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
             verdict,
         });
     }
-    for c in &mut candidates {
-        if c.verdict == "lumen" {
-            c.verdict = if best.is_some_and(|(y, _)| y == c.centre_mm[1]) {
-                "ascending aorta (most anterior lumen)".into()
-            } else {
-                "lumen, posterior to the ascending aorta (descending aorta?)".into()
+    lumens.sort_by(|a, b| a.0.y.total_cmp(&b.0.y));
+    Level {
+        k,
+        candidates,
+        lumens,
+        map,
+    }
+}
+
+/// Find the ascending aorta on the highest axial level that shows it and
+/// track it toward the root.
+///
+/// Levels are searched from the top slice down. Where a level shows two
+/// lumens, one well posterior of the other, the anterior one is the
+/// ascending aorta and the posterior one the descending aorta. A level with
+/// a single lumen is ambiguous (a cardiac CTA's top slice shows the
+/// ascending aorta alone; a chest CT's may show the descending aorta
+/// alone): the levels below it tell, where the pair appears, which of the
+/// two it continues; with no pair below, it is taken as the ascending aorta.
+pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
+    let nk = ct.dims()[2];
+    let sp = ct.spacing();
+    let (top_k, dk) = top_slice(ct);
+    let step = ((LEVEL_STEP_MM / sp[2]).round() as usize).max(1);
+    let depth = (SEARCH_DEPTH_MM / sp[2]).round() as usize;
+    let lookahead = (PAIR_LOOKAHEAD_MM / sp[2]).round() as usize;
+    let level_k = |n: usize| -> Option<usize> {
+        let k = top_k as isize + dk * (n * step) as isize;
+        (k >= 0 && (k as usize) < nk && n * step <= depth).then_some(k as usize)
+    };
+    let mut searched = Vec::new();
+    let mut first: Option<Level> = None;
+    let mut chosen: Option<(Level, usize, String)> = None;
+    let mut n = 0;
+    while let Some(k) = level_k(n) {
+        n += 1;
+        let level = judge_level(ct, k, hp);
+        if let Some(one) = &first {
+            if k.abs_diff(one.k) > lookahead {
+                searched.push(level);
+                break;
+            }
+            let Some((aa, da)) = level.pair() else {
+                searched.push(level);
+                continue;
             };
+            // Which of the pair does the single lumen above continue?
+            let (w1, _) = one.lumens[0];
+            let near = |w: &Point3| (w.x - w1.x).hypot(w.y - w1.y) <= SAME_VESSEL_MM;
+            let one = first.take().expect("checked");
+            if near(&level.lumens[da].0) {
+                let verdict = format!(
+                    "ascending aorta, anterior of the descending aorta, which the single lumen {:.0} mm higher was",
+                    one.k.abs_diff(k) as f64 * sp[2]
+                );
+                searched.push(one);
+                chosen = Some((level, aa, verdict));
+            } else {
+                searched.push(level);
+                chosen = Some((
+                    one,
+                    0,
+                    "ascending aorta (the only lumen on its level; the levels below show the descending aorta posterior of it)".into(),
+                ));
+            }
+            break;
+        }
+        match level.pair() {
+            Some((aa, _)) => {
+                chosen = Some((
+                    level,
+                    aa,
+                    "ascending aorta (anterior of the descending aorta on the same level)".into(),
+                ));
+                break;
+            }
+            None if !level.lumens.is_empty() => first = Some(level),
+            None => searched.push(level),
         }
     }
-    let Some((_, seed)) = best else {
+    if let Some(one) = first {
+        chosen = Some((
+            one,
+            0,
+            "ascending aorta (the only lumen, and no descending aorta seen below it)".into(),
+        ));
+    }
+    let mut candidates: Vec<Candidate> =
+        searched.iter().flat_map(|l| l.candidates.clone()).collect();
+    let Some((level, pick, verdict)) = chosen else {
         let seen = if candidates.is_empty() {
             "no circle at all".to_string()
         } else {
             candidates
                 .iter()
-                .map(|c| format!("r {:.1} mm C {:.2}: {}", c.r_mm, c.circleness, c.verdict))
+                .filter(|c| c.circleness >= 0.3)
+                .map(|c| {
+                    format!(
+                        "z {:.0} mm r {:.1} mm C {:.2}: {}",
+                        c.centre_mm[2], c.r_mm, c.circleness, c.verdict
+                    )
+                })
                 .collect::<Vec<_>>()
                 .join("; ")
         };
         return Err(Error::failed(
             "segment",
             format!(
-                "looked for the ascending aorta on the top slice (a circle of radius {:.0}–{:.0} mm, circleness ≥ {C_SEED}, contrast lumen ≥ {:.0} HU inside) and found none ({seen}); is this a contrast CT angiogram of the chest?",
-                hp.r_min_mm, hp.r_max_mm, hp.bright_min
+                "looked for the ascending aorta on {n} axial levels from the top slice down to {:.0} mm below it (a circle of radius {:.0}–{:.0} mm, circleness ≥ {C_SEED}, contrast lumen ≥ {:.0} HU inside) and found none ({seen}); is this a contrast CT angiogram of the chest? Landmarks C1–C3 on the aortic root let segment start there instead",
+                ((n.max(1) - 1) * step) as f64 * sp[2],
+                hp.r_min_mm,
+                hp.r_max_mm,
+                hp.bright_min
             ),
         ));
     };
+    let seed = level.lumens[pick].1;
+    let seed_w = level.lumens[pick].0;
+    let mut level_c = level.candidates.clone();
+    for c in &mut level_c {
+        if c.verdict == "lumen" {
+            c.verdict = if c.centre_mm == [seed_w.x, seed_w.y, seed_w.z] {
+                verdict.clone()
+            } else if c.centre_mm[1] > seed_w.y {
+                "lumen, posterior to the ascending aorta (descending aorta?)".into()
+            } else {
+                "lumen, anterior to the ascending aorta".into()
+            };
+        }
+    }
+    candidates.extend(level_c);
+    let k0 = level.k;
     let mut track = vec![TrackPoint {
-        k: top_k,
+        k: k0,
         i: seed.i,
         j: seed.j,
         r_mm: seed.r_mm,
         c: seed.c,
     }];
     // Track toward the feet.
-    let mut k = top_k as isize + dk;
+    let mut k = k0 as isize + dk;
     while k >= 0 && (k as usize) < nk {
         let last = *track.last().expect("seeded");
         let Some(next) = track_step(ct, k as usize, &last, hp) else {
@@ -238,11 +377,11 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
         k += dk;
     }
     Ok(Found {
-        top_k,
+        top_k: k0,
         dk,
         candidates,
         track,
-        top_map: map,
+        top_map: level.map,
     })
 }
 
