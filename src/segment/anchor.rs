@@ -105,6 +105,7 @@ pub fn from_commissures(ct: &Volume<i16>, c: &[Point3; 3], hp: &HoughParams) -> 
         candidates: Vec::new(),
         track: up,
         top_map,
+        direction: Some(axis),
     })
 }
 

@@ -153,6 +153,9 @@ const LANDMARK_BOX_MM: (f64, f64, f64) = (60.0, 60.0, 110.0);
 /// (mm; the box adds its landmark margin): the STJ lies 0–5 mm above the
 /// commissures, and the report measures up to 40 mm above it.
 const ASCENDING_ABOVE_MM: f64 = 40.0;
+/// How far the lumen is followed from the commissures' anchor (mm of path):
+/// the ascending aorta is 50–90 mm long before the arch.
+const ANCHORED_REACH_MM: f64 = 90.0;
 /// Most voxels of a work grid (i16): 1 GiB.
 const WORK_MAX_VOXELS: usize = 1 << 29;
 
@@ -284,6 +287,21 @@ fn tube_check(
     }
 }
 
+/// Fraction of the wall ring [r + 0.5, r + 1.5] mm (its mid radius) that
+/// lies inside the axial cut of a tube of radius `r` tilted by `tilt` rad
+/// from the slice normal: an ellipse of semi-axes r / cos(tilt) and r.
+fn ring_inside_ellipse(tilt: f64, r: f64) -> f64 {
+    let (a, b) = (r / tilt.cos().max(0.1), r);
+    let n = 360;
+    let inside = (0..n)
+        .filter(|&k| {
+            let th = 2.0 * std::f64::consts::PI * k as f64 / n as f64;
+            a * b / ((b * th.cos()).powi(2) + (a * th.sin()).powi(2)).sqrt() > r + 1.0
+        })
+        .count();
+    inside as f64 / n as f64
+}
+
 /// The value of the work grid outside the scan.
 const AIR_HU: i16 = -1024;
 
@@ -321,6 +339,14 @@ pub fn segment(
     let mut inside = Vec::new();
     let mut wall = Vec::new();
     let stride = (found.track.len() / 40).max(1);
+    // A tube tilted from the head–feet axis cuts the axial slices in
+    // ellipses, and a ring around the circle found in one lies partly in
+    // the lumen (at 60°, 70 % of it): the wall is the median of the ring's
+    // part outside the ellipse, the quantile (1 − inside)/2 of the ring.
+    let wall_quantile = match (found.direction, found.track.first()) {
+        (Some(d), Some(t)) => 0.5 * (1.0 - ring_inside_ellipse(d.z.abs().acos(), t.r_mm)),
+        _ => 0.5,
+    };
     for t in found.track.iter().step_by(stride) {
         let img = slice_f32(ct, t.k);
         inside.extend(annulus_values(
@@ -345,7 +371,12 @@ pub fn segment(
     let blood = median(&mut inside);
     let mut dev: Vec<f64> = inside.iter().map(|v| (v - blood).abs()).collect();
     let noise = 1.4826 * median(&mut dev);
-    let wall_hu = median(&mut wall).min(blood - 100.0);
+    wall.sort_unstable_by(f64::total_cmp);
+    let wall_hu = wall
+        .get((wall_quantile * wall.len() as f64) as usize)
+        .copied()
+        .unwrap_or(f64::NAN)
+        .min(blood - 100.0);
     if !(blood >= p.contrast_min_hu) {
         return Err(Error::failed(
             "segment",
@@ -372,13 +403,15 @@ pub fn segment(
         let up = if axis.z < 0.0 { -axis } else { axis };
         lm_points.push(centre + up * ASCENDING_ABOVE_MM);
     }
-    // With landmarks the root is known and the box around them and the
-    // track bounds the search; without, the lumen is followed on a coarse
-    // grid to see how far the root and the LV entrance lie.
-    let reach = match commissures3 {
-        Some(_) => None,
-        None => reach::lumen_reach(ct, &found.track, threshold, blood),
+    // The lumen is followed on a coarse grid to see how far the root, the
+    // LV entrance and the ascending aorta reach (an axial track stops early
+    // on a tilted aorta). Anchored at the commissures it need not go far:
+    // past the arch it would only add the descending aorta.
+    let max_path = match commissures3 {
+        Some(_) => ANCHORED_REACH_MM,
+        None => reach::MAX_PATH_MM,
     };
+    let reach = reach::lumen_reach(ct, &found.track, threshold, blood, max_path);
     clock.lap("lumen_reach");
     let box_ = roi::roi_box(ct, &found.track, found.dk, &lm_points, reach.as_ref());
     // `roi_vol` carries the cropped grid (dims, exact affine); `img` its HU.

@@ -40,7 +40,7 @@ pub const CHAMBER_FACTOR: f64 = 2.0;
 /// needs to see of the LV to stop before it.
 pub const PAST_CHAMBER_MM: f64 = 15.0;
 /// Longest lumen path followed (mm), when no chamber is met.
-const MAX_PATH_MM: f64 = 400.0;
+pub const MAX_PATH_MM: f64 = 400.0;
 /// Where the coarse threshold lies between the stage threshold (0) and the
 /// blood pool (1).
 const COARSE_CUT: f64 = 0.6;
@@ -64,6 +64,7 @@ pub fn lumen_reach(
     track: &[TrackPoint],
     threshold: f64,
     blood: f64,
+    max_path_mm: f64,
 ) -> Option<Reach> {
     let d = ct.dims();
     let sp = ct.spacing();
@@ -116,7 +117,7 @@ pub fn lumen_reach(
     let mut lo = [usize::MAX; 3];
     let mut hi = [0usize; 3];
     let mut shells: Vec<usize> = Vec::new();
-    let mut limit = MAX_PATH_MM;
+    let mut limit = max_path_mm;
     let mut chamber = None;
     while let Some(Reverse((key, v))) = heap.pop() {
         let dv = f64::from_bits(key);
@@ -131,7 +132,7 @@ pub fn lumen_reach(
         let shell = (dv / SHELL_MM) as usize;
         while shells.len() <= shell {
             let done = shells.len();
-            if limit == MAX_PATH_MM && done > MIN_SHELLS {
+            if limit == max_path_mm && done > MIN_SHELLS {
                 let last = shells[done - 1];
                 let mut prior = shells[..done - 1].to_vec();
                 prior.sort_unstable();

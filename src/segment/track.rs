@@ -44,6 +44,9 @@ pub struct Found {
     pub track: Vec<TrackPoint>,
     /// Circleness of the top slice (for the debug output).
     pub top_map: CircleMap,
+    /// The aorta's direction where it is known (from the commissures): its
+    /// axial cuts are ellipses stretched along its horizontal part.
+    pub direction: Option<crate::geom::Vector3>,
 }
 
 pub fn slice_f32(ct: &Volume<i16>, k: usize) -> Vec<f32> {
@@ -382,6 +385,7 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
         candidates,
         track,
         top_map: level.map,
+        direction: None,
     })
 }
 

@@ -1,0 +1,270 @@
+//! `coapt segment` on the real ceCTA of `../shared/real/` (a 1.5 mm chest CT
+//! with the arch and the descending aorta in view, native cusps closed):
+//! against TotalSegmentator's aorta in the root, with and without
+//! landmarks, and the crops that used to panic or leak.
+//!
+//! The comparison region here is deliberately simple and self-contained:
+//! from the nadir plane to 60 mm above it, within 32 mm of the line through
+//! the nadirs' and the commissures' circle centres (the root and the
+//! ascending aorta; the descending aorta lies ~60 mm away).
+
+use std::path::{Path, PathBuf};
+
+use coapt::geom::{Landmarks, Point3, Vector3, Volume};
+use coapt::io::{markups, nifti};
+
+use crate::common::*;
+
+/// `../shared/real`, or None (said on stderr) when this checkout has none.
+pub fn real_dir() -> Option<PathBuf> {
+    let d = repo().join("../shared/real");
+    if d.join("ct.nii.gz").is_file() && d.join("landmarks.mrk.json").is_file() {
+        Some(d)
+    } else {
+        eprintln!(
+            "skipped: the real CT is not at {} (the workplace's shared/real/)",
+            d.display()
+        );
+        None
+    }
+}
+
+fn circle(p: &[Point3]) -> (Point3, f64) {
+    let (a, b) = (p[1] - p[0], p[2] - p[0]);
+    let n = a.cross(&b);
+    let off = (n.cross(&a) * b.norm_squared() + b.cross(&n) * a.norm_squared())
+        / (2.0 * n.norm_squared());
+    (p[0] + off, off.norm())
+}
+
+/// The root frame of the landmarks: nadir plane (point, normal toward the
+/// commissures) and the commissure circle's centre.
+struct Root {
+    nadir_c: Point3,
+    normal: Vector3,
+    axis: Vector3,
+    comm_c: Point3,
+}
+
+fn root(lm: &Landmarks) -> Root {
+    let n = lm.require(&["N1", "N2", "N3"]).unwrap();
+    let c = lm.require(&["C1", "C2", "C3"]).unwrap();
+    let (nadir_c, _) = circle(&n);
+    let (comm_c, _) = circle(&c);
+    let mut normal = (n[1] - n[0]).cross(&(n[2] - n[0])).normalize();
+    if (comm_c - nadir_c).dot(&normal) < 0.0 {
+        normal = -normal;
+    }
+    Root {
+        nadir_c,
+        normal,
+        axis: (comm_c - nadir_c).normalize(),
+        comm_c,
+    }
+}
+
+fn in_region(r: &Root, q: &Point3) -> bool {
+    let h = (q - r.nadir_c).dot(&r.normal);
+    let d = q - r.nadir_c;
+    (0.0..=60.0).contains(&h) && (d - r.axis * d.dot(&r.axis)).norm() <= 32.0
+}
+
+fn at(v: &Volume<u8>, p: &Point3) -> bool {
+    let q = v.world_to_index(p);
+    let d = v.dims();
+    let i = q.map(|x| x.round());
+    (0..3).all(|a| i[a] >= 0.0 && i[a] < d[a] as f64)
+        && v[[i[0] as usize, i[1] as usize, i[2] as usize]] > 0
+}
+
+/// Dice of `mask` against TotalSegmentator's aorta over the region, on the
+/// CT's grid (the mask read at each CT voxel centre).
+fn dice_in_root(real: &Path, mask: &Volume<u8>, r: &Root) -> f64 {
+    let ts = nifti::read_u8(&real.join("totalseg_aorta.nii.gz")).unwrap();
+    let d = ts.dims();
+    let (mut both, mut a, mut b) = (0usize, 0usize, 0usize);
+    for k in 0..d[2] {
+        for j in 0..d[1] {
+            for i in 0..d[0] {
+                let p = ts.index_to_world([i as f64, j as f64, k as f64]);
+                if !in_region(r, &p) {
+                    continue;
+                }
+                let t = ts[[i, j, k]] > 0;
+                let m = at(mask, &p);
+                both += (t && m) as usize;
+                a += t as usize;
+                b += m as usize;
+            }
+        }
+    }
+    2.0 * both as f64 / (a + b) as f64
+}
+
+fn segment(ct: &Path, lm: Option<&Path>, out: &Path, threads: &str) -> std::process::Output {
+    let mut args = vec![
+        "segment".to_string(),
+        "--ct".into(),
+        s(ct),
+        "--out".into(),
+        s(out),
+        "--threads".into(),
+        threads.into(),
+        "--quiet".into(),
+    ];
+    if let Some(l) = lm {
+        args.extend(["--landmarks".into(), s(l)]);
+    }
+    let a: Vec<&str> = args.iter().map(|x| x.as_str()).collect();
+    coapt(&a)
+}
+
+#[test]
+fn real_ct_from_landmarks_is_the_root_with_its_cusps_and_a_closed_wall() {
+    let Some(real) = real_dir() else { return };
+    let d = tmpdir("real-seg-lm");
+    let lm_path = real.join("landmarks.mrk.json");
+    let lm = markups::read(&lm_path).unwrap();
+    let r = root(&lm);
+    let mut bytes = Vec::new();
+    for threads in ["1", "2"] {
+        let out = d.join(format!("mask{threads}.nii.gz"));
+        let o = segment(&real.join("ct.nii.gz"), Some(&lm_path), &out, threads);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        bytes.push(std::fs::read(&out).unwrap());
+    }
+    assert_eq!(
+        bytes[0], bytes[1],
+        "the mask differs between 1 and 2 threads"
+    );
+    let mask = nifti::read_u8(&d.join("mask1.nii.gz")).unwrap();
+    assert!(
+        at(&mask, &r.comm_c),
+        "the commissures' centre is not in the lumen"
+    );
+    // Cut at the nadir plane: nothing of the root lies below it.
+    let md = mask.dims();
+    let diag = mask.spacing().iter().map(|x| x * x).sum::<f64>().sqrt();
+    let mut below = 0;
+    for k in 0..md[2] {
+        for j in 0..md[1] {
+            for i in 0..md[0] {
+                let p = mask.index_to_world([i as f64, j as f64, k as f64]);
+                if mask[[i, j, k]] > 0
+                    && (p - r.nadir_c).norm() < 30.0
+                    && (p - r.nadir_c).dot(&r.normal) < -diag
+                {
+                    below += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(
+        below, 0,
+        "{below} voxels below the nadir plane near the annulus"
+    );
+    let dc = dice_in_root(&real, &mask, &r);
+    assert!(
+        dc >= 0.95,
+        "Dice {dc:.4} against TotalSegmentator in the root"
+    );
+    let report = json(&d.join("segment.json"));
+    let ml = report["volumes_ml"]["final_mask"].as_f64().unwrap();
+    assert!((40.0..=120.0).contains(&ml), "{ml} ml");
+    // The native cusps are inside: the wall is one closed genus-0 surface.
+    let o = coapt(&[
+        "surface",
+        "--mask",
+        &s(&d.join("mask1.nii.gz")),
+        "--out",
+        &s(&d.join("aorta.vtp")),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let surf = json(&d.join("surface.json"));
+    assert_eq!(surf["euler_characteristic"].as_i64(), Some(2), "{surf}");
+    assert!(report["root_fill"]["added_ml"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn real_ct_without_landmarks_finds_the_ascending_aorta_below_the_arch() {
+    let Some(real) = real_dir() else { return };
+    let d = tmpdir("real-seg-nolm");
+    let out = d.join("mask.nii.gz");
+    let o = segment(&real.join("ct.nii.gz"), None, &out, "2");
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let lm = markups::read(&real.join("landmarks.mrk.json")).unwrap();
+    let r = root(&lm);
+    let mask = nifti::read_u8(&out).unwrap();
+    assert!(
+        at(&mask, &r.comm_c),
+        "the commissures' centre is not in the lumen"
+    );
+    // The seed is in TotalSegmentator's aorta, anterior of the descending
+    // aorta (the top slice is above the arch: neck vessels only).
+    let report = json(&d.join("segment.json"));
+    let seed = Point3::from(
+        <[f64; 3]>::try_from(
+            report["seed_mm"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect::<Vec<_>>(),
+        )
+        .unwrap(),
+    );
+    let ts = nifti::read_u8(&real.join("totalseg_aorta.nii.gz")).unwrap();
+    assert!(at(&ts, &seed), "seed {seed:?} outside the aorta");
+    assert!(
+        seed.y < r.comm_c.y + 20.0,
+        "seed {seed:?} is posterior: descending aorta?"
+    );
+    let dc = dice_in_root(&real, &mask, &r);
+    assert!(
+        dc >= 0.92,
+        "Dice {dc:.4} against TotalSegmentator in the root"
+    );
+}
+
+/// The real CT cut below the arch (the old `vaj.rs` panic at 1.5 mm) and
+/// cut at a height where the lumen leaked into the left atrium with exit 0.
+#[test]
+fn real_ct_crops_segment_or_are_refused_as_leaks() {
+    let Some(real) = real_dir() else { return };
+    let d = tmpdir("real-seg-crop");
+    let ct = nifti::read_i16(&real.join("ct.nii.gz")).unwrap();
+    let lm = real.join("landmarks.mrk.json");
+    let r = root(&markups::read(&lm).unwrap());
+    let dims = ct.dims();
+    for (top, lm_ok, free_ok) in [(112, true, false), (125, true, true)] {
+        let path = d.join(format!("top{top}.nii.gz"));
+        nifti::write(&path, &ct.crop([0, 0, 0], [dims[0], dims[1], top]).unwrap()).unwrap();
+        for (with_lm, ok) in [(true, lm_ok), (false, free_ok)] {
+            let out = d.join(format!("m{top}{with_lm}.nii.gz"));
+            let _ = std::fs::remove_file(&out);
+            let o = segment(&path, with_lm.then_some(lm.as_path()), &out, "2");
+            if ok {
+                assert_eq!(
+                    o.status.code(),
+                    Some(0),
+                    "top {top}, landmarks {with_lm}: {}",
+                    stderr(&o)
+                );
+                let mask = nifti::read_u8(&out).unwrap();
+                assert!(
+                    at(&mask, &r.comm_c),
+                    "top {top}: commissures' centre outside"
+                );
+            } else {
+                assert_eq!(
+                    o.status.code(),
+                    Some(1),
+                    "top {top}, landmarks {with_lm}: a leak must be refused"
+                );
+                assert!(stderr(&o).contains("leaked"), "{}", stderr(&o));
+                assert!(!out.exists(), "a refused mask was written");
+            }
+        }
+    }
+}
