@@ -16,6 +16,7 @@
 pub mod anchor;
 pub mod debug_png;
 pub mod edt;
+pub mod euler;
 pub mod filter;
 pub mod hough;
 pub mod idt;
@@ -91,6 +92,9 @@ pub struct Report {
     pub reach: Option<reach::Reach>,
     pub idt: IdtReport,
     pub vaj: VajReport,
+    /// The mask's Euler characteristic (1: a ball; each tunnel one less)
+    /// and the trim that removed tunnels above the root.
+    pub topology: Topology,
     /// The mask against a tube of the tracked radius (the leak check).
     pub tube: TubeCheck,
     /// The native cusps' space closed into the root, when the VAJ is known.
@@ -153,6 +157,9 @@ const LANDMARK_BOX_MM: (f64, f64, f64) = (60.0, 60.0, 110.0);
 /// (mm; the box adds its landmark margin): the STJ lies 0–5 mm above the
 /// commissures, and the report measures up to 40 mm above it.
 const ASCENDING_ABOVE_MM: f64 = 40.0;
+/// Height above the highest commissure (mm, head–feet) where the region of
+/// interest ends when the commissures are known.
+const ASCENDING_TOP_MM: f64 = 60.0;
 /// How far the lumen is followed from the commissures' anchor (mm of path):
 /// the ascending aorta is 50–90 mm long before the arch.
 const ANCHORED_REACH_MM: f64 = 90.0;
@@ -242,6 +249,17 @@ fn root_slab(
 /// the real CT and the phantoms); the left atrium or the ventricle behind a
 /// leak add one to three times more.
 const MAX_TUBE_RATIO: f64 = 2.0;
+
+/// Height above the highest commissure (mm, head–feet) where a mask with
+/// tunnels is cut.
+const TRIM_ABOVE_MM: f64 = 45.0;
+
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Topology {
+    pub euler: i64,
+    pub trimmed_above_commissures_mm: Option<f64>,
+    pub euler_after_trim: Option<i64>,
+}
 
 /// The mask against a tube of the tracked radius, for `segment.json`.
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -413,7 +431,16 @@ pub fn segment(
     };
     let reach = reach::lumen_reach(ct, &found.track, threshold, blood, max_path);
     clock.lap("lumen_reach");
-    let box_ = roi::roi_box(ct, &found.track, found.dk, &lm_points, reach.as_ref());
+    let mut box_ = roi::roi_box(ct, &found.track, found.dk, &lm_points, reach.as_ref());
+    // From the commissures the lumen followed may enter the arch and its
+    // branches (loops of vessels: tunnels in the wall surface); the
+    // ascending aorta the valve needs ends below that height.
+    if let Some(c) = &commissures3 {
+        let top = c.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max) + ASCENDING_TOP_MM;
+        let k = ct.world_to_index(&Point3::new(c[0].x, c[0].y, top))[2].ceil();
+        let k = (k.max(0.0) as usize + 1).min(box_.hi[2]);
+        box_.hi[2] = k.max(box_.lo[2] + 1);
+    }
     // `roi_vol` carries the cropped grid (dims, exact affine); `img` its HU.
     let (roi_vol, mut img) = roi::crop_f32(ct, &box_)?;
     let dims = roi_vol.dims();
@@ -597,6 +624,30 @@ pub fn segment(
         }
     });
     clock.lap("root_fill");
+    // A wall with tunnels (branch vessels of the arch joined twice, seen
+    // on the real CT 55–60 mm above the commissures) is not a root wall:
+    // with the commissures known the lumen is cut lower, where the valve
+    // and the report still have 30 mm of ascending aorta above the STJ.
+    let euler_of = |m: &[bool]| {
+        let sub = morphology::SubBox::around(m, dims, [1, 1, 1]);
+        euler::euler_characteristic(&sub.extract(m, dims), sub.dims())
+    };
+    let mut topology = Topology {
+        euler: euler_of(&keep),
+        trimmed_above_commissures_mm: None,
+        euler_after_trim: None,
+    };
+    if let (Some(c), true) = (&commissures3, topology.euler != 1) {
+        let top = c.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
+        for (v, kv) in keep.iter_mut().enumerate() {
+            if *kv && world(v).z > top + TRIM_ABOVE_MM {
+                *kv = false;
+            }
+        }
+        keep = morphology::flood_fill(&keep, dims, ground);
+        topology.trimmed_above_commissures_mm = Some(TRIM_ABOVE_MM);
+        topology.euler_after_trim = Some(euler_of(&keep));
+    }
     let final_n = keep.iter().filter(|&&v| v).count();
     vaj_report.removed_ml = (opened_n.saturating_sub(final_n)) as f64 * vox_ml;
     clock.lap("vaj");
@@ -683,6 +734,7 @@ pub fn segment(
         },
         vaj: vaj_report,
         root_fill,
+        topology,
         tube,
         volumes_ml: Volumes {
             threshold_region: region_n as f64 * vox_ml,
