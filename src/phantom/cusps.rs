@@ -3,12 +3,12 @@
 //! In diastole the three cusps hang from their hinge lines (nadir up to the
 //! commissures) and meet in the middle: seen from the aorta, a "Y" of three
 //! coaptation sheets along the commissure directions. Each cusp belly is the
-//! height field h = h_c + (hinge(θ) − h_c)·(ρ/R_h(θ))^p over its sector,
-//! from the central point (height h_c on the axis) to the hinge line on the
-//! wall (height hinge(θ), radius R_h(θ)); hinge(θ) rises from the (possibly
-//! tilted) annulus at the sinus centre to h_comm at the commissures. Above
-//! where two bellies meet, at each commissure angle, a radial coaptation
-//! sheet stands up to the free edge h_free, a few mm below the commissures.
+//! height field over its sector from the central point (height h_c on the
+//! axis) to the hinge line on the wall (height hinge(θ), radius R_h(θ));
+//! hinge(θ) rises from the (possibly tilted) annulus at the sinus centre to
+//! h_comm at the commissures. Where two bellies meet, at each commissure
+//! angle, a radial coaptation sheet stands from the bellies up to the free
+//! edge h_free, a few mm below the commissures.
 //! All heights are arc length along the valve axis (the root is on the
 //! straight piece of the centreline, where that is the valve-frame height).
 
@@ -35,16 +35,34 @@ pub fn sheet_distance(an: &Anatomy, c: &Cusps, p: &Point3) -> (f64, Vector3) {
     let st = &l.station;
     let pw = c.belly_power;
 
-    // Belly of the cusp whose sector holds θ.
+    // Belly of the cusp whose sector holds θ: along the commissure
+    // meridians it rises as the coaptation sheets' bottom B(t), along the
+    // sinus-centre meridian it falls as D(t) to the annulus, blended by the
+    // sinus lobe (0 at the commissures, 1 at the sinus centre); at the wall
+    // (t = 1) that is exactly the hinge line.
+    let (_, lobe, dlobe) = prof.lobe(th);
+    let d_ann = prof.annulus_s(th).0;
     let hz = hinge(an, th);
     let r_h = prof.eval(hz, th).r;
+    let h_comm = an.h_comm_mm;
+    let hc = c.h_centre_mm;
     let mut best = if rho <= r_h {
         let t = rho / r_h;
-        let h = c.h_centre_mm + (hz - c.h_centre_mm) * t.powf(pw);
-        let slope = (hz - c.h_centre_mm) * pw * t.powf(pw - 1.0) / r_h;
-        let g = (1.0 + slope * slope).sqrt();
+        let tp = t.powf(pw);
+        let dtp = pw * t.powf(pw - 1.0) / r_h;
+        let (b, db) = (hc + (h_comm - hc) * tp, (h_comm - hc) * dtp);
+        let (dd, ddd) = (hc + (d_ann - hc) * tp, (d_ann - hc) * dtp);
+        let h = b * (1.0 - lobe) + dd * lobe;
+        let h_rho = db * (1.0 - lobe) + ddd * lobe;
+        let h_th = if rho > 1e-9 {
+            (dd - b) * dlobe / rho
+        } else {
+            0.0
+        };
+        let g = (1.0 + h_rho * h_rho + h_th * h_th).sqrt();
         let d = (s - h) / g;
-        let n = (st.tangent - l.radial * slope) / g;
+        let e_theta = st.tangent.cross(&l.radial);
+        let n = (st.tangent - l.radial * h_rho - e_theta * h_th) / g;
         (d.abs(), if d >= 0.0 { n } else { -n })
     } else {
         // Beyond the hinge (in the sinus, or in the wall): distance to it.
@@ -55,7 +73,6 @@ pub fn sheet_distance(an: &Anatomy, c: &Cusps, p: &Point3) -> (f64, Vector3) {
     };
 
     // Coaptation sheets at the commissure angles.
-    let h_comm = an.h_comm_mm;
     for &cj in &prof.commissure_angles_rad {
         let phi = th - cj;
         let (sin, cos) = phi.sin_cos();

@@ -600,4 +600,6 @@ fn calcium_overlap(an: &anatomy::Anatomy) -> f64 {
 }
 
 #[cfg(test)]
+mod clinical_tests;
+#[cfg(test)]
 mod tests;
