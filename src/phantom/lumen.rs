@@ -318,7 +318,7 @@ impl Lumen {
     }
 
     /// Unit normal of the annulus (nadir, VAJ) plane, towards the aorta: the
-    /// valve axis tipped by the annulus tilt away from the lowest point.
+    /// valve axis tipped by the annulus tilt towards the plane's lowest point.
     pub fn annulus_normal(&self) -> Vector3 {
         let p = &self.profile;
         if p.annulus_tilt_rad == 0.0 {

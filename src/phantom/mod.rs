@@ -46,6 +46,11 @@
 //!
 //!   The calcium blobs are not cut out of the surface or the lumen volume;
 //!   `calcium_in_lumen_mm3` gives their overlap with the truth region.
+//! * **Options** (all off except in the `clinical` preset): with an annulus
+//!   tilt the VAJ plane above is the tilted annulus plane through the
+//!   annulus centre (nadirs on it, commissures still at h_comm); with an
+//!   arch the truth region ends at a plane z = const 8 mm below the arch's
+//!   start; native cusps lie inside the lumen and so inside the mask.
 //!
 //! # Imaging
 //! Tissue layers are painted in order (body fat and soft tissue, lungs,
