@@ -48,6 +48,27 @@ const VERTEBRA_RADIUS_MM: f64 = 17.0;
 const VERTEBRA_PERIOD_MM: f64 = 25.0;
 pub const DISC_MM: f64 = 5.0;
 
+/// The arch starts this far above the top of the truth region (ascending).
+const ARCH_JOIN_ABOVE_TRUTH_MM: f64 = 8.0;
+/// Height of the arch half-ellipse over half its span.
+const ARCH_HEIGHT_RATIO: f64 = 0.9;
+/// Segments of the arch tube.
+const ARCH_SEGMENTS: usize = 48;
+/// Descending-aorta calibre relative to the ascending (arch mode).
+const DA_TO_ASCENDING: f64 = 0.8;
+/// Field of view kept above the arch lumen.
+const ARCH_TOP_MARGIN_MM: f64 = 6.0;
+/// Native cusps: thickness, free edge below the commissures, centre height
+/// as a fraction of the commissure height.
+const CUSP_THICKNESS_MM: f64 = 0.8;
+const CUSP_FREE_EDGE_BELOW_COMM_MM: f64 = 3.0;
+const CUSP_CENTRE_FRACTION: f64 = 0.45;
+const CUSP_BELLY_POWER: f64 = 1.5;
+/// The annulus plane's lowest point lies this far past the left-coronary
+/// sinus centre (the pattern of the real CT's nadir heights: N2 lowest, N3
+/// midway, N1 highest).
+const ANNULUS_LOW_PAST_SINUS2_DEG: f64 = 30.0;
+
 /// A coronary artery: tube, ostium on the sinus wall, proximal radius.
 #[derive(Debug, Clone)]
 pub struct Coronary {
@@ -59,9 +80,53 @@ pub struct Coronary {
     pub ostium_height_mm: f64,
 }
 
+/// Options that add structures to the anatomy; all off reproduces the
+/// original phantom exactly (no extra random draws from the main stream).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Extras {
+    /// Arch and descending aorta joined in the field of view.
+    pub arch: bool,
+    /// Closed native cusps inside the root.
+    pub native_cusps: bool,
+    /// Tilt of the annulus (nadir) plane to the commissure plane.
+    pub annulus_tilt_rad: f64,
+}
+
+/// The aortic arch: a tapering tube along a half-ellipse in the vertical
+/// plane through the ascending and descending aortas, both vertical there.
+#[derive(Debug, Clone)]
+pub struct Arch {
+    pub tube: Tube,
+    /// Where the ascending lumen hands over to the arch (and the DA ends).
+    pub z_join: f64,
+    /// The truth region ends at this plane, below the join.
+    pub z_truth_end: f64,
+    /// Highest point of the arch lumen.
+    pub z_top_lumen: f64,
+    pub span_mm: f64,
+    pub height_mm: f64,
+    pub r_start_mm: f64,
+    pub r_end_mm: f64,
+}
+
+/// Closed native cusps: bellies from the hinge line to a central
+/// coaptation point, and three radial coaptation sheets (the "Y").
+#[derive(Debug, Clone, Copy)]
+pub struct Cusps {
+    /// Height (valve frame) of the cusps' lowest common point on the axis.
+    pub h_centre_mm: f64,
+    /// Free edges (top of the coaptation sheets).
+    pub h_free_mm: f64,
+    /// Exponent of the belly profile along ρ (a bowl).
+    pub belly_power: f64,
+    pub thickness_mm: f64,
+}
+
 #[derive(Debug, Clone)]
 pub struct Anatomy {
     pub tilt_azimuth_rad: f64,
+    pub arch: Option<Arch>,
+    pub cusps: Option<Cusps>,
     pub lumen: Lumen,
     pub h_comm_mm: f64,
     pub lv: Ellipsoid,
@@ -231,7 +296,12 @@ impl Anatomy {
     /// Build the anatomy for `seed` and `tilt`; `fit` reports the z-range the
     /// field of view must cover and returns whether it fits, so the arc radius
     /// can shrink for a short field of view.
-    pub fn new(seed: u64, tilt_rad: f64, fov: [f64; 3]) -> Result<(Self, FovNeeds)> {
+    pub fn new(
+        seed: u64,
+        tilt_rad: f64,
+        fov: [f64; 3],
+        extras: Extras,
+    ) -> Result<(Self, FovNeeds)> {
         let fov_z_mm = fov[2];
         let d = Draws::new(seed);
         let deg = PI / 180.0;
@@ -265,10 +335,17 @@ impl Anatomy {
             ascending_wavelength_mm: d.asc_wavelength,
             commissure_angles_rad: comm,
             sinus_amplitude: [0.0; 3],
+            annulus_tilt_rad: 0.0,
+            annulus_low_angle_rad: 0.0,
         };
         let base_peak = profile.base_root(0.4 * d.h_stj).0;
         for k in 0..3 {
             profile.sinus_amplitude[k] = d.sinus_ratio[k] * r_a / base_peak - 1.0;
+        }
+        if extras.annulus_tilt_rad != 0.0 {
+            profile.annulus_tilt_rad = extras.annulus_tilt_rad;
+            profile.annulus_low_angle_rad =
+                profile.sinus_centre(1) + ANNULUS_LOW_PAST_SINUS2_DEG * deg;
         }
 
         // e1 such that the right-coronary sinus (sinus 1) faces anterior.
@@ -286,30 +363,58 @@ impl Anatomy {
             origin.x + DA_OFFSET[0] + d.da_offset[0],
             origin.y + DA_OFFSET[1] + d.da_offset[1],
         ];
+        let da_radius = if extras.arch {
+            DA_TO_ASCENDING * profile.r_ascending_mm
+        } else {
+            d.da_radius
+        };
+        // Top of the ascending lumen's vertical piece: the old field-of-view
+        // top, or with an arch, the join (the arch is inside the xy box of
+        // the ascending aorta and the DA, so it needs no xy room of its own).
+        let asc_top = |needs: &FovNeeds| {
+            if extras.arch {
+                needs.z_top + ARCH_JOIN_ABOVE_TRUTH_MM
+            } else {
+                needs.z_top
+            }
+        };
         let xy_fits = |cl: &Centreline, needs: &FovNeeds, da_xy: [f64; 2]| {
             let (lo, hi) = xy_extent(
                 cl,
                 &profile,
                 lvot_len,
                 r_max,
-                needs.z_top,
+                asc_top(needs),
                 da_xy,
-                d.da_radius,
+                da_radius,
             );
             // Half a millimetre of slack so the grid placement, which uses the
             // actual top face, cannot disagree by rounding.
             [hi[0] - lo[0] - fov[0] + 0.5, hi[1] - lo[1] - fov[1] + 0.5]
+        };
+        // With an arch the field of view must reach over it; its height
+        // depends on the span, so estimate it from the DA's start position.
+        let total_z = |cl: &Centreline, needs: &FovNeeds, da_xy: [f64; 2]| {
+            let top = if extras.arch {
+                arch_geometry(cl, &profile, asc_top(needs), da_xy, da_radius).z_top_lumen
+                    + ARCH_TOP_MARGIN_MM
+            } else {
+                needs.z_top
+            };
+            top - needs.z_bottom
         };
         let (centreline, needs) = loop {
             let cl = Centreline::new(origin, axis, e1, s1, arc_radius);
             let needs = z_needs(&cl, &profile, lvot_len);
             let excess = xy_fits(&cl, &needs, da_xy);
             let fits_xy = excess[0] <= 0.0 && excess[1] <= 0.0;
-            if (needs.z_top - needs.z_bottom <= fov_z_mm && fits_xy) || arc_radius <= min_arc {
-                if needs.z_top - needs.z_bottom > fov_z_mm {
+            let need_z = total_z(&cl, &needs, da_xy);
+            if (need_z <= fov_z_mm && fits_xy) || arc_radius <= min_arc {
+                if need_z > fov_z_mm {
                     return Err(Error::value(format!(
-                        "the aortic root needs {:.0} mm of z field of view at tilt {:.0}°, the grid has {:.0} mm",
-                        needs.z_top - needs.z_bottom,
+                        "the aortic root{} needs {:.0} mm of z field of view at tilt {:.0}°, the grid has {:.0} mm",
+                        if extras.arch { " and arch" } else { "" },
+                        need_z,
                         tilt_rad.to_degrees(),
                         fov_z_mm
                     )));
@@ -332,13 +437,15 @@ impl Anatomy {
             }
         }
         let excess = xy_fits(&centreline, &needs, da_xy);
-        let top = centreline.station(s_at_z(&centreline, needs.z_top)).point;
+        let z_asc_top = asc_top(&needs);
+        let top = centreline.station(s_at_z(&centreline, z_asc_top)).point;
         let root_to_da = (da_xy[0] - origin.x).hypot(da_xy[1] - origin.y);
         let top_to_da = (da_xy[0] - top.x).hypot(da_xy[1] - top.y);
         if excess[0] > 0.0
             || excess[1] > 0.0
-            || root_to_da < r_max + d.da_radius + MIN_DA_SEPARATION_MM
-            || top_to_da < profile.r_ascending_mm * 1.1 + d.da_radius + MIN_DA_SEPARATION_MM
+            || root_to_da < r_max + da_radius + MIN_DA_SEPARATION_MM
+            || top_to_da < profile.r_ascending_mm * 1.1 + da_radius + MIN_DA_SEPARATION_MM
+            || (extras.arch && total_z(&centreline, &needs, da_xy) > fov_z_mm)
         {
             return Err(Error::value(format!(
                 "aortic root and descending aorta do not fit a {:.0}×{:.0} mm field of view at tilt {:.0}°: use a larger preset or spacing",
@@ -347,11 +454,25 @@ impl Anatomy {
                 tilt_rad.to_degrees()
             )));
         }
+        let arch = extras.arch.then(|| {
+            let mut a = arch_geometry(&centreline, &profile, z_asc_top, da_xy, da_radius);
+            a.z_truth_end = needs.z_top;
+            a
+        });
+        // With an arch the FOV must reach over it, not just the ascending.
+        let needs = match &arch {
+            Some(a) => FovNeeds {
+                z_bottom: needs.z_bottom,
+                z_top: a.z_top_lumen + ARCH_TOP_MARGIN_MM,
+            },
+            None => needs,
+        };
         let lumen = Lumen {
             centreline,
             profile,
             lvot_length_mm: lvot_len,
             r_max_mm: r_max,
+            truth_top_z: arch.as_ref().map_or(f64::INFINITY, |a| a.z_truth_end),
         };
         let cl = &lumen.centreline;
         let profile = &lumen.profile;
@@ -456,13 +577,25 @@ impl Anatomy {
         }
 
         // --- Descending aorta, spine, sternum, body ---------------------------
-        let da = ZCylinder {
-            cx: da_xy[0],
-            cy: da_xy[1],
-            rx: d.da_radius,
-            ry: d.da_radius,
-            z_lo: f64::NEG_INFINITY,
-            z_hi: f64::INFINITY,
+        let da = match &arch {
+            // Ends in the arch (whose end sphere rounds it off); a finite
+            // but far bottom, as the cylinder caps only with both ends finite.
+            Some(a) => ZCylinder {
+                cx: da_xy[0],
+                cy: da_xy[1],
+                rx: da_radius,
+                ry: da_radius,
+                z_lo: a.z_join - 1.0e4,
+                z_hi: a.z_join,
+            },
+            None => ZCylinder {
+                cx: da_xy[0],
+                cy: da_xy[1],
+                rx: d.da_radius,
+                ry: d.da_radius,
+                z_lo: f64::NEG_INFINITY,
+                z_hi: f64::INFINITY,
+            },
         };
         // Vertebral body posterior-right of the DA, clear of it.
         const SPINE_FROM_DA: [f64; 2] = [-16.0, 28.0];
@@ -480,7 +613,7 @@ impl Anatomy {
         const RPA_BELOW_BIFURCATION_MM: f64 = 4.0;
         let pa_r = d.pa_radius;
         let branch_r = BRANCH_RADIUS_FRACTION * pa_r;
-        let wall = wall_samples(&lumen, -lvot_len, needs.z_top);
+        let wall = wall_samples(&lumen, -lvot_len, z_asc_top);
         let ant_left = Vector3::new(1.0, -1.3, 0.0).normalize();
         let d_pa = (ant_left - axis * ant_left.dot(&axis)).normalize();
         let p0 = cl.station(PA_VALVE_HEIGHT_MM).point + d_pa * (r_max + d.pa_gap + pa_r);
@@ -557,6 +690,8 @@ impl Anatomy {
             .iter()
             .map(|&(k, s, dth, out, sz)| {
                 let th = profile.sinus_centre(k) + dth;
+                // Above the (possibly tilted) annulus at that angle.
+                let s = s + profile.annulus_s(th).0;
                 let st = cl.station(s);
                 let u = st.e1 * th.cos() + st.e2 * th.sin();
                 let r = profile.eval(s, th).r;
@@ -572,8 +707,17 @@ impl Anatomy {
             })
             .collect();
 
+        let h_comm = d.h_stj - d.comm_below_stj;
+        let cusps = extras.native_cusps.then_some(Cusps {
+            h_centre_mm: CUSP_CENTRE_FRACTION * h_comm,
+            h_free_mm: h_comm - CUSP_FREE_EDGE_BELOW_COMM_MM,
+            belly_power: CUSP_BELLY_POWER,
+            thickness_mm: CUSP_THICKNESS_MM,
+        });
         let anatomy = Anatomy {
             tilt_azimuth_rad: azimuth,
+            arch,
+            cusps,
             h_comm_mm: d.h_stj - d.comm_below_stj,
             lv,
             myocardium,
@@ -651,6 +795,53 @@ fn z_needs(cl: &Centreline, profile: &RadiusProfile, lvot_len: f64) -> FovNeeds 
     FovNeeds {
         z_bottom,
         z_top: (arc_end + VERTICAL_BELOW_TOP_MM).max(asc),
+    }
+}
+
+/// The arch from the ascending aorta at `z_join` to the DA top at `da_xy`:
+/// a half-ellipse (span between the two axes, height ARCH_HEIGHT_RATIO × half
+/// span) whose ends are vertical like the vessels it joins; the radius tapers
+/// linearly from the ascending to the DA calibre.
+fn arch_geometry(
+    cl: &Centreline,
+    profile: &RadiusProfile,
+    z_join: f64,
+    da_xy: [f64; 2],
+    da_r: f64,
+) -> Arch {
+    let s_join = s_at_z(cl, z_join);
+    let a = cl.station(s_join).point;
+    let r0 = profile.eval(s_join, 0.0).r;
+    let dvec = Vector3::new(da_xy[0] - a.x, da_xy[1] - a.y, 0.0);
+    let span = dvec.norm();
+    let h_dir = dvec / span.max(1e-9);
+    let half = 0.5 * span;
+    let height = ARCH_HEIGHT_RATIO * half;
+    let mid = Point3::new(a.x + 0.5 * dvec.x, a.y + 0.5 * dvec.y, z_join);
+    let points: Vec<Point3> = (0..=ARCH_SEGMENTS)
+        .map(|i| {
+            let phi = PI * i as f64 / ARCH_SEGMENTS as f64;
+            mid - h_dir * (half * phi.cos()) + Vector3::z() * (height * phi.sin())
+        })
+        .collect();
+    let radii: Vec<f64> = (0..ARCH_SEGMENTS)
+        .map(|i| r0 + (da_r - r0) * (i as f64 + 0.5) / ARCH_SEGMENTS as f64)
+        .collect();
+    // The lumen's top: the highest point of any segment's capsule.
+    let z_top_lumen = points
+        .windows(2)
+        .zip(&radii)
+        .map(|(w, r)| w[0].z.max(w[1].z) + r)
+        .fold(f64::NEG_INFINITY, f64::max);
+    Arch {
+        tube: Tube::new(points, radii),
+        z_join,
+        z_truth_end: z_join - ARCH_JOIN_ABOVE_TRUTH_MM,
+        z_top_lumen,
+        span_mm: span,
+        height_mm: height,
+        r_start_mm: r0,
+        r_end_mm: da_r,
     }
 }
 

@@ -41,6 +41,18 @@ pub struct RadiusProfile {
     pub commissure_angles_rad: [f64; 3],
     /// Sinus k lies between commissures k and k+1: its bulge amplitude.
     pub sinus_amplitude: [f64; 3],
+    /// Tilt of the annulus (nadir) plane to the commissure plane (which is
+    /// normal to the valve axis). Zero: both planes normal to the axis and
+    /// the profile is exactly the untilted one.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub annulus_tilt_rad: f64,
+    /// Angle (from e1) of the annulus plane's lowest point.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub annulus_low_angle_rad: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// Normalisation of the sinus bump t²(1−t)³, whose maximum is at t = 0.4.
@@ -115,7 +127,50 @@ impl RadiusProfile {
         0.5 * (c[k] + end)
     }
 
+    /// Arc length where the annulus plane meets the wall at angle θ, and its
+    /// θ-derivative. The plane passes through the annulus centre; the wall
+    /// there is the circle ρ = r_annulus (the warped profile starts with it),
+    /// so the intersection is exactly s = −tan α · r_a · cos(θ − θ_low).
+    pub fn annulus_s(&self, theta: f64) -> (f64, f64) {
+        if self.annulus_tilt_rad == 0.0 {
+            return (0.0, 0.0);
+        }
+        let k = self.annulus_tilt_rad.tan() * self.r_annulus_mm;
+        let a = theta - self.annulus_low_angle_rad;
+        (-k * a.cos(), k * a.sin())
+    }
+
+    /// r(s, θ). With an annulus tilt the root part is the untilted profile
+    /// stretched per angle from [δ(θ), h_stj] onto [0, h_stj], δ(θ) the
+    /// annulus plane's arc length at the wall, and the LVOT is shifted by
+    /// δ(θ): the sinuses, nadirs and VAJ follow the tilted plane while the
+    /// STJ and everything above stay where they were, and the wall stays C¹.
     pub fn eval(&self, s: f64, theta: f64) -> RadiusSample {
+        if self.annulus_tilt_rad == 0.0 || s > self.h_stj_mm {
+            return self.eval_plain(s, theta);
+        }
+        let (d, dd) = self.annulus_s(theta);
+        let h = self.h_stj_mm;
+        if s < d {
+            let r = self.eval_plain(s - d, theta);
+            RadiusSample {
+                r: r.r,
+                dr_ds: r.dr_ds,
+                dr_dtheta: r.dr_dtheta - r.dr_ds * dd,
+            }
+        } else {
+            let se = (s - d) * h / (h - d);
+            let r = self.eval_plain(se, theta);
+            RadiusSample {
+                r: r.r,
+                dr_ds: r.dr_ds * h / (h - d),
+                dr_dtheta: r.dr_dtheta + r.dr_ds * h * dd * (s - h) / ((h - d) * (h - d)),
+            }
+        }
+    }
+
+    /// The untilted profile.
+    pub fn eval_plain(&self, s: f64, theta: f64) -> RadiusSample {
         if s < 0.0 {
             let (w, dw) = smoothstep(-s / self.lvot_fade_mm);
             let ang = 2.0 * (theta - self.lvot_major_angle_rad);
@@ -173,7 +228,10 @@ impl RadiusProfile {
         let th = self.sinus_centre(k);
         const SAMPLES: usize = 4000;
         (0..=SAMPLES)
-            .map(|i| self.eval(self.h_stj_mm * i as f64 / SAMPLES as f64, th).r)
+            .map(|i| {
+                self.eval_plain(self.h_stj_mm * i as f64 / SAMPLES as f64, th)
+                    .r
+            })
             .fold(0.0, f64::max)
     }
 }
@@ -196,6 +254,8 @@ pub struct Lumen {
     pub lvot_length_mm: f64,
     /// `profile.r_max_bound()`, cached for the far-field test.
     pub r_max_mm: f64,
+    /// The truth region ends at this plane z = const (∞: at the top face).
+    pub truth_top_z: f64,
 }
 
 /// Gauss–Legendre nodes and weights on [−1, 1], 8 points.
@@ -257,6 +317,29 @@ impl Lumen {
         (p - self.centreline.origin).dot(&self.centreline.axis)
     }
 
+    /// Unit normal of the annulus (nadir, VAJ) plane, towards the aorta: the
+    /// valve axis tipped by the annulus tilt towards the plane's lowest point.
+    pub fn annulus_normal(&self) -> Vector3 {
+        let p = &self.profile;
+        if p.annulus_tilt_rad == 0.0 {
+            return self.centreline.axis;
+        }
+        let st = self.centreline.station(0.0);
+        let low = st.e1 * p.annulus_low_angle_rad.cos() + st.e2 * p.annulus_low_angle_rad.sin();
+        st.tangent * p.annulus_tilt_rad.cos() + low * p.annulus_tilt_rad.sin()
+    }
+
+    /// Whether `p` lies in the truth region's height range: on or above the
+    /// annulus plane and not above the truth top (`truth_top_z`).
+    pub fn in_truth_range(&self, p: &Point3) -> bool {
+        let above = if self.profile.annulus_tilt_rad == 0.0 {
+            self.height(p) >= 0.0
+        } else {
+            (p - self.centreline.origin).dot(&self.annulus_normal()) >= 0.0
+        };
+        above && p.z <= self.truth_top_z
+    }
+
     /// Approximate signed distance of the uncapped tube and its normal:
     /// (ρ − r) scaled by the wall's gradient norm, first-order exact at the wall.
     pub fn sdf(&self, p: &Point3) -> (f64, Vector3) {
@@ -286,12 +369,32 @@ impl Lumen {
         let c = p.commissure_angles_rad;
         let sectors = [(c[0], c[1]), (c[1], c[2]), (c[2], c[0] + TAU)];
         let root_top = p.h_stj_mm.min(s_top);
-        let root = integrate(0.0, root_top, PANELS, |s| {
-            sectors
-                .iter()
-                .map(|&(a, b)| integrate(a, b, PANELS / 4, |t| 0.5 * p.eval(s, t).r.powi(2)))
-                .sum()
-        });
+        let root = if p.annulus_tilt_rad == 0.0 {
+            integrate(0.0, root_top, PANELS, |s| {
+                sectors
+                    .iter()
+                    .map(|&(a, b)| integrate(a, b, PANELS / 4, |t| 0.5 * p.eval(s, t).r.powi(2)))
+                    .sum()
+            })
+        } else {
+            // Tilted annulus: the region above the plane is, per θ, the wall
+            // from δ(θ) up plus a cone wedge k(θ)·r_a³/6 (k = the plane's
+            // slope along θ), whose integral over θ is zero since k ∝ cos.
+            // The stretch s ↦ s_eff has constant Jacobian (h − δ)/h per θ.
+            // (Assumes s_top ≥ h_stj, which the grid placement guarantees.)
+            let h = p.h_stj_mm;
+            integrate(0.0, h, PANELS, |se| {
+                sectors
+                    .iter()
+                    .map(|&(a, b)| {
+                        integrate(a, b, PANELS / 4, |t| {
+                            let d = p.annulus_s(t).0;
+                            0.5 * p.eval_plain(se, t).r.powi(2) * (h - d) / h
+                        })
+                    })
+                    .sum()
+            })
+        };
         // Above the STJ the sections are circles.
         let circle = |s: f64| PI * p.eval(s, 0.0).r.powi(2);
         let mid_top = p.s_ascending().min(s_top);
@@ -336,13 +439,21 @@ impl Lumen {
     pub fn surface(&self, s_top: f64, grid_mm: f64) -> TriMesh {
         let (n_s, n_t) = self.surface_grid(s_top, grid_mm);
         let mut vertices = Vec::with_capacity((n_s + 1) * n_t + 2);
+        let tilted = self.profile.annulus_tilt_rad != 0.0;
         for i in 0..=n_s {
             let s = s_top * i as f64 / n_s as f64;
             let st = self.centreline.station(s);
             for j in 0..n_t {
                 let th = TAU * j as f64 / n_t as f64;
-                let r = self.profile.eval(s, th).r;
-                vertices.push(st.point + (st.e1 * th.cos() + st.e2 * th.sin()) * r);
+                if tilted {
+                    // Rings run from the tilted annulus curve to the top cap.
+                    let d = self.profile.annulus_s(th).0;
+                    let si = d + (s_top - d) * i as f64 / n_s as f64;
+                    vertices.push(self.wall_point(si, th));
+                } else {
+                    let r = self.profile.eval(s, th).r;
+                    vertices.push(st.point + (st.e1 * th.cos() + st.e2 * th.sin()) * r);
+                }
             }
         }
         let idx = |i: usize, j: usize| (i * n_t + j % n_t) as u32;

@@ -46,6 +46,11 @@
 //!
 //!   The calcium blobs are not cut out of the surface or the lumen volume;
 //!   `calcium_in_lumen_mm3` gives their overlap with the truth region.
+//! * **Options** (all off except in the `clinical` preset): with an annulus
+//!   tilt the VAJ plane above is the tilted annulus plane through the
+//!   annulus centre (nadirs on it, commissures still at h_comm); with an
+//!   arch the truth region ends at a plane z = const 8 mm below the arch's
+//!   start; native cusps lie inside the lumen and so inside the mask.
 //!
 //! # Imaging
 //! Tissue layers are painted in order (body fat and soft tissue, lungs,
@@ -60,6 +65,7 @@
 
 mod anatomy;
 mod centreline;
+mod cusps;
 mod lumen;
 mod render;
 mod scene;
@@ -91,6 +97,11 @@ pub enum Preset {
     Standard,
     /// 512×512×300 at 0.44×0.44×0.6 mm, as a real ceCTA.
     Full,
+    /// 128×128×160 at 1.5 mm isotropic, like the real CT in
+    /// `/work/shared/real`: arch and descending aorta in view, closed native
+    /// cusps, annulus tilted 20° to the commissures, that CT's blood HU and
+    /// noise.
+    Clinical,
 }
 
 impl Preset {
@@ -99,6 +110,7 @@ impl Preset {
             Preset::Sample => [112, 112, 112],
             Preset::Standard => [256, 256, 200],
             Preset::Full => [512, 512, 300],
+            Preset::Clinical => [128, 128, 160],
         }
     }
 
@@ -107,6 +119,7 @@ impl Preset {
             Preset::Sample => [0.9, 0.9, 1.0],
             Preset::Standard => [0.7, 0.7, 0.8],
             Preset::Full => [0.44, 0.44, 0.6],
+            Preset::Clinical => [1.5, 1.5, 1.5],
         }
     }
 
@@ -122,7 +135,7 @@ impl Preset {
     fn surface_edge_mm(self) -> f64 {
         match self {
             Preset::Sample => 0.4,
-            Preset::Standard | Preset::Full => 0.5,
+            Preset::Standard | Preset::Full | Preset::Clinical => 0.5,
         }
     }
 
@@ -131,6 +144,7 @@ impl Preset {
             Preset::Sample => "sample",
             Preset::Standard => "standard",
             Preset::Full => "full",
+            Preset::Clinical => "clinical",
         }
     }
 }
@@ -148,8 +162,9 @@ impl FromStr for Preset {
             "sample" => Ok(Preset::Sample),
             "standard" => Ok(Preset::Standard),
             "full" => Ok(Preset::Full),
+            "clinical" => Ok(Preset::Clinical),
             other => Err(Error::value(format!(
-                "unknown phantom preset '{other}' (expected sample, standard or full)"
+                "unknown phantom preset '{other}' (expected sample, standard, full or clinical)"
             ))),
         }
     }
@@ -176,24 +191,66 @@ pub struct PhantomParams {
     /// CT and the truth record; the anatomy's random draws stay the same, so
     /// everything else is the same phantom.
     pub coronaries: bool,
+    /// Arch and descending aorta joined in the field of view; the truth
+    /// region then ends at a plane below the arch.
+    pub arch: bool,
+    /// Closed native cusps (thin soft-tissue sheets) inside the root.
+    pub native_cusps: bool,
+    /// Tilt of the annulus (nadir) plane to the commissure plane.
+    pub annulus_tilt_rad: f64,
 }
 
 pub const DEFAULT_NOISE_HU: f64 = 25.0;
 pub const DEFAULT_TILT_DEG: f64 = 35.0;
 pub const DEFAULT_BLOOD_HU: f64 = 350.0;
+/// The clinical preset's blood and noise: measured in the ascending aorta of
+/// `/work/shared/real/ct.nii.gz` (5×5×5-voxel cubes at the lumen centre,
+/// 10–30 slices above the commissures: means 477, 492, 483 HU, standard
+/// deviations 29.2, 24.6, 29.4 HU).
+pub const CLINICAL_BLOOD_HU: f64 = 480.0;
+pub const CLINICAL_NOISE_HU: f64 = 28.0;
+/// The real CT's valve axis is 21° from z, its nadir plane 15° from the
+/// commissure plane (real roots: 15–26°).
+pub const CLINICAL_TILT_DEG: f64 = 21.0;
+pub const CLINICAL_ANNULUS_TILT_DEG: f64 = 20.0;
+/// Largest annulus tilt accepted.
+pub const MAX_ANNULUS_TILT_DEG: f64 = 35.0;
 
 impl PhantomParams {
+    /// The preset's defaults: the clinical preset switches on the arch, the
+    /// native cusps and a 20° annulus tilt and takes the real CT's values.
     pub fn new(preset: Preset, seed: u64) -> Self {
+        let clinical = preset == Preset::Clinical;
         PhantomParams {
             preset,
             seed,
-            noise_hu: DEFAULT_NOISE_HU,
-            tilt_rad: DEFAULT_TILT_DEG.to_radians(),
+            noise_hu: if clinical {
+                CLINICAL_NOISE_HU
+            } else {
+                DEFAULT_NOISE_HU
+            },
+            tilt_rad: if clinical {
+                CLINICAL_TILT_DEG
+            } else {
+                DEFAULT_TILT_DEG
+            }
+            .to_radians(),
             spacing_mm: None,
             contrast: true,
-            blood_hu: DEFAULT_BLOOD_HU,
+            blood_hu: if clinical {
+                CLINICAL_BLOOD_HU
+            } else {
+                DEFAULT_BLOOD_HU
+            },
             calcium: false,
             coronaries: true,
+            arch: clinical,
+            native_cusps: clinical,
+            annulus_tilt_rad: if clinical {
+                CLINICAL_ANNULUS_TILT_DEG.to_radians()
+            } else {
+                0.0
+            },
         }
     }
 
@@ -212,6 +269,13 @@ impl PhantomParams {
         check("noise", self.noise_hu, 0.0, 200.0, "HU")?;
         check("tilt", self.tilt_rad.to_degrees(), 0.0, 60.0, "deg")?;
         check("blood", self.blood_hu, 100.0, 800.0, "HU")?;
+        check(
+            "annulus tilt",
+            self.annulus_tilt_rad.to_degrees(),
+            0.0,
+            MAX_ANNULUS_TILT_DEG,
+            "deg",
+        )?;
         if let Some(s) = self.spacing_mm {
             for v in s {
                 check("spacing", v, 0.2, 3.0, "mm")?;
@@ -227,6 +291,15 @@ impl PhantomParams {
             )));
         }
         Ok(())
+    }
+
+    /// The anatomy options of these parameters.
+    pub(crate) fn extras(&self) -> anatomy::Extras {
+        anatomy::Extras {
+            arch: self.arch,
+            native_cusps: self.native_cusps,
+            annulus_tilt_rad: self.annulus_tilt_rad,
+        }
     }
 
     /// Grid dimensions and spacing after the optional override.
@@ -269,7 +342,8 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
     progress(0.0);
     let (dims, spacing) = params.grid_shape();
     let fov = [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]);
-    let (mut an, needs) = anatomy::Anatomy::new(params.seed, params.tilt_rad, fov)?;
+    let extras = params.extras();
+    let (mut an, needs) = anatomy::Anatomy::new(params.seed, params.tilt_rad, fov, extras)?;
     if !params.coronaries {
         an.coronaries.clear();
     }
@@ -280,13 +354,17 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
     let extra = fov[2] - (needs.z_top - needs.z_bottom);
     let z_bottom_face = needs.z_bottom - SPARE_BELOW * extra;
     let z_top = z_bottom_face + fov[2];
-    let s_top = cl.s_at_z_vertical(z_top);
+    // The truth region ends at the top face, or with an arch below it.
+    let truth_top_z = z_top.min(an.lumen.truth_top_z);
+    // Top of the ascending lumen: the arch join, or beyond the top face.
+    let lumen_top_z = an.arch.as_ref().map_or(z_top, |a| a.z_join);
+    let s_top = cl.s_at_z_vertical(truth_top_z);
     let (lo, hi) = anatomy::xy_extent(
         cl,
         &an.lumen.profile,
         an.lumen.lvot_length_mm,
         an.lumen.r_max_mm,
-        z_top,
+        lumen_top_z,
         [an.da.cx, an.da.cy],
         an.da.rx,
     );
@@ -358,7 +436,11 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         an.lumen
             .wall_point(an.h_comm_mm, profile.commissure_angles_rad[k])
     });
-    let nadirs: [Point3; 3] = [0, 1, 2].map(|k| an.lumen.wall_point(0.0, profile.sinus_centre(k)));
+    // On the wall where the (possibly tilted) annulus plane meets it.
+    let nadirs: [Point3; 3] = [0, 1, 2].map(|k| {
+        let th = profile.sinus_centre(k);
+        an.lumen.wall_point(profile.annulus_s(th).0, th)
+    });
     let mut landmarks = Landmarks::new(Frame::Lps);
     for (k, c) in commissures.iter().enumerate() {
         landmarks.push(format!("C{}", k + 1), *c);
@@ -418,7 +500,7 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
             .collect(),
         centreline: cl.describe(-an.lumen.lvot_length_mm),
         radius_profile: profile.clone(),
-        top_cap_z_mm: z_top,
+        top_cap_z_mm: truth_top_z,
         top_cap_s_mm: s_top,
         lumen_volume_mm3: an.lumen.volume(s_top),
         truth_mask_voxels: mask_voxels,
@@ -428,11 +510,38 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         truth_surface_volume_mm3: truth_surface.signed_volume(),
         truth_surface_vertices: truth_surface.vertices.len(),
         calcium_in_lumen_mm3: calcium_in_lumen,
-        pa_aorta_lumen_gap_mm: an.pa_aorta_gap(z_top),
+        pa_aorta_lumen_gap_mm: an.pa_aorta_gap(lumen_top_z),
         pa_radius_mm: an.pa_radius_mm,
-        la_aorta_gap_mm: an.la_aorta_gap(z_top),
+        la_aorta_gap_mm: an.la_aorta_gap(lumen_top_z),
         layers: scene.layers.iter().map(|l| l.name.clone()).collect(),
-        definitions: truth::definitions(),
+        definitions: truth::definitions(&extras),
+        annulus_tilt_deg: (params.annulus_tilt_rad != 0.0)
+            .then(|| params.annulus_tilt_rad.to_degrees()),
+        annulus_plane: (params.annulus_tilt_rad != 0.0).then(|| truth::PlaneTruth {
+            point_mm: truth::arr(&cl.origin),
+            normal: truth::arr(&Point3::from(an.lumen.annulus_normal())),
+        }),
+        commissure_plane: (params.annulus_tilt_rad != 0.0).then(|| truth::PlaneTruth {
+            point_mm: truth::arr(&cl.station(an.h_comm_mm).point),
+            normal: truth::arr(&Point3::from(cl.axis)),
+        }),
+        arch: an.arch.as_ref().map(|a| truth::ArchTruth {
+            truth_region_end_z_mm: a.z_truth_end,
+            join_z_mm: a.z_join,
+            arch_top_lumen_z_mm: a.z_top_lumen,
+            span_mm: a.span_mm,
+            height_mm: a.height_mm,
+            radius_start_mm: a.r_start_mm,
+            radius_end_mm: a.r_end_mm,
+            descending_centre_xy_mm: [an.da.cx, an.da.cy],
+            descending_radius_mm: an.da.rx,
+        }),
+        native_cusps: an.cusps.map(|c| truth::CuspsTruth {
+            thickness_mm: c.thickness_mm,
+            centre_height_mm: c.h_centre_mm,
+            free_edge_height_mm: c.h_free_mm,
+            hu: scene::CUSP_HU,
+        }),
     };
     progress(1.0);
     Ok(Phantom {
@@ -482,7 +591,7 @@ fn calcium_overlap(an: &anatomy::Anatomy) -> f64 {
                     // Count each point once even where blobs overlap.
                     if inside_e(e)
                         && !an.calcium[..i].iter().any(inside_e)
-                        && an.lumen.height(&p) >= 0.0
+                        && an.lumen.in_truth_range(&p)
                         && an.lumen.inside(&p)
                     {
                         count += 1;
@@ -495,5 +604,7 @@ fn calcium_overlap(an: &anatomy::Anatomy) -> f64 {
     total
 }
 
+#[cfg(test)]
+mod clinical_tests;
 #[cfg(test)]
 mod tests;

@@ -281,7 +281,10 @@ pub fn rasterise(
                                 let (d, n) = (layer.shape)(&probe);
                                 // Width of the voxel projected on the surface normal.
                                 let w = n.x.abs() * sx + n.y.abs() * sy + n.z.abs() * sz;
-                                let c = (0.5 - d / w).clamp(0.0, 1.0);
+                                let c = match layer.thin_mm {
+                                    None => (0.5 - d / w).clamp(0.0, 1.0),
+                                    Some(t) => slab_coverage(d + 0.5 * t, t, w),
+                                };
                                 if c > 0.0 {
                                     v += c * ((layer.hu)(&p) - v);
                                 }
@@ -292,7 +295,7 @@ pub fn rasterise(
                                 if i >= b[0]
                                     && i < b[1]
                                     && probe.lumen().0 < 0.0
-                                    && an.lumen.height(&p) >= 0.0
+                                    && an.lumen.in_truth_range(&p)
                                 {
                                     let calcified = calcium.iter().any(|e| {
                                         let q = e.rot.transpose() * (p - e.centre);
@@ -322,6 +325,14 @@ pub fn rasterise(
         noise,
         noise_sums,
     }
+}
+
+/// Share of a voxel of projected width `w` covered by a slab of thickness
+/// `t` whose mid-surface is `x` ≥ 0 from the voxel centre (box filter).
+fn slab_coverage(x: f64, t: f64, w: f64) -> f64 {
+    let lo = (x - 0.5 * w).max(-0.5 * t);
+    let hi = (x + 0.5 * w).min(0.5 * t);
+    ((hi - lo) / w).clamp(0.0, 1.0)
 }
 
 /// HU range of the output (12-bit CT with the usual −1024 offset).

@@ -11,6 +11,7 @@ use std::cell::Cell;
 use std::sync::Arc;
 
 use super::anatomy::{Anatomy, DISC_MM, LV_BLEND_MM};
+use super::cusps;
 use super::shapes::{Aabb, Sdf, Tube, ZCylinder, smooth_union, union};
 use crate::geom::{Point3, Vector3};
 
@@ -27,6 +28,8 @@ pub const BLOOD_PLAIN_HU: f64 = 40.0;
 const DISC_HU: f64 = 90.0;
 const CANAL_HU: f64 = 20.0;
 const CALCIUM_HU: f64 = 900.0;
+/// Native cusp tissue (fibrous leaflet, no contrast).
+pub const CUSP_HU: f64 = 80.0;
 /// Posterior arch: cortical bone thinner than the bodies' shell, so darker.
 const ARCH_FRACTION_OF_CORTICAL: f64 = 0.7;
 
@@ -100,7 +103,21 @@ impl<'a> Probe<'a> {
         let a = self.anatomy.lumen.centreline.axis;
         let cap = -below - self.anatomy.lumen.height(&self.p);
         let l = self.lumen();
-        if cap > l.0 { (cap, -a) } else { l }
+        let l = if cap > l.0 { (cap, -a) } else { l };
+        match &self.anatomy.arch {
+            // The ascending lumen ends at the join; the arch tube goes on.
+            Some(arch) if self.p.z - arch.z_join > l.0 => (self.p.z - arch.z_join, Vector3::z()),
+            _ => l,
+        }
+    }
+
+    /// `lumen_capped` joined with the arch tube, if any.
+    fn aorta_capped(&self, below: f64) -> (f64, Vector3) {
+        let l = self.lumen_capped(below);
+        match &self.anatomy.arch {
+            Some(arch) => union(l, arch.tube.eval_within(&self.p, FAR_MM)),
+            None => l,
+        }
     }
 }
 
@@ -108,6 +125,10 @@ pub type ShapeFn = Box<dyn Fn(&Probe) -> (f64, Vector3) + Send + Sync>;
 pub type HuFn = Box<dyn Fn(&Point3) -> f64 + Send + Sync>;
 
 pub struct Layer {
+    /// A sheet of this thickness: `shape` is then its distance minus half
+    /// the thickness, and coverage is the slab's overlap with the voxel
+    /// (the half-space ramp would overstate a sheet thinner than a voxel).
+    pub thin_mm: Option<f64>,
     pub name: String,
     pub shape: ShapeFn,
     pub hu: HuFn,
@@ -128,6 +149,7 @@ fn constant(v: f64) -> HuFn {
 /// A layer of constant HU filling an elliptic cylinder along z.
 fn cylinder_layer(name: impl Into<String>, c: ZCylinder, hu: f64) -> Layer {
     Layer {
+        thin_mm: None,
         name: name.into(),
         aabb: c.aabb().grow(AABB_MARGIN_MM),
         shape: Box::new(move |pr| c.eval(&pr.p)),
@@ -178,6 +200,8 @@ impl Scene {
             }
         };
 
+        let arch_aabb = an.arch.as_ref().map_or(Aabb::empty(), |a| a.tube.aabb());
+
         // --- Body: subcutaneous fat, then soft tissue -----------------------
         let [bx, by] = an.body_centre;
         for (name, shrink, hu) in [
@@ -207,6 +231,7 @@ impl Scene {
             };
             let aabb = e.aabb().grow(AABB_MARGIN_MM);
             layers.push(Layer {
+                thin_mm: None,
                 name: name.into(),
                 shape: Box::new(move |pr| e.eval(&pr.p)),
                 hu: constant(LUNG_HU),
@@ -238,12 +263,14 @@ impl Scene {
                 .union(&an.lv.aabb().grow(FAT_AROUND_LV_MM + FAT_BLEND_MM))
                 .union(&tubes_aabb(&an.pa).grow(FAT_AROUND_VESSELS_MM + FAT_BLEND_MM))
                 .union(&an.la.aabb().grow(FAT_AROUND_VESSELS_MM + FAT_BLEND_MM))
-                .union(&an.da.aabb().grow(FAT_AROUND_VESSELS_MM + FAT_BLEND_MM));
+                .union(&an.da.aabb().grow(FAT_AROUND_VESSELS_MM + FAT_BLEND_MM))
+                .union(&arch_aabb.grow(FAT_AROUND_AORTA_MM + FAT_BLEND_MM));
             layers.push(Layer {
+                thin_mm: None,
                 name: "mediastinal_fat".into(),
                 shape: Box::new(move |pr| {
                     let p = &pr.p;
-                    let mut d = offset(pr.lumen_capped(lvot + 10.0), FAT_AROUND_AORTA_MM);
+                    let mut d = offset(pr.aorta_capped(lvot + 10.0), FAT_AROUND_AORTA_MM);
                     d = smooth_union(d, offset(a.lv.eval(p), FAT_AROUND_LV_MM), FAT_BLEND_MM);
                     d = smooth_union(
                         d,
@@ -277,6 +304,7 @@ impl Scene {
             let a = anatomy.clone();
             let aabb = an.myocardium.aabb().union(&basal.aabb()).grow(LV_BLEND_MM);
             layers.push(Layer {
+                thin_mm: None,
                 name: "myocardium".into(),
                 shape: Box::new(move |pr| {
                     let p = &pr.p;
@@ -301,17 +329,20 @@ impl Scene {
             let aabb = an
                 .lumen
                 .aabb(-WALL_START_BELOW_VAJ_MM - 5.0, 400.0)
+                .union(&arch_aabb)
                 .grow(AORTIC_WALL_MM + 1.0);
             layers.push(Layer {
+                thin_mm: None,
                 name: "aortic_wall".into(),
                 shape: Box::new(move |pr| {
-                    offset(pr.lumen_capped(WALL_START_BELOW_VAJ_MM), AORTIC_WALL_MM)
+                    offset(pr.aorta_capped(WALL_START_BELOW_VAJ_MM), AORTIC_WALL_MM)
                 }),
                 hu: constant(WALL_HU),
                 aabb,
             });
             let a = anatomy.clone();
             layers.push(Layer {
+                thin_mm: None,
                 name: "pa_wall".into(),
                 shape: Box::new(move |pr| offset(tubes_sdf(&a.pa, &pr.p), PA_WALL_MM)),
                 hu: constant(WALL_HU),
@@ -319,6 +350,7 @@ impl Scene {
             });
             let da = an.da.clone();
             layers.push(Layer {
+                thin_mm: None,
                 name: "da_wall".into(),
                 shape: Box::new(move |pr| offset(da.eval(&pr.p), DA_WALL_MM)),
                 hu: constant(WALL_HU),
@@ -333,9 +365,10 @@ impl Scene {
             let a2 = anatomy.clone();
             let field = blood(1.0);
             layers.push(Layer {
+                thin_mm: None,
                 name: "aorta_lv_blood".into(),
                 shape: Box::new(move |pr| {
-                    smooth_union(pr.lumen_capped(lvot), a.lv.eval(&pr.p), LV_BLEND_MM)
+                    smooth_union(pr.aorta_capped(lvot), a.lv.eval(&pr.p), LV_BLEND_MM)
                 }),
                 // The LV is slightly less enhanced: blend along the axis from
                 // the annulus down to the end of the LVOT.
@@ -348,12 +381,14 @@ impl Scene {
                     .lumen
                     .aabb(-lvot - 2.0, 400.0)
                     .union(&an.lv.aabb())
+                    .union(&arch_aabb)
                     .grow(LV_BLEND_MM),
             });
             for c in &an.coronaries {
                 let tubes = c.tubes.clone();
                 let aabb = tubes_aabb(&tubes).grow(1.0);
                 layers.push(Layer {
+                    thin_mm: None,
                     name: format!("coronary_{}", c.name),
                     shape: Box::new(move |pr| tubes_sdf(&tubes, &pr.p)),
                     hu: blood(CORONARY_FACTOR),
@@ -362,6 +397,7 @@ impl Scene {
             }
             let a = anatomy.clone();
             layers.push(Layer {
+                thin_mm: None,
                 name: "pa_blood".into(),
                 shape: Box::new(move |pr| tubes_sdf(&a.pa, &pr.p)),
                 hu: blood(PA_FACTOR),
@@ -369,6 +405,7 @@ impl Scene {
             });
             let la = an.la.clone();
             layers.push(Layer {
+                thin_mm: None,
                 name: "la_blood".into(),
                 shape: Box::new(move |pr| la.eval(&pr.p)),
                 hu: blood(LA_FACTOR),
@@ -376,10 +413,30 @@ impl Scene {
             });
             let da = an.da.clone();
             layers.push(Layer {
+                thin_mm: None,
                 name: "da_blood".into(),
                 shape: Box::new(move |pr| da.eval(&pr.p)),
                 hu: blood(1.0),
                 aabb: an.da.aabb().grow(1.0),
+            });
+        }
+
+        // --- Native cusps, closed (over the blood) ---------------------------
+        if let Some(c) = an.cusps {
+            let a = anatomy.clone();
+            let aabb = an
+                .lumen
+                .aabb(-an.lumen.lvot_length_mm.min(15.0), an.h_comm_mm + 2.0)
+                .grow(1.0);
+            layers.push(Layer {
+                thin_mm: Some(c.thickness_mm),
+                name: "native_cusps".into(),
+                shape: Box::new(move |pr| {
+                    let (d, n) = cusps::sheet_distance(&a, &c, &pr.p);
+                    (d - 0.5 * c.thickness_mm, n)
+                }),
+                hu: constant(CUSP_HU),
+                aabb,
             });
         }
 
@@ -461,6 +518,7 @@ impl Scene {
                 let e = e.clone();
                 let aabb = e.aabb().grow(AABB_MARGIN_MM);
                 layers.push(Layer {
+                    thin_mm: None,
                     name: format!("calcium_{i}"),
                     shape: Box::new(move |pr| e.eval(&pr.p)),
                     hu: constant(CALCIUM_HU),

@@ -6,6 +6,7 @@ use super::{PhantomParams, Preset, generate};
 use crate::Result;
 use crate::geom::Frame;
 use crate::io::{Transaction, markups, nifti, vtp};
+use crate::pipeline::params::Value;
 use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
 use crate::units::Kind;
 
@@ -59,9 +60,9 @@ pub static SPEC: StageSpec = StageSpec {
     params: &[
         Param {
             name: "preset",
-            kind: ParamKind::Choice(&["sample", "standard", "full"]),
+            kind: ParamKind::Choice(&["sample", "standard", "full", "clinical"]),
             default: Some("sample"),
-            help: "grid: sample 112×112×112 at 0.9×0.9×1 mm, standard 256×256×200, full 512×512×300 at 0.44×0.44×0.6 mm",
+            help: "grid: sample 112×112×112 at 0.9×0.9×1 mm, standard 256×256×200, full 512×512×300 at 0.44×0.44×0.6 mm, clinical 128×128×160 at 1.5 mm (arch, native cusps, 20° annulus tilt, 480 HU blood, 28 HU noise, 21° valve tilt, like the real CT)",
         },
         Param {
             name: "seed",
@@ -75,14 +76,14 @@ pub static SPEC: StageSpec = StageSpec {
         Param {
             name: "noise",
             kind: ParamKind::Quantity(Kind::Intensity),
-            default: Some("25 HU"),
-            help: "standard deviation of the image noise",
+            default: None,
+            help: "standard deviation of the image noise [default: 25 HU; clinical 28 HU]",
         },
         Param {
             name: "tilt",
             kind: ParamKind::Quantity(Kind::Angle),
-            default: Some("35 deg"),
-            help: "angle between the valve axis and the scanner's z axis",
+            default: None,
+            help: "angle between the valve axis and the scanner's z axis [default: 35 deg; clinical 21 deg]",
         },
         Param {
             name: "spacing",
@@ -99,8 +100,8 @@ pub static SPEC: StageSpec = StageSpec {
         Param {
             name: "blood",
             kind: ParamKind::Quantity(Kind::Intensity),
-            default: Some("350 HU"),
-            help: "blood-pool intensity in the aorta (other chambers vary around it)",
+            default: None,
+            help: "blood-pool intensity in the aorta (other chambers vary around it) [default: 350 HU; clinical 480 HU]",
         },
         Param {
             name: "calcium",
@@ -114,6 +115,24 @@ pub static SPEC: StageSpec = StageSpec {
             default: Some("true"),
             help: "draw the coronary arteries leaving the sinuses (--no-coronaries leaves them out of the CT and truth)",
         },
+        Param {
+            name: "arch",
+            kind: ParamKind::Bool,
+            default: Some("false"),
+            help: "extend the ascending aorta into an arch and the descending aorta, all in the field of view; the truth region ends at a plane below the arch (always on in the clinical preset)",
+        },
+        Param {
+            name: "native_cusps",
+            kind: ParamKind::Bool,
+            default: Some("false"),
+            help: "paint the closed native cusps (thin soft-tissue sheets meeting in a Y) inside the root; the truth mask includes them (always on in the clinical preset)",
+        },
+        Param {
+            name: "annulus_tilt",
+            kind: ParamKind::Quantity(Kind::Angle),
+            default: None,
+            help: "tilt of the annulus (nadir) plane to the commissure plane, 0–35 deg [default: 0 deg; clinical 20 deg]",
+        },
     ],
     check: |p| params_from(p).map(|_| ()),
     run,
@@ -122,14 +141,27 @@ pub static SPEC: StageSpec = StageSpec {
 /// The generator's parameters from the stage's resolved parameters.
 pub fn params_from(p: &Params) -> Result<PhantomParams> {
     let preset: Preset = p.choice("preset").parse()?;
+    // Unset quantities keep the preset's default (PhantomParams::new).
     let mut pp = PhantomParams::new(preset, p.int("seed") as u64);
-    pp.noise_hu = p.quantity("noise");
-    pp.tilt_rad = p.quantity("tilt");
+    let given = |name: &str| !matches!(p.get(name), Value::Unset);
+    if given("noise") {
+        pp.noise_hu = p.quantity("noise");
+    }
+    if given("tilt") {
+        pp.tilt_rad = p.quantity("tilt");
+    }
     pp.spacing_mm = p.lengths3("spacing");
     pp.contrast = p.flag("contrast");
-    pp.blood_hu = p.quantity("blood");
+    if given("blood") {
+        pp.blood_hu = p.quantity("blood");
+    }
     pp.calcium = p.flag("calcium");
     pp.coronaries = p.flag("coronaries");
+    pp.arch |= p.flag("arch");
+    pp.native_cusps |= p.flag("native_cusps");
+    if given("annulus_tilt") {
+        pp.annulus_tilt_rad = p.quantity("annulus_tilt");
+    }
     pp.validate()?;
     Ok(pp)
 }

@@ -58,7 +58,7 @@ impl Structures {
     pub fn new(params: &PhantomParams) -> Result<Self> {
         let (dims, spacing) = params.grid_shape();
         let fov = [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]);
-        let (an, _) = Anatomy::new(params.seed, params.tilt_rad, fov)?;
+        let (an, _) = Anatomy::new(params.seed, params.tilt_rad, fov, params.extras())?;
         Ok(Structures { an })
     }
 

@@ -20,6 +20,7 @@ fn anatomy_of(params: &PhantomParams) -> anatomy::Anatomy {
         params.seed,
         params.tilt_rad,
         [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]),
+        params.extras(),
     )
     .unwrap()
     .0
@@ -217,6 +218,7 @@ fn anatomy_ranges_and_orientation() {
             seed,
             params.tilt_rad,
             [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]),
+            params.extras(),
         )
         .unwrap();
         let gap = an.pa_aorta_gap(needs.z_top + 30.0);

@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use super::anatomy::{Anatomy, SINUS_NAMES};
+use super::anatomy::{Anatomy, Extras, SINUS_NAMES};
 use super::centreline::CentrelineDescription;
 use super::lumen::RadiusProfile;
 use crate::geom::{Point3, ValveFrame};
@@ -91,13 +91,76 @@ pub struct Truth {
     /// Tissue layers in painting order (later layers cover earlier ones).
     pub layers: Vec<String>,
     pub definitions: BTreeMap<String, String>,
+    /// Only with a tilted annulus: its tilt and both planes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub annulus_tilt_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub annulus_plane: Option<PlaneTruth>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub commissure_plane: Option<PlaneTruth>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub arch: Option<ArchTruth>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub native_cusps: Option<CuspsTruth>,
+}
+
+/// A plane: a point on it and its unit normal (towards the aorta).
+#[derive(Debug, Clone, Serialize)]
+pub struct PlaneTruth {
+    pub point_mm: [f64; 3],
+    pub normal: [f64; 3],
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ArchTruth {
+    /// The truth region (mask, surface, volume) ends at the plane z = this.
+    pub truth_region_end_z_mm: f64,
+    /// The ascending lumen hands over to the arch tube at this z.
+    pub join_z_mm: f64,
+    pub arch_top_lumen_z_mm: f64,
+    /// Horizontal distance between the ascending and descending axes.
+    pub span_mm: f64,
+    /// Rise of the arch centreline above the join.
+    pub height_mm: f64,
+    pub radius_start_mm: f64,
+    pub radius_end_mm: f64,
+    pub descending_centre_xy_mm: [f64; 2],
+    pub descending_radius_mm: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CuspsTruth {
+    pub thickness_mm: f64,
+    /// Valve-frame heights (along the axis above the annulus centre).
+    pub centre_height_mm: f64,
+    pub free_edge_height_mm: f64,
+    pub hu: f64,
 }
 
 pub fn arr(p: &Point3) -> [f64; 3] {
     [p.x, p.y, p.z]
 }
 
-pub fn definitions() -> BTreeMap<String, String> {
+pub fn definitions(extras: &Extras) -> BTreeMap<String, String> {
+    let mut extra = Vec::new();
+    if extras.annulus_tilt_rad != 0.0 {
+        extra.push((
+            "annulus_plane",
+            "The VAJ plane of the truth region is tilted: it passes through the annulus centre with normal annulus_plane.normal, at annulus_tilt_deg to the commissure plane (normal = valve axis). The nadirs lie on it; truth_mask and truth_surface start at it. The root profile is stretched per angle from this plane to the STJ.",
+        ));
+    }
+    if extras.arch {
+        extra.push((
+            "arch",
+            "Ascending aorta, arch and descending aorta are one lumen in the CT; the truth region (mask, surface, lumen volume) is only the root and ascending aorta, from the VAJ plane up to the plane z = arch.truth_region_end_z_mm (the top cap, top_cap_z_mm), below the arch.",
+        ));
+    }
+    if extras.native_cusps {
+        extra.push((
+            "native_cusps",
+            "Closed native cusps painted as thin soft-tissue sheets (bellies from the hinge line to a central point, three radial coaptation sheets up to the free edge). They lie inside the lumen and are part of truth_mask: the mask is the region inside the wall, not the blood only.",
+        ));
+    }
     [
         (
             "truth_mask",
@@ -129,6 +192,7 @@ pub fn definitions() -> BTreeMap<String, String> {
         ),
     ]
     .into_iter()
+    .chain(extra)
     .map(|(k, v)| (k.to_string(), v.to_string()))
     .collect()
 }
@@ -137,9 +201,14 @@ pub fn definitions() -> BTreeMap<String, String> {
 pub fn radii(an: &Anatomy) -> Radii {
     let p = &an.lumen.profile;
     const N: usize = 3600;
+    // At s = 0, or along a tilted annulus at its own arc length per angle.
     let sample = |s: f64| -> (f64, f64, f64) {
         let v: Vec<f64> = (0..N)
-            .map(|j| p.eval(s, std::f64::consts::TAU * j as f64 / N as f64).r)
+            .map(|j| {
+                let th = std::f64::consts::TAU * j as f64 / N as f64;
+                let s = if s == 0.0 { p.annulus_s(th).0 } else { s };
+                p.eval(s, th).r
+            })
             .collect();
         (
             v.iter().sum::<f64>() / N as f64,

@@ -67,3 +67,55 @@ fn no_contrast_phantom_is_dark() {
     let mean = mean_hu_in_truth_mask(&d);
     assert!(mean < 100.0, "non-contrast blood at {mean} HU");
 }
+
+#[test]
+fn clinical_preset_is_1_5_mm_with_arch_cusps_and_tilted_annulus() {
+    let d = tmpdir("clinical");
+    let o = coapt(&[
+        "phantom",
+        "--preset",
+        "clinical",
+        "--out",
+        &s(&d),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let ct = coapt::io::nifti::read_i16(&d.join("ct.nii.gz")).unwrap();
+    assert_eq!(ct.spacing(), [1.5, 1.5, 1.5]);
+    assert_eq!(ct.dims(), [128, 128, 160]);
+    let t = json(&d.join("truth.json"));
+    assert_eq!(t["annulus_tilt_deg"].as_f64(), Some(20.0));
+    assert_eq!(t["noise_hu"].as_f64(), Some(28.0));
+    assert_eq!(t["blood_hu"].as_f64(), Some(480.0));
+    let end = t["arch"]["truth_region_end_z_mm"].as_f64().unwrap();
+    assert_eq!(t["top_cap_z_mm"].as_f64(), Some(end));
+    assert!(t["native_cusps"]["thickness_mm"].as_f64().unwrap() <= 1.0);
+    // The nadir plane of the landmarks file is 20° from its commissure plane.
+    let lm = markups::read(&d.join("landmarks.mrk.json")).unwrap();
+    let p = lm.require(&["C1", "C2", "C3", "N1", "N2", "N3"]).unwrap();
+    let normal = |a: usize| (p[a + 1] - p[a]).cross(&(p[a + 2] - p[a])).normalize();
+    let tilt = normal(0).dot(&normal(3)).abs().min(1.0).acos().to_degrees();
+    assert!((tilt - 20.0).abs() < 0.5, "nadir plane tilt {tilt}");
+    // The mean over the mask is the blood, the cusps barely lowering it.
+    let mean = mean_hu_in_truth_mask(&d);
+    assert!(
+        (400.0..=490.0).contains(&mean),
+        "mean HU in the mask {mean}"
+    );
+}
+
+#[test]
+fn annulus_tilt_out_of_range_is_refused() {
+    let d = tmpdir("annulus-tilt");
+    let o = coapt(&[
+        "phantom",
+        "--annulus-tilt",
+        "50 deg",
+        "--out",
+        &s(&d),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("annulus tilt"), "{}", stderr(&o));
+    assert!(!d.join("ct.nii.gz").exists());
+}
