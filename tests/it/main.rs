@@ -11,6 +11,7 @@ mod end_to_end;
 mod leaflets;
 mod phantom;
 mod real_ct;
+mod real_ct_variants;
 mod report;
 mod report_html;
 mod runner;

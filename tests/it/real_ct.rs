@@ -188,7 +188,7 @@ pub fn erode(a: &[bool], dims: [usize; 3]) -> Vec<bool> {
 }
 
 /// The 6-connected component of `inside` containing `seed`.
-fn component(inside: &[bool], [ni, nj, nk]: [usize; 3], seed: usize) -> Vec<bool> {
+pub fn component(inside: &[bool], [ni, nj, nk]: [usize; 3], seed: usize) -> Vec<bool> {
     let mut out = vec![false; inside.len()];
     let mut stack = vec![seed];
     out[seed] = true;
