@@ -88,16 +88,21 @@ def default_real() -> Path:
     return Path(__file__).resolve().parent.parent.parent / "shared" / "real"
 
 
+def bad_input(path: Path, problem: str):
+    print(f"error: {path}: {problem}", file=sys.stderr)
+    sys.exit(2)
+
+
 def load(path: Path):
     if not path.is_file():
-        raise SystemExit(f"error: {path}: not found")
+        bad_input(path, "not found")
     try:
         img = nib.load(str(path))
         data = np.asanyarray(img.dataobj)
     except Exception as e:  # nibabel raises many types
-        raise SystemExit(f"error: {path}: not a readable NIfTI file ({e})")
+        bad_input(path, f"not a readable NIfTI file ({e})")
     if data.ndim != 3:
-        raise SystemExit(f"error: {path}: expected a 3-D volume, got shape {data.shape}")
+        bad_input(path, f"expected a 3-D volume, got shape {data.shape}")
     return data, img.affine.astype(np.float64)
 
 
@@ -160,7 +165,7 @@ class Region:
         for name in ("totalseg_aorta", "totalseg_annulus", "totalseg_stj"):
             m, a = load(real / f"{name}.nii.gz")
             if m.shape != self.shape or not np.allclose(a, self.affine, atol=1e-6):
-                raise SystemExit(f"error: {real / name}.nii.gz: not on the CT grid")
+                bad_input(real / f"{name}.nii.gz", "not on the grid of ct.nii.gz")
             masks[name] = m != 0
         self.aorta = masks["totalseg_aorta"]
         ring = world_of(np.argwhere(masks["totalseg_annulus"]).astype(np.float64), self.affine)

@@ -391,7 +391,8 @@ pub fn root_region_scores(mask: &Path) -> Scores {
     r.score(&r.resample(mask))
 }
 
-/// Dice of two mask files (any grids) with each other inside R.
+/// Dice of two mask files (any grids) with each other inside R (NaN when
+/// both are empty there).
 pub fn dice_in_root(a: &Path, b: &Path) -> f64 {
     let r = region().expect("shared/real not found");
     let (ma, mb) = (r.resample(a), r.resample(b));
