@@ -33,7 +33,7 @@ nibabel, RAS, reported in LPS mm like the rest of coapt):
 4. T = the 6-connected component of (TotalSeg aorta AND S) that contains the
    voxel of (TotalSeg aorta AND S) nearest c_a (TotalSeg's aorta begins 0-2 mm
    above the annulus plane, so c_a itself lies just below it; ties go to the
-   first voxel in Fortran order, i fastest). The descending aorta crosses
+   lowest (i, j, k) in lexicographic order). The descending aorta crosses
    the same slab as another component, so it is excluded.
 5. R = S AND {x : distance(x, T) <= 10 mm} (exact EDT in mm). A mask M is
    scored as M AND R against T: leaks of M into the neighbours of the root
