@@ -10,6 +10,8 @@ mod design;
 mod end_to_end;
 mod leaflets;
 mod phantom;
+mod real_ct;
+mod real_ct_variants;
 mod real_segment;
 mod report;
 mod report_html;
