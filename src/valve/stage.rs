@@ -199,8 +199,10 @@ pub fn compute(
     templates: Option<&[Template; 3]>,
     params: &Params,
 ) -> std::result::Result<ValveResult, String> {
-    let cyl = frame::commissure_cylinder(mesh, c).ok_or("the three commissures are collinear")?;
+    let (cyl, oriented_by) =
+        frame::commissure_cylinder(mesh, c, nadirs).ok_or("the three commissures are collinear")?;
     let m = frame::measure(mesh, wall, &cyl, c, nadirs)?;
+    plausible(&m)?;
     let ds = params.quantity("spacing");
     let mut paths = Vec::new();
     let mut matches = Vec::new();
@@ -263,12 +265,20 @@ pub fn compute(
         });
         paths.push(path);
     }
+    let findings = path_findings(&matches)?;
     let f = &m.frame;
     let p3 = |p: &Point3| json!([p.x, p.y, p.z]);
     let json = json!({
         "frame": "LPS",
         "valve_frame": f,
         "annulus_from": m.annulus_from,
+        "axis_oriented_by": oriented_by.name(),
+        "annulus_plane_tilt_deg": m.annulus_tilt_deg,
+        "sections": {
+            "annulus": m.annulus_section,
+            "sinus": m.sinus_section,
+            "stj": m.stj_section,
+        },
         "commissure_cylinder": {
             "centre_mm": p3(&cyl.centre),
             "radius_mm": cyl.radius,
@@ -277,8 +287,72 @@ pub fn compute(
         "commissure_angles_deg": m.commissure_angles_deg,
         "h_comm_mm": m.h_comm_mm,
         "paths": matches,
+        "findings": findings,
     });
     Ok(ValveResult { json, paths })
+}
+
+/// Radius bands (mm) of an adult aortic root that the stage accepts. Far
+/// outside them the landmarks or the surface are wrong (a commissure on
+/// the wrong vessel, a surface of something else), and every later stage
+/// would compute on nonsense.
+const ANNULUS_RADIUS_MM: (f64, f64) = (8.0, 20.0);
+const SINUS_RADIUS_MM: (f64, f64) = (8.0, 30.0);
+const STJ_RADIUS_MM: (f64, f64) = (8.0, 25.0);
+const H_COMM_MM: (f64, f64) = (5.0, 35.0);
+
+fn plausible(m: &frame::Measured) -> std::result::Result<(), String> {
+    let check = |what: &str, v: f64, (lo, hi): (f64, f64)| {
+        if v.is_finite() && v >= lo && v <= hi {
+            Ok(())
+        } else {
+            Err(format!(
+                "implausible {what} {v:.1} mm (an adult aortic root has {lo}–{hi} mm): check the landmarks and the surface"
+            ))
+        }
+    };
+    check("annulus radius", m.radii.annulus_mm, ANNULUS_RADIUS_MM)?;
+    for (k, r) in m.radii.sinus_mm.iter().enumerate() {
+        check(&format!("sinus {} radius", k + 1), *r, SINUS_RADIUS_MM)?;
+    }
+    check("STJ radius", m.radii.stj_mm, STJ_RADIUS_MM)?;
+    check("commissure height over the annulus", m.h_comm_mm, H_COMM_MM)
+}
+
+/// A path this much longer or shorter than its attachment edge is reported.
+const PATH_FINDING: f64 = 0.10;
+/// Beyond this the template cannot be sewn along the path: the leaflet
+/// would be stretched or gathered by more than a pericardial leaflet
+/// tolerates, so the stage refuses rather than hand a misfit downstream.
+const PATH_REFUSE: f64 = 0.30;
+
+fn path_findings(matches: &[LengthMatch]) -> std::result::Result<Vec<String>, String> {
+    let mut out = Vec::new();
+    for (k, m) in matches.iter().enumerate() {
+        let (Some(t), Some(r)) = (m.target_mm, m.relative_mismatch) else {
+            continue;
+        };
+        let what = format!(
+            "leaflet {} (C{} → C{}): suture path {:.1} mm is {:.0} % {} than the template's attachment edge {:.1} mm",
+            k + 1,
+            k + 1,
+            (k + 1) % 3 + 1,
+            m.path_mm,
+            100.0 * r.abs(),
+            if r > 0.0 { "longer" } else { "shorter" },
+            t
+        );
+        if r.abs() > PATH_REFUSE {
+            return Err(format!(
+                "{what} (more than {:.0} %): the template cannot be made to fit; resize the template or check the landmarks",
+                100.0 * PATH_REFUSE
+            ));
+        }
+        if r.abs() > PATH_FINDING {
+            out.push(what);
+        }
+    }
+    Ok(out)
 }
 
 fn wall_bottom(mesh: &crate::geom::TriMesh, cyl: &CommissureCylinder) -> f64 {
