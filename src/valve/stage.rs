@@ -214,7 +214,7 @@ pub fn compute(
             _ => params.quantity("hc"),
         };
         let target = tpl.map(|t| t.outline().length(Edge::Sutured));
-        let (path, depth, adjusted) = match (nadirs, target) {
+        let (path, depth, adjusted, spec) = match (nadirs, target) {
             (Some(n), _) => {
                 let mut spec = PathSpec::between(&cyl, &ca, &cb, hc, 0.0);
                 let (hn, an) = cyl.height_angle(&n[k]);
@@ -235,14 +235,14 @@ pub fn compute(
                 spec.nadir_height = hn;
                 let p = suture::project(wall, &cyl, &spec, (ca, Some(n[k]), cb), ds);
                 let depth = (spec.height_a + spec.height_b) / 2.0 - hc - hn;
-                (p, depth, false)
+                (p, depth, false, spec)
             }
             (None, Some(t)) => {
                 let top = (cyl.height_angle(&ca).0 + cyl.height_angle(&cb).0) / 2.0 - hc;
                 let deepest = top - (m.annulus_height_mm - 3.0).max(wall_bottom(mesh, &cyl) + 0.1);
                 let (p, d) = suture::match_length(wall, &cyl, &ca, &cb, hc, (0.5, deepest), t, ds)
                     .map_err(|e| format!("leaflet {}: {e}", k + 1))?;
-                (p, d, true)
+                (p, d, true, PathSpec::between(&cyl, &ca, &cb, hc, d))
             }
             (None, None) => {
                 let top = (cyl.height_angle(&ca).0 + cyl.height_angle(&cb).0) / 2.0 - hc;
@@ -252,12 +252,14 @@ pub fn compute(
                     suture::project(wall, &cyl, &spec, (ca, None, cb), ds),
                     depth,
                     false,
+                    spec,
                 )
             }
         };
         let len = suture::length(&path);
         matches.push(LengthMatch {
             path_mm: len,
+            on_cylinder_mm: suture::cylinder_length(&cyl, &spec),
             target_mm: target,
             relative_mismatch: target.map(|t| (len - t) / t),
             depth_mm: depth,

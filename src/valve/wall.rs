@@ -123,6 +123,38 @@ impl Wall {
         None
     }
 
+    /// Whether `p` lies inside the closed surface: the parity of the
+    /// crossings of three rays, by majority (a ray along an edge or
+    /// through a vertex can count one crossing twice or none).
+    pub fn contains(&self, p: &Point3) -> bool {
+        let dirs = [
+            Vector3::new(0.5773, 0.5774, 0.5774),
+            Vector3::new(-0.6, 0.48, -0.64),
+            Vector3::new(0.28, -0.96, 0.0),
+        ];
+        let inside = dirs
+            .iter()
+            .filter(|d| {
+                let d = d.normalize();
+                let mut n = 0usize;
+                let mut start = 0.0;
+                let dir = GVec::new(d.x, d.y, d.z);
+                while n < 10_000 {
+                    let ray = Ray::new(g(&(p + d * start)), dir);
+                    match self.bvh.cast_local_ray(&ray, f64::MAX, false) {
+                        Some(t) => {
+                            n += 1;
+                            start += t + 1e-7;
+                        }
+                        None => break,
+                    }
+                }
+                n % 2 == 1
+            })
+            .count();
+        inside >= 2
+    }
+
     /// Where a ray from inside the lumen leaves it for good: crossings come
     /// in exit/entry pairs, and an exit followed within `CLEFT_MM` by a
     /// re-entry is a cleft in the lumen (a segmentation leaves the native
