@@ -124,16 +124,19 @@ pub fn commissure_cylinder(
     ))
 }
 
-/// A wall face whose normal lies within this angle's cosine of a section
+/// A face whose normal lies within this angle's cosine of a section
 /// plane's normal faces the plane: a cap, the rounded end of a mask or a
-/// ledge, not the wall that bounds the section.
-const FACING_COS: f64 = 0.82; // 35°
+/// ledge, not the wall that bounds the section. 39°: a VAJ cap tilted up to
+/// 35° to the commissure plane still faces the axial sections.
+const FACING_COS: f64 = 0.78;
 
-/// A wall crossing that bounds a section of normal `n`: on the wall proper
-/// and not facing the plane.
+/// A crossing that bounds a section of normal `n`: not facing the plane.
+/// The `region` labels are not asked: a flat stretch of real wall can be
+/// labelled a cut cap (it was on the root-only TotalSegmentator surface,
+/// beside the STJ), and a cap across the lumen faces the plane anyway.
 fn bounding(wall: &Wall, o: &Point3, d: &Vector3, n: &Vector3, max_t: f64) -> Option<f64> {
     wall.lumen_exit(o, d, max_t)
-        .filter(|x| x.on_wall && x.normal.dot(n).abs() < FACING_COS)
+        .filter(|x| x.normal.dot(n).abs() < FACING_COS)
         .map(|x| x.t)
 }
 
