@@ -10,6 +10,7 @@ mod design;
 mod end_to_end;
 mod leaflets;
 mod phantom;
+mod real_valve;
 mod report;
 mod report_html;
 mod runner;
