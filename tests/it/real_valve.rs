@@ -59,8 +59,6 @@ fn real_root_frame_radii_paths_and_leaflets() {
     let Some(real) = real_dir() else { return };
     let d = tmpdir("real-valve");
     let surface = d.join("aorta.vtp");
-    let template = repo().join("pipelines/templates/ozaki_default.toml");
-    let lm_file = real.join("landmarks.mrk.json");
     run_ok(&[
         "surface",
         "--mask",
@@ -69,10 +67,100 @@ fn real_root_frame_radii_paths_and_leaflets() {
         &s(&surface),
         "--quiet",
     ]);
+    valve_and_leaflets_on_the_real_root(&d, &surface, &real);
+}
+
+/// What our own `segment` will hand over: the lumen from the annulus (nadir)
+/// plane up through the ascending aorta, cut flat at the nadir plane and
+/// 55 mm above it along the commissure axis, the descending aorta left out
+/// (the connected part holding the root). Both inputs must give the same
+/// valve.
+#[test]
+fn root_only_surface_cut_at_the_annulus() {
+    let Some(real) = real_dir() else { return };
+    let d = tmpdir("real-valve-root");
+    let mut mask = coapt::io::nifti::read_u8(&real.join("totalseg_aorta.nii.gz")).unwrap();
+    let lm = markups::read(&real.join("landmarks.mrk.json")).unwrap();
+    let pts = |l: [&str; 3]| l.map(|x| lm.get(x).unwrap());
+    let (c, n) = (pts(["C1", "C2", "C3"]), pts(["N1", "N2", "N3"]));
+    let (cc, mut ca, _) = coapt::valve::frame::circle3(&c).unwrap();
+    let (nc, mut na, _) = coapt::valve::frame::circle3(&n).unwrap();
+    if (cc - nc).dot(&ca) < 0.0 {
+        ca = -ca;
+    }
+    if na.dot(&ca) < 0.0 {
+        na = -na;
+    }
+    let [ni, nj, nk] = mask.dims();
+    let mut keep = vec![false; ni * nj * nk];
+    let idx = |i: usize, j: usize, k: usize| (k * nj + j) * ni + i;
+    for k in 0..nk {
+        for j in 0..nj {
+            for i in 0..ni {
+                let p = mask.index_to_world([i as f64, j as f64, k as f64]);
+                keep[idx(i, j, k)] = mask.data()[[i, j, k]] > 0
+                    && (p - nc).dot(&na) >= 0.0
+                    && (p - nc).dot(&ca) <= 55.0;
+            }
+        }
+    }
+    // The part connected (6-neighbours) to a voxel 8 mm up the root.
+    let seed = mask
+        .world_to_index(&(nc + ca * 8.0))
+        .map(|x| x.round() as usize);
+    let mut part = vec![false; keep.len()];
+    let mut stack = vec![seed];
+    while let Some([i, j, k]) = stack.pop() {
+        if i >= ni || j >= nj || k >= nk || part[idx(i, j, k)] || !keep[idx(i, j, k)] {
+            continue;
+        }
+        part[idx(i, j, k)] = true;
+        for (di, dj, dk) in [(1, 0, 0), (0, 1, 0), (0, 0, 1)] {
+            stack.push([i + di, j + dj, k + dk]);
+            stack.push([i.wrapping_sub(di), j.wrapping_sub(dj), k.wrapping_sub(dk)]);
+        }
+    }
+    let kept = part.iter().filter(|&&b| b).count();
+    // The root and ascending aorta only: ≈ 13 000 of the mask's 72 810 voxels.
+    assert!((10_000..20_000).contains(&kept), "{kept} voxels kept");
+    for k in 0..nk {
+        for j in 0..nj {
+            for i in 0..ni {
+                mask.data_mut()[[i, j, k]] = u8::from(part[idx(i, j, k)]);
+            }
+        }
+    }
+    let m = d.join("root_only.nii.gz");
+    coapt::io::nifti::write(&m, &mask).unwrap();
+    let surface = d.join("aorta.vtp");
+    run_ok(&[
+        "surface",
+        "--mask",
+        &s(&m),
+        "--out",
+        &s(&surface),
+        "--quiet",
+    ]);
+    // The cut at the annulus is a flat cap (region 1).
+    let mesh = vtp::read_mesh(&surface).unwrap();
+    let region = mesh
+        .cell_data
+        .get("region")
+        .unwrap()
+        .values
+        .to_f64()
+        .unwrap();
+    assert!(region.iter().any(|&r| r == 1.0));
+    valve_and_leaflets_on_the_real_root(&d, &surface, &real);
+}
+
+fn valve_and_leaflets_on_the_real_root(d: &Path, surface: &Path, real: &Path) {
+    let template = repo().join("pipelines/templates/ozaki_default.toml");
+    let lm_file = real.join("landmarks.mrk.json");
     run_ok(&[
         "valve",
         "--surface",
-        &s(&surface),
+        &s(surface),
         "--landmarks",
         &s(&lm_file),
         "--template",
@@ -159,7 +247,7 @@ fn real_root_frame_radii_paths_and_leaflets() {
         "--paths",
         &s(&d.join("paths.vtp")),
         "--surface",
-        &s(&surface),
+        &s(surface),
         "--template",
         &s(&template),
         "--out",
@@ -170,7 +258,7 @@ fn real_root_frame_radii_paths_and_leaflets() {
     let DataValues::U8(b) = &m.point_data.get("boundary").unwrap().values else {
         panic!("boundary is not u8")
     };
-    let wall = Wall::new(&vtp::read_mesh(&surface).unwrap()).unwrap();
+    let wall = Wall::new(&vtp::read_mesh(surface).unwrap()).unwrap();
     let outside = m
         .vertices
         .iter()
