@@ -110,17 +110,17 @@ const FAR_OUTSIDE_MM: f64 = 2.0;
 const INSIDE_MM: f64 = 0.05;
 
 /// Nodes moved back inside the wall: how many, and how far they were out.
-struct Pulled {
-    count: usize,
-    max_mm: f64,
-    mean_mm: f64,
+pub(super) struct Pulled {
+    pub(super) count: usize,
+    pub(super) max_mm: f64,
+    pub(super) mean_mm: f64,
 }
 
 /// Moves every node off the attachment edge that lies outside the closed
 /// wall surface onto the nearest wall point and `INSIDE_MM` beyond it. A
 /// radial ray from the commissure axis cannot judge this: on a tilted root
 /// the axis itself leaves the lumen below the annulus on the high side.
-fn pull_inside(x: &mut [Point3], boundary: &[u8], wall: &Wall) -> Pulled {
+pub(super) fn pull_inside(x: &mut [Point3], boundary: &[u8], wall: &Wall) -> Pulled {
     let (mut count, mut max_mm, mut sum) = (0usize, 0.0f64, 0.0);
     for (i, p) in x.iter_mut().enumerate() {
         if boundary[i] == 1 || wall.contains(p) {
