@@ -184,3 +184,41 @@ fn seed001_ideal_cylinder_matches_eq_2_and_3() {
     assert!((flat - a).abs() < 2e-3 * a, "flat {flat} vs {a}");
     assert!((area3 - a).abs() < 2e-3 * a, "3-D {area3} vs {a}");
 }
+
+/// Nodes a little outside a real, rough wall go back to 0.05 mm inside it,
+/// counted with their distance; sutured nodes stay on their path; nodes
+/// inside stay put. The wall: a closed 720-gon cylinder of radius 15 mm
+/// (facet sagitta 15·(1 − cos(π/720)) ≈ 1.4e-4 mm).
+#[test]
+fn nodes_outside_the_wall_are_pulled_back_and_counted() {
+    use crate::geom::Point3;
+    use crate::valve::{cylinder, wall::Wall};
+    let wall = Wall::new(&cylinder::mesh(15.0, -10.0, 10.0, 720, 0.5)).unwrap();
+    let at = |r: f64, deg: f64, z: f64| {
+        let a = deg.to_radians();
+        Point3::new(r * a.cos(), r * a.sin(), z)
+    };
+    let mut x = vec![
+        at(10.0, 10.0, 0.0),   // inside
+        at(15.3, 33.0, 2.0),   // 0.3 mm out
+        at(15.8, 200.0, -4.0), // 0.8 mm out
+        at(15.5, 100.0, 1.0),  // out, but sutured: left alone
+    ];
+    let before = x.clone();
+    let p = super::stage::pull_inside(&mut x, &[0, 0, 2, 1], &wall);
+    assert_eq!(p.count, 2);
+    assert!((p.max_mm - 0.8).abs() < 1e-3, "{}", p.max_mm);
+    assert!((p.mean_mm - 0.55).abs() < 1e-3, "{}", p.mean_mm);
+    assert_eq!(x[0], before[0]);
+    assert_eq!(x[3], before[3]);
+    for (i, z) in [(1, 2.0), (2, -4.0)] {
+        let r = x[i].x.hypot(x[i].y);
+        assert!(
+            (r - 14.95).abs() < 1e-3 && (x[i].z - z).abs() < 1e-9,
+            "{:?}",
+            x[i]
+        );
+        assert!(wall.contains(&x[i]));
+    }
+    assert!(!wall.contains(&before[1]) && wall.contains(&before[0]));
+}

@@ -489,6 +489,9 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
                 &series("residual_n"),
                 &series("max_force_n"),
                 log["config"]["tolerance_n"].as_f64(),
+                log["solver"]["residual_n"]
+                    .as_f64()
+                    .zip(log["solver"]["converged"].as_bool()),
             ));
         }
     }

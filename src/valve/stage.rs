@@ -199,8 +199,10 @@ pub fn compute(
     templates: Option<&[Template; 3]>,
     params: &Params,
 ) -> std::result::Result<ValveResult, String> {
-    let cyl = frame::commissure_cylinder(mesh, c).ok_or("the three commissures are collinear")?;
+    let (cyl, oriented_by) =
+        frame::commissure_cylinder(mesh, c, nadirs).ok_or("the three commissures are collinear")?;
     let m = frame::measure(mesh, wall, &cyl, c, nadirs)?;
+    plausible(&m)?;
     let ds = params.quantity("spacing");
     let mut paths = Vec::new();
     let mut matches = Vec::new();
@@ -212,7 +214,7 @@ pub fn compute(
             _ => params.quantity("hc"),
         };
         let target = tpl.map(|t| t.outline().length(Edge::Sutured));
-        let (path, depth, adjusted) = match (nadirs, target) {
+        let (path, depth, adjusted, spec) = match (nadirs, target) {
             (Some(n), _) => {
                 let mut spec = PathSpec::between(&cyl, &ca, &cb, hc, 0.0);
                 let (hn, an) = cyl.height_angle(&n[k]);
@@ -233,14 +235,14 @@ pub fn compute(
                 spec.nadir_height = hn;
                 let p = suture::project(wall, &cyl, &spec, (ca, Some(n[k]), cb), ds);
                 let depth = (spec.height_a + spec.height_b) / 2.0 - hc - hn;
-                (p, depth, false)
+                (p, depth, false, spec)
             }
             (None, Some(t)) => {
                 let top = (cyl.height_angle(&ca).0 + cyl.height_angle(&cb).0) / 2.0 - hc;
                 let deepest = top - (m.annulus_height_mm - 3.0).max(wall_bottom(mesh, &cyl) + 0.1);
                 let (p, d) = suture::match_length(wall, &cyl, &ca, &cb, hc, (0.5, deepest), t, ds)
                     .map_err(|e| format!("leaflet {}: {e}", k + 1))?;
-                (p, d, true)
+                (p, d, true, PathSpec::between(&cyl, &ca, &cb, hc, d))
             }
             (None, None) => {
                 let top = (cyl.height_angle(&ca).0 + cyl.height_angle(&cb).0) / 2.0 - hc;
@@ -250,12 +252,14 @@ pub fn compute(
                     suture::project(wall, &cyl, &spec, (ca, None, cb), ds),
                     depth,
                     false,
+                    spec,
                 )
             }
         };
         let len = suture::length(&path);
         matches.push(LengthMatch {
             path_mm: len,
+            on_cylinder_mm: suture::cylinder_length(&cyl, &spec),
             target_mm: target,
             relative_mismatch: target.map(|t| (len - t) / t),
             depth_mm: depth,
@@ -263,12 +267,20 @@ pub fn compute(
         });
         paths.push(path);
     }
+    let findings = path_findings(&matches)?;
     let f = &m.frame;
     let p3 = |p: &Point3| json!([p.x, p.y, p.z]);
     let json = json!({
         "frame": "LPS",
         "valve_frame": f,
         "annulus_from": m.annulus_from,
+        "axis_oriented_by": oriented_by.name(),
+        "annulus_plane_tilt_deg": m.annulus_tilt_deg,
+        "sections": {
+            "annulus": m.annulus_section,
+            "sinus": m.sinus_section,
+            "stj": m.stj_section,
+        },
         "commissure_cylinder": {
             "centre_mm": p3(&cyl.centre),
             "radius_mm": cyl.radius,
@@ -277,8 +289,77 @@ pub fn compute(
         "commissure_angles_deg": m.commissure_angles_deg,
         "h_comm_mm": m.h_comm_mm,
         "paths": matches,
+        "findings": findings,
     });
     Ok(ValveResult { json, paths })
+}
+
+/// Radius bands (mm) of an adult aortic root that the stage accepts. Far
+/// outside them the landmarks or the surface are wrong (a commissure on
+/// the wrong vessel, a surface of something else), and every later stage
+/// would compute on nonsense.
+const ANNULUS_RADIUS_MM: (f64, f64) = (8.0, 20.0);
+const SINUS_RADIUS_MM: (f64, f64) = (8.0, 30.0);
+const STJ_RADIUS_MM: (f64, f64) = (8.0, 25.0);
+const H_COMM_MM: (f64, f64) = (5.0, 35.0);
+
+fn plausible(m: &frame::Measured) -> std::result::Result<(), String> {
+    let check = |what: &str, v: f64, (lo, hi): (f64, f64)| {
+        if v.is_finite() && v >= lo && v <= hi {
+            Ok(())
+        } else {
+            Err(format!(
+                "implausible {what} {v:.1} mm (an adult aortic root has {lo}–{hi} mm): check the landmarks and the surface"
+            ))
+        }
+    };
+    check("annulus radius", m.radii.annulus_mm, ANNULUS_RADIUS_MM)?;
+    for (k, r) in m.radii.sinus_mm.iter().enumerate() {
+        check(&format!("sinus {} radius", k + 1), *r, SINUS_RADIUS_MM)?;
+    }
+    check("STJ radius", m.radii.stj_mm, STJ_RADIUS_MM)?;
+    // Without nadirs the annulus level is only the narrowest section found,
+    // which on a plain tube is anywhere: its height proves nothing.
+    if m.annulus_from == "nadirs" {
+        check("commissure height over the annulus", m.h_comm_mm, H_COMM_MM)?;
+    }
+    Ok(())
+}
+
+/// A path this much longer or shorter than its attachment edge is reported.
+const PATH_FINDING: f64 = 0.10;
+/// Beyond this the template cannot be sewn along the path: the leaflet
+/// would be stretched or gathered by more than a pericardial leaflet
+/// tolerates, so the stage refuses rather than hand a misfit downstream.
+const PATH_REFUSE: f64 = 0.30;
+
+fn path_findings(matches: &[LengthMatch]) -> std::result::Result<Vec<String>, String> {
+    let mut out = Vec::new();
+    for (k, m) in matches.iter().enumerate() {
+        let (Some(t), Some(r)) = (m.target_mm, m.relative_mismatch) else {
+            continue;
+        };
+        let what = format!(
+            "leaflet {} (C{} → C{}): suture path {:.1} mm is {:.0} % {} than the template's attachment edge {:.1} mm",
+            k + 1,
+            k + 1,
+            (k + 1) % 3 + 1,
+            m.path_mm,
+            100.0 * r.abs(),
+            if r > 0.0 { "longer" } else { "shorter" },
+            t
+        );
+        if r.abs() > PATH_REFUSE {
+            return Err(format!(
+                "{what} (more than {:.0} %): the template cannot be made to fit; resize the template or check the landmarks",
+                100.0 * PATH_REFUSE
+            ));
+        }
+        if r.abs() > PATH_FINDING {
+            out.push(what);
+        }
+    }
+    Ok(out)
 }
 
 fn wall_bottom(mesh: &crate::geom::TriMesh, cyl: &CommissureCylinder) -> f64 {

@@ -113,6 +113,19 @@ pub fn project(
     out
 }
 
+/// Length of the curve drawn on the commissure cylinder itself, before
+/// projection: what the path would measure on a root without sinuses.
+pub fn cylinder_length(cyl: &CommissureCylinder, spec: &PathSpec) -> f64 {
+    let n = 4000;
+    let at = |t: f64| {
+        let (a, h) = spec.at(t);
+        cyl.axis_point(h) + cyl.dir(a) * cyl.radius
+    };
+    (0..n)
+        .map(|i| (at(4.0 * (i + 1) as f64 / n as f64) - at(4.0 * i as f64 / n as f64)).norm())
+        .sum()
+}
+
 pub fn length(p: &[Point3]) -> f64 {
     p.windows(2).map(|w| (w[1] - w[0]).norm()).sum()
 }
@@ -151,6 +164,8 @@ pub fn resample(p: &[Point3], ds: f64) -> Vec<Point3> {
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct LengthMatch {
     pub path_mm: f64,
+    /// The same curve on the commissure cylinder (no sinus bulge).
+    pub on_cylinder_mm: f64,
     pub target_mm: Option<f64>,
     pub relative_mismatch: Option<f64>,
     pub depth_mm: f64,

@@ -127,3 +127,199 @@ fn radial_projection_ignores_the_caps() {
     let p = wall.radial(&crate::geom::Point3::new(0.0, 0.0, 3.0), &d, R);
     assert!((p.x - R).abs() < 1e-3 && (p.z - 3.0).abs() < 1e-12, "{p:?}");
 }
+
+/// A root whose annulus (nadir) plane is tilted `tilt` to its commissure
+/// plane. The lumen is a tube about z (the annulus normal), cut flat at
+/// the annulus z = 0 (region 1, as a segmentation hands it over: no LVOT)
+/// and at z = 70 (region 2); radius R_A plus three sinus lobes
+/// B·sin(πz/S)·(1 + cos 3(θ − θ_n))/2 for z in [0, S], centred on the
+/// nadirs at θ_n = 0°, 120°, 240° and zero at the commissure angles 60°,
+/// 180°, 300°. The commissures lie on the wall where the plane through
+/// (0, 0, H) with normal m = (sin tilt, 0, cos tilt) meets it.
+struct TiltedRoot {
+    mesh: crate::geom::TriMesh,
+    c: [crate::geom::Point3; 3],
+    n: [crate::geom::Point3; 3],
+    m: crate::geom::Vector3,
+}
+
+const R_A: f64 = 12.0;
+const BULGE: f64 = 3.5;
+const S_TOP: f64 = 26.0;
+const H_C: f64 = 19.0;
+
+fn tilted_root(tilt_deg: f64) -> TiltedRoot {
+    use crate::geom::{DataArray, DataValues, Point3, TriMesh, Vector3};
+    let r = |z: f64, th: f64| {
+        let lobe = if (0.0..=S_TOP).contains(&z) {
+            BULGE * (PI * z / S_TOP).sin() * (1.0 + (3.0 * th).cos()) / 2.0
+        } else {
+            0.0
+        };
+        R_A + lobe
+    };
+    let (nth, z1, dz) = (720usize, 70.0, 0.25);
+    let rows = (z1 / dz) as usize;
+    let mut v = Vec::new();
+    for j in 0..=rows {
+        let z = z1 * j as f64 / rows as f64;
+        for i in 0..nth {
+            let th = 2.0 * PI * i as f64 / nth as f64;
+            let rr = r(z, th);
+            v.push(Point3::new(rr * th.cos(), rr * th.sin(), z));
+        }
+    }
+    let id = |j: usize, i: usize| (j * nth + i % nth) as u32;
+    let (mut t, mut region) = (Vec::new(), Vec::new());
+    for j in 0..rows {
+        for i in 0..nth {
+            t.push([id(j, i), id(j, i + 1), id(j + 1, i + 1)]);
+            t.push([id(j, i), id(j + 1, i + 1), id(j + 1, i)]);
+            region.extend([0, 0]);
+        }
+    }
+    let (bottom, top) = (v.len() as u32, v.len() as u32 + 1);
+    v.push(Point3::new(0.0, 0.0, 0.0));
+    v.push(Point3::new(0.0, 0.0, z1));
+    for i in 0..nth {
+        t.push([bottom, id(0, i + 1), id(0, i)]);
+        region.push(1);
+        t.push([top, id(rows, i), id(rows, i + 1)]);
+        region.push(2);
+    }
+    let mut mesh = TriMesh::new(v, t);
+    mesh.cell_data
+        .insert(DataArray::new("region", 1, DataValues::I32(region)));
+    let a = tilt_deg.to_radians();
+    let m = Vector3::new(a.sin(), 0.0, a.cos());
+    let c = [60.0f64, 180.0, 300.0].map(|d| {
+        let th = d.to_radians();
+        // On the wall at the commissure angle the radius is R_A at any z.
+        let z = H_C - a.tan() * R_A * th.cos();
+        Point3::new(R_A * th.cos(), R_A * th.sin(), z)
+    });
+    let n = [120.0f64, 240.0, 0.0].map(|d| {
+        let th = d.to_radians();
+        Point3::new(R_A * th.cos(), R_A * th.sin(), 0.0)
+    });
+    TiltedRoot { mesh, c, n, m }
+}
+
+/// The annulus is measured in the nadir plane whatever the commissure
+/// plane's tilt: at 0–35° the mean radius from the nadirs' circumcentre is
+/// the tube's R_A. Tolerance 0.02 mm: the 720-gon's sagitta (2e-4 mm)
+/// plus the sinus lobe at the 0.05 mm lift above the cut, where it is
+/// BULGE·sin(π·0.05/S)·½ ≈ 0.011 mm on average (measured: 12.0105 mm at
+/// every tilt). Before, the section was
+/// taken perpendicular to the commissure axis at the nadirs' mean height:
+/// on a tilted root those rays leave through the cap and the sinus.
+#[test]
+fn annulus_in_the_nadir_plane_at_any_tilt() {
+    for tilt in [0.0, 15.0, 25.0, 35.0] {
+        let root = tilted_root(tilt);
+        let wall = Wall::new(&root.mesh).unwrap();
+        let r = compute(&root.mesh, &wall, &root.c, Some(&root.n), None, &params())
+            .unwrap_or_else(|e| panic!("tilt {tilt}°: {e}"));
+        let j = &r.json;
+        let ann = j["radii"]["annulus_mm"].as_f64().unwrap();
+        eprintln!(
+            "tilt {tilt}°: annulus {ann:.4} mm (R_A {R_A}), lift {} mm, sinus {}",
+            j["sections"]["annulus"]["lift_mm"], j["radii"]["sinus_mm"]
+        );
+        assert!((ann - R_A).abs() < 0.02, "tilt {tilt}°: annulus {ann}");
+        let tilt_got = j["annulus_plane_tilt_deg"].as_f64().unwrap();
+        assert!((tilt_got - tilt).abs() < 1e-6, "tilt {tilt}°: {tilt_got}");
+        // Axis = commissure-plane normal, pointing from the nadirs up.
+        let ax = &j["valve_frame"]["axis"];
+        let axis = crate::geom::Vector3::new(
+            ax[0].as_f64().unwrap(),
+            ax[1].as_f64().unwrap(),
+            ax[2].as_f64().unwrap(),
+        );
+        assert!(
+            axis.dot(&root.m) > 1.0 - 1e-9,
+            "tilt {tilt}°: axis {axis:?}"
+        );
+        assert!(j["h_comm_mm"].as_f64().unwrap() > 10.0);
+        // The sinus lobes peak at the nadir angles, R_A + BULGE from the
+        // tube's axis at z = S/2. The radii are taken from the commissure
+        // axis, which on a tilted root is off the tube's axis by up to
+        // `off` over the sinus heights and leans by the tilt, so rays
+        // perpendicular to it run obliquely: the largest radius lies
+        // within R_A + BULGE ∓ off, stretched by at most 1/cos(tilt).
+        let cyl = super::frame::circle3(&root.c).unwrap();
+        let (centre, mut ax) = (cyl.0, cyl.1);
+        if ax.z < 0.0 {
+            ax = -ax;
+        }
+        let off = (0..=100)
+            .map(|i| {
+                let z = S_TOP * i as f64 / 100.0;
+                let p = centre + ax * ((z - centre.z) / ax.z);
+                p.x.hypot(p.y)
+            })
+            .fold(0.0, f64::max);
+        let peak = R_A + BULGE;
+        for k in 0..3 {
+            let s = j["radii"]["sinus_mm"][k].as_f64().unwrap();
+            let (lo, hi) = if tilt == 0.0 {
+                (peak - 0.01, peak + 0.01)
+            } else {
+                (
+                    peak - off - 0.05,
+                    (peak + off) / tilt.to_radians().cos() + 0.05,
+                )
+            };
+            assert!(
+                s > lo && s < hi,
+                "tilt {tilt}°: sinus {} {s} not in ({lo}, {hi})",
+                k + 1
+            );
+        }
+    }
+}
+
+/// Without nadirs the axis is oriented by the wall near the root, not by
+/// the whole surface: a long vessel hanging below the root (an arch and a
+/// descending aorta, as in TotalSegmentator's mask) must not flip it.
+#[test]
+fn orientation_without_nadirs_ignores_far_vessel() {
+    let root = tilted_root(0.0);
+    let mut mesh = root.mesh.clone();
+    // A far tube 80 mm to the side, running from z = −200 to z = 0: its
+    // area (≈ 15 000 mm²) outweighs the root's and pulls the whole
+    // surface's centroid below the commissures.
+    let far = cylinder::mesh(12.0, -200.0, 0.0, 180, 2.0);
+    let base = mesh.vertices.len() as u32;
+    mesh.vertices.extend(
+        far.vertices
+            .iter()
+            .map(|p| crate::geom::Point3::new(p.x + 80.0, p.y, p.z)),
+    );
+    mesh.triangles
+        .extend(far.triangles.iter().map(|t| t.map(|i| i + base)));
+    let mut region: Vec<i32> = mesh
+        .cell_data
+        .get("region")
+        .unwrap()
+        .values
+        .to_f64()
+        .unwrap()
+        .into_iter()
+        .map(|x| x as i32)
+        .collect();
+    region.extend(std::iter::repeat_n(0, far.triangles.len()));
+    mesh.cell_data.insert(crate::geom::DataArray::new(
+        "region",
+        1,
+        crate::geom::DataValues::I32(region),
+    ));
+    let area_far: f64 = (0..far.triangles.len()).map(|t| far.area(t)).sum();
+    let area_root: f64 = (0..root.mesh.triangles.len())
+        .map(|t| root.mesh.area(t))
+        .sum();
+    assert!(area_far > area_root);
+    let (cyl, how) = super::frame::commissure_cylinder(&mesh, &root.c, None).unwrap();
+    assert_eq!(how, super::frame::Orientation::WallNearRoot);
+    assert!(cyl.axis.z > 0.999, "{:?}", cyl.axis);
+}

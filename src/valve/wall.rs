@@ -9,6 +9,8 @@ use crate::geom::{Point3, TriMesh, Vector3};
 
 pub struct Wall {
     bvh: PTriMesh,
+    /// Unit normal of each input triangle (orientation as given).
+    normals: Vec<Vector3>,
     /// `region` cell data when present (0 wall, 1 VAJ cap, 2 top cap).
     region: Option<Vec<i64>>,
     /// The wall proper without the caps, when regions say which is which:
@@ -57,8 +59,17 @@ impl Wall {
             }
             _ => None,
         };
+        let normals = (0..mesh.triangles.len())
+            .map(|t| {
+                let p = mesh.corners(t);
+                let n = (p[1] - p[0]).cross(&(p[2] - p[0]));
+                let l = n.norm();
+                if l > 0.0 { n / l } else { n }
+            })
+            .collect();
         Ok(Wall {
             bvh,
+            normals,
             region,
             wall_only,
         })
@@ -77,6 +88,89 @@ impl Wall {
     /// Every crossing of the ray o + t·d (d unit), up to `max_t`, nearest first.
     pub fn hits(&self, o: &Point3, d: &Vector3, max_t: f64) -> Vec<f64> {
         crossings(&self.bvh, o, d, max_t)
+    }
+
+    /// The nearest crossing of the ray o + t·d (d unit) up to `max_t`: its
+    /// distance, the crossed triangle's unit normal and whether that triangle
+    /// is wall proper (not a cap). A ray along a mesh edge that slips
+    /// between two triangles is nudged by a microradian.
+    pub fn first_crossing(&self, o: &Point3, d: &Vector3, max_t: f64) -> Option<Crossing> {
+        let side = d.cross(&Vector3::new(0.3, 0.5, 0.8)).normalize();
+        for nudge in [0.0, 1e-6, -1e-6, 3e-6] {
+            let dir = (d + side * nudge).normalize();
+            let ray = Ray::new(g(o), GVec::new(dir.x, dir.y, dir.z));
+            if let Some(hit) = self.bvh.cast_local_ray_and_get_normal(&ray, max_t, false) {
+                let nt = self.normals.len().max(1);
+                // The crossed triangle of the mesh (its own normal and
+                // region, whichever side the ray came from).
+                let t = hit.subshape as usize % nt;
+                let on_wall = self
+                    .region
+                    .as_ref()
+                    .is_none_or(|r| r.get(t).copied() == Some(0));
+                let normal = self
+                    .normals
+                    .get(t)
+                    .copied()
+                    .unwrap_or_else(|| Vector3::new(hit.normal.x, hit.normal.y, hit.normal.z));
+                return Some(Crossing {
+                    t: hit.time_of_impact,
+                    normal,
+                    on_wall,
+                });
+            }
+        }
+        None
+    }
+
+    /// Whether `p` lies inside the closed surface: the parity of the
+    /// crossings of three rays, by majority (a ray along an edge or
+    /// through a vertex can count one crossing twice or none).
+    pub fn contains(&self, p: &Point3) -> bool {
+        let dirs = [
+            Vector3::new(0.5773, 0.5774, 0.5774),
+            Vector3::new(-0.6, 0.48, -0.64),
+            Vector3::new(0.28, -0.96, 0.0),
+        ];
+        let inside = dirs
+            .iter()
+            .filter(|d| {
+                let d = d.normalize();
+                let mut n = 0usize;
+                let mut start = 0.0;
+                let dir = GVec::new(d.x, d.y, d.z);
+                while n < 10_000 {
+                    let ray = Ray::new(g(&(p + d * start)), dir);
+                    match self.bvh.cast_local_ray(&ray, f64::MAX, false) {
+                        Some(t) => {
+                            n += 1;
+                            start += t + 1e-7;
+                        }
+                        None => break,
+                    }
+                }
+                n % 2 == 1
+            })
+            .count();
+        inside >= 2
+    }
+
+    /// Where a ray from inside the lumen leaves it for good: crossings come
+    /// in exit/entry pairs, and an exit followed within `CLEFT_MM` by a
+    /// re-entry is a cleft in the lumen (a segmentation leaves the native
+    /// cusps out: on a diastolic CT they cut thin slits up from the
+    /// annulus), not the wall.
+    pub fn lumen_exit(&self, o: &Point3, d: &Vector3, max_t: f64) -> Option<Crossing> {
+        let mut start = 0.0;
+        for _ in 0..8 {
+            let exit = self.first_crossing(&(o + d * start), d, max_t - start)?;
+            let t_exit = start + exit.t;
+            match self.first_crossing(&(o + d * (t_exit + 1e-6)), d, CLEFT_MM) {
+                Some(entry) => start = t_exit + 1e-6 + entry.t + 1e-6,
+                None => return Some(Crossing { t: t_exit, ..exit }),
+            }
+        }
+        None
     }
 
     /// Radial projection: the crossing of the ray nearest to `r_expect`,
@@ -118,6 +212,17 @@ impl Wall {
             None => n(wall.project_local_point(g(&(o + d * r_expect)), true).point),
         }
     }
+}
+
+/// Largest gap (mm) in the lumen along a ray that counts as a cleft.
+pub const CLEFT_MM: f64 = 4.0;
+
+/// One ray crossing of the surface.
+#[derive(Debug, Clone, Copy)]
+pub struct Crossing {
+    pub t: f64,
+    pub normal: Vector3,
+    pub on_wall: bool,
 }
 
 /// A cap crossing this close to the wall (mm) is where the cap meets the

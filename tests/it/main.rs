@@ -13,6 +13,7 @@ mod phantom;
 mod real_ct;
 mod real_ct_variants;
 mod real_segment;
+mod real_valve;
 mod report;
 mod report_html;
 mod runner;

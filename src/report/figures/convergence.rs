@@ -6,11 +6,16 @@ use crate::report::Figure;
 
 /// `history`: (iteration, residual N); `max_force`: (iteration, largest
 /// nodal force N). Values ≤ 0 or not finite cannot sit on a log axis and
-/// are left out; with nothing left the figure says so.
+/// are left out; with nothing left the figure says so. `solver`: the
+/// solver's own final residual (N) and verdict, when it recorded them: the
+/// history's last entry is the residual before the last step, and the
+/// solver's test may be relative to the initial residual, so only the
+/// solver can say whether it converged.
 pub fn convergence(
     history: &[(usize, f64)],
     max_force: &[(usize, f64)],
     tolerance_n: Option<f64>,
+    solver: Option<(f64, bool)>,
 ) -> Figure {
     let mut c = XyChart::new(
         "convergence",
@@ -38,6 +43,14 @@ pub fn convergence(
         .find(|(_, r)| r.is_finite())
         .map(|&(i, r)| (i as usize, r));
     c.caption = match (last, tol) {
+        (Some((i, _)), Some(t)) if solver.is_some() => {
+            let (r, ok) = solver.unwrap();
+            format!(
+                "Residual force (N) of the closure solver per iteration, log scale; dashed red line: the tolerance \
+                 ({t:.3e} N). Final residual {r:.3e} N after {i} iterations: {}.",
+                if ok { "converged" } else { "not converged" }
+            )
+        }
         (Some((i, r)), Some(t)) => format!(
             "Residual force (N) of the closure solver per iteration, log scale; dashed red line: the tolerance \
              ({t:.3e} N). Last residual {r:.3e} N after {i} iterations: {}.",
@@ -87,13 +100,21 @@ mod tests {
     fn residual_and_tolerance_are_drawn_and_captioned() {
         let h: Vec<(usize, f64)> = (0..30).map(|i| (i, 10f64.powf(-0.2 * i as f64))).collect();
         let m: Vec<(usize, f64)> = h.iter().map(|&(i, r)| (i, 0.3 * r)).collect();
-        let f = convergence(&h, &m, Some(1e-7));
+        let f = convergence(&h, &m, Some(1e-7), None);
         assert!(f.caption.contains("above the tolerance"), "{}", f.caption);
+        // The solver's own verdict wins over the history's last entry
+        // (recorded before the last step).
+        let f3 = convergence(&h, &m, Some(1e-7), Some((3.4e-9, true)));
+        assert!(
+            f3.caption.contains("3.400e-9 N") && f3.caption.contains(": converged."),
+            "{}",
+            f3.caption
+        );
         let img = decode(&f.png);
         assert!(count(&img, [0, 114, 178]) > 200);
         assert!(count(&img, [213, 94, 0]) > 200);
         assert!(count(&img, [200, 30, 40]) > 100);
-        let f2 = convergence(&h[..25], &[], Some(1e-4));
+        let f2 = convergence(&h[..25], &[], Some(1e-4), None);
         assert!(f2.caption.contains("below the tolerance"));
     }
 
@@ -108,10 +129,19 @@ mod tests {
 
     #[test]
     fn empty_and_non_positive_histories_do_not_panic() {
-        assert!(convergence(&[], &[], None).caption.starts_with("Not drawn"));
-        let f = convergence(&[(0, 0.0), (1, -1.0), (2, f64::NAN)], &[], Some(f64::NAN));
+        assert!(
+            convergence(&[], &[], None, None)
+                .caption
+                .starts_with("Not drawn")
+        );
+        let f = convergence(
+            &[(0, 0.0), (1, -1.0), (2, f64::NAN)],
+            &[],
+            Some(f64::NAN),
+            None,
+        );
         assert!(f.caption.starts_with("Not drawn"));
-        let f = convergence(&[(0, 1.0)], &[], Some(0.0));
+        let f = convergence(&[(0, 1.0)], &[], Some(0.0), None);
         assert!(!f.caption.starts_with("Not drawn"));
     }
 }

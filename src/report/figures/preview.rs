@@ -127,7 +127,16 @@ fn render_sample_run() {
             .parse()
             .ok()
     });
-    let (conv, ms) = best_of_3(|| super::convergence(&get("residual_n"), &get("max_force_n"), tol));
+    let (conv, ms) = best_of_3(|| {
+        super::convergence(
+            &get("residual_n"),
+            &get("max_force_n"),
+            tol,
+            closure["solver"]["residual_n"]
+                .as_f64()
+                .zip(closure["solver"]["converged"].as_bool()),
+        )
+    });
     println!("convergence: {ms}");
     let cam = crate::report::raster::Camera::fit(-f.axis, f.e1, &v.x, 600, 600, 10.0, f.origin_mm)
         .expect("camera");
