@@ -361,8 +361,10 @@ pub fn segment(
     // ellipses, and a ring around the circle found in one lies partly in
     // the lumen (at 60°, 70 % of it): the wall is the median of the ring's
     // part outside the ellipse, the quantile (1 − inside)/2 of the ring.
-    let wall_quantile = match (found.direction, found.track.first()) {
-        (Some(d), Some(t)) => 0.5 * (1.0 - ring_inside_ellipse(d.z.abs().acos(), t.r_mm)),
+    // A track that went on from its first circle met near-circular cuts
+    // (the radius may change by 20 % a slice): there the plain median holds.
+    let wall_quantile = match (found.direction, found.track.as_slice()) {
+        (Some(d), [t]) => 0.5 * (1.0 - ring_inside_ellipse(d.z.abs().acos(), t.r_mm)),
         _ => 0.5,
     };
     for t in found.track.iter().step_by(stride) {
@@ -637,8 +639,14 @@ pub fn segment(
         trimmed_above_commissures_mm: None,
         euler_after_trim: None,
     };
-    if let (Some(c), true) = (&commissures3, topology.euler != 1) {
-        let top = c.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
+    // Without commissures they are taken 20 mm above the VAJ plane (adult
+    // commissures stand 15–22 mm above the annulus).
+    let commissure_top = match (&commissures3, vaj_report.plane.as_ref()) {
+        (Some(c), _) => Some(c.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max)),
+        (None, Some(pl)) => Some(pl.point_mm[2] + 20.0),
+        (None, None) => None,
+    };
+    if let (Some(top), true) = (commissure_top, topology.euler != 1) {
         for (v, kv) in keep.iter_mut().enumerate() {
             if *kv && world(v).z > top + TRIM_ABOVE_MM {
                 *kv = false;
