@@ -158,7 +158,13 @@ pub struct Section {
     /// How far the plane was lifted along its normal to be bounded by the
     /// wall all round (annulus only).
     pub lift_mm: f64,
+    /// Rays that met no bounding wall and took their neighbours' length
+    /// (at most one in [`MAX_MISSED_FRACTION`]).
+    pub rays_interpolated: usize,
 }
+
+/// A section is measured when at most one ray in this many misses the wall.
+pub const MAX_MISSED_FRACTION: usize = 12;
 
 /// Section in the plane through `o` with unit normal `n`, `k` rays. When
 /// some ray meets no bounding wall, the whole plane is lifted along `n` by
@@ -178,21 +184,44 @@ pub fn plane_section(
     let e1 = (e1 - n * e1.dot(n)).normalize();
     let e2 = n.cross(&e1);
     let mut failed = 0.0;
-    'lift: for &lift in lifts {
-        let mut pts = Vec::with_capacity(k);
-        let mut sum = 0.0;
+    for &lift in lifts {
         let ol = o + n * lift;
-        for j in 0..k {
-            let a = 2.0 * PI * j as f64 / k as f64;
-            let d = e1 * a.cos() + e2 * a.sin();
-            let Some(t) = bounding(wall, &ol, &d, n, max_t) else {
-                failed = a;
-                continue 'lift;
-            };
-            sum += t;
-            pts.push([t * a.cos(), t * a.sin()]);
+        let ts: Vec<Option<f64>> = (0..k)
+            .map(|j| {
+                let a = 2.0 * PI * j as f64 / k as f64;
+                bounding(wall, &ol, &(e1 * a.cos() + e2 * a.sin()), n, max_t)
+            })
+            .collect();
+        let missed = ts.iter().filter(|t| t.is_none()).count();
+        if missed > k / MAX_MISSED_FRACTION {
+            failed = 2.0 * PI * ts.iter().position(|t| t.is_none()).unwrap_or(0) as f64 / k as f64;
+            continue;
         }
-        return Ok(section_stats(&pts, sum / k as f64, height_mm, lift));
+        // A few rays grazing the rim of a cap or a mask's ragged end take
+        // the length between their neighbours'.
+        let ts: Vec<f64> = (0..k)
+            .map(|j| {
+                ts[j].unwrap_or_else(|| {
+                    let step = |dir: usize| {
+                        (1..k).find_map(|m| ts[(j + dir * m) % k].map(|t| (m as f64, t)))
+                    };
+                    let ((ma, ta), (mb, tb)) = (
+                        step(1).expect("some ray hit"),
+                        step(k - 1).expect("some ray hit"),
+                    );
+                    (ta * mb + tb * ma) / (ma + mb)
+                })
+            })
+            .collect();
+        let pts: Vec<[f64; 2]> = (0..k)
+            .map(|j| {
+                let a = 2.0 * PI * j as f64 / k as f64;
+                [ts[j] * a.cos(), ts[j] * a.sin()]
+            })
+            .collect();
+        let mut sec = section_stats(&pts, ts.iter().sum::<f64>() / k as f64, height_mm, lift);
+        sec.rays_interpolated = missed;
+        return Ok(sec);
     }
     Err(failed)
 }
@@ -226,6 +255,7 @@ fn section_stats(pts: &[[f64; 2]], mean: f64, height_mm: f64, lift: f64) -> Sect
         max_diameter_mm: dmax,
         perpendicular_diameter_mm: width,
         lift_mm: lift,
+        rays_interpolated: 0,
     }
 }
 
