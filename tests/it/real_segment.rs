@@ -394,8 +394,11 @@ fn real_ct_chain_runs_to_an_honest_report() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let run = d.join("run");
     let valve = json(&run.join("valve.json"));
-    // TotalSegmentator's report: annulus 27 mm across.
-    let annulus = 2.0 * valve["radii"]["annulus_mm"].as_f64().unwrap();
+    // TotalSegmentator's report: annulus 27 mm across (CT sizing reads the
+    // area-derived diameter of the annulus section).
+    let annulus = valve["sections"]["annulus"]["equivalent_diameter_mm"]
+        .as_f64()
+        .unwrap();
     assert!(
         (annulus - 27.0).abs() <= 2.0,
         "annulus {annulus:.1} mm across"
