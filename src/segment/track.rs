@@ -311,6 +311,27 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
         }
     }
     if let Some(one) = first {
+        // The descending aorta runs beside the spine: where the same
+        // circle is judged bone-rimmed on other levels, the only lumen is
+        // that vessel, and taking it would segment the wrong aorta.
+        let (w1, c1) = one.lumens[0];
+        let beside_bone = searched.iter().flat_map(|l| &l.candidates).find(|c| {
+            c.verdict.contains("bone")
+                && (c.centre_mm[0] - w1.x).hypot(c.centre_mm[1] - w1.y) <= SAME_VESSEL_MM
+        });
+        if let Some(b) = beside_bone {
+            return Err(Error::failed(
+                "segment",
+                format!(
+                    "the only contrast lumen found on the axial levels (r {:.1} mm at {:.0}, {:.0}, {:.0} mm LPS) has a bone-bright rim {:.0} mm lower or higher: it is the descending aorta beside the spine, and no ascending aorta was found; give the landmarks C1–C3 on the aortic root",
+                    c1.r_mm,
+                    w1.x,
+                    w1.y,
+                    w1.z,
+                    (b.centre_mm[2] - w1.z).abs()
+                ),
+            ));
+        }
         chosen = Some((
             one,
             0,
