@@ -25,7 +25,7 @@ pub static SPEC: StageSpec = StageSpec {
             file: "landmarks.mrk.json",
             kind: ArtifactKind::Landmarks,
             required: false,
-            help: "optional: commissures confirm the seed, nadirs N1–N3 give the VAJ plane",
+            help: "optional: commissures C1–C3 seed the segmentation and bound its region, nadirs N1–N3 give the VAJ plane",
         },
     ],
     outputs: &[
