@@ -187,39 +187,10 @@ pub fn erode(a: &[bool], dims: [usize; 3]) -> Vec<bool> {
     a.iter().zip(&b).map(|(&x, &y)| x && !y).collect()
 }
 
-/// The 6-connected component of `inside` containing `seed`.
-pub fn component(inside: &[bool], [ni, nj, nk]: [usize; 3], seed: usize) -> Vec<bool> {
-    let mut out = vec![false; inside.len()];
-    let mut stack = vec![seed];
-    out[seed] = true;
-    while let Some(l) = stack.pop() {
-        let (i, j, k) = (l % ni, (l / ni) % nj, l / (ni * nj));
-        let mut visit = |m: usize| {
-            if inside[m] && !out[m] {
-                out[m] = true;
-                stack.push(m);
-            }
-        };
-        if i > 0 {
-            visit(l - 1);
-        }
-        if i + 1 < ni {
-            visit(l + 1);
-        }
-        if j > 0 {
-            visit(l - ni);
-        }
-        if j + 1 < nj {
-            visit(l + ni);
-        }
-        if k > 0 {
-            visit(l - ni * nj);
-        }
-        if k + 1 < nk {
-            visit(l + ni * nj);
-        }
-    }
-    out
+/// The 6-connected component of `inside` containing `seed` (the stage's
+/// own flood fill).
+pub fn component(inside: &[bool], dims: [usize; 3], seed: usize) -> Vec<bool> {
+    coapt::segment::morphology::flood_fill(inside, dims, seed)
 }
 
 /// Numpy's default percentile: linear between order statistics at
