@@ -13,17 +13,7 @@ fn clinical() -> &'static Phantom {
     P.get_or_init(|| generate(&PhantomParams::new(Preset::Clinical, SEED), &|_| {}).unwrap())
 }
 
-fn anatomy_of(params: &PhantomParams) -> anatomy::Anatomy {
-    let (dims, spacing) = params.grid_shape();
-    anatomy::Anatomy::new(
-        params.seed,
-        params.tilt_rad,
-        [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]),
-        params.extras(),
-    )
-    .unwrap()
-    .0
-}
+use super::tests::anatomy_of;
 
 /// Trilinear CT value at a world point.
 fn sample_ct(ct: &Volume<i16>, p: &Point3) -> f64 {

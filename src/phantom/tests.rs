@@ -14,7 +14,7 @@ fn sample() -> &'static Phantom {
 }
 
 /// Rebuild the analytic lumen the phantom was made from.
-fn anatomy_of(params: &PhantomParams) -> anatomy::Anatomy {
+pub(super) fn anatomy_of(params: &PhantomParams) -> anatomy::Anatomy {
     let (dims, spacing) = params.grid_shape();
     anatomy::Anatomy::new(
         params.seed,
