@@ -245,9 +245,10 @@ fn root_slab(
 }
 
 /// Most volume of the mask, in tubes of the tracked radius over its length:
-/// the sinuses add about a fifth to the root + ascending aorta (1.0–1.2 on
-/// the real CT and the phantoms); the left atrium or the ventricle behind a
-/// leak add one to three times more.
+/// the sinuses and the tilt add up to half to the root + ascending aorta
+/// (0.86–1.43 on the real CT's crops and copies, 1.25–1.32 on sample t60);
+/// the left atrium or the ventricle behind a leak add one to three times
+/// more (2.6 and 2.9 on the real CT's leaking crops).
 const MAX_TUBE_RATIO: f64 = 2.0;
 
 /// Height above the highest commissure (mm, head–feet) where a mask with
