@@ -153,3 +153,51 @@ pub fn dice(mask: &Volume<u8>, truth: &Volume<u8>) -> f64 {
     let t_n = truth.as_slice().iter().filter(|&&v| v != 0).count();
     2.0 * inter as f64 / (m_n + t_n) as f64
 }
+
+/// Run the whole chain (`coapt run`) into `dir/run` with the committed
+/// template and closure config, `inputs` added to `[inputs]` and `extra`
+/// appended (e.g. a `[phantom]` section); the run directory.
+pub fn run_default_chain(dir: &Path, inputs: &[(&str, &Path)], extra: &str) -> PathBuf {
+    let p = repo().join("pipelines");
+    let mut text = format!(
+        "[run]\ndir = \"{}\"\n\n[inputs]\n",
+        dir.join("run").display()
+    );
+    for (k, v) in inputs {
+        text += &format!("{k} = \"{}\"\n", v.display());
+    }
+    text += &format!(
+        "template = \"{}\"\nconfig = \"{}\"\n{extra}",
+        p.join("templates/ozaki_default.toml").display(),
+        p.join("close.toml").display()
+    );
+    let cfg = dir.join("chain.toml");
+    std::fs::write(&cfg, text).unwrap();
+    let o = coapt(&["run", &s(&cfg), "--quiet"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    dir.join("run")
+}
+
+/// A report's verdict is its criteria's conjunction, a valve that does not
+/// close is never green, and the solver converged.
+pub fn assert_honest_verdict(report: &serde_json::Value) {
+    let all = report["verdict"]["meets_all_criteria"].as_bool().unwrap();
+    let criteria = report["criteria"].as_array().unwrap();
+    assert_eq!(
+        all,
+        criteria.iter().all(|c| c["pass"].as_bool() == Some(true)),
+        "{report}"
+    );
+    if report["metrics"]["closed"].as_bool() == Some(false) {
+        assert!(
+            !all,
+            "an open valve meets all criteria: {}",
+            report["verdict"]
+        );
+    }
+    assert!(
+        report["solver"]["converged"].as_bool().unwrap(),
+        "{}",
+        report["solver"]
+    );
+}
