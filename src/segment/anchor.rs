@@ -11,7 +11,9 @@
 //! Works on a grid whose k axis points to the head ([`crate::geom::resample`]).
 
 use super::hough::{HoughParams, circleness};
-use super::track::{Found, TrackPoint, annulus_values, median, slice_f32, track_step};
+use super::track::{
+    Found, TrackPoint, annulus_values, best_circle_near, median, slice_f32, track_step,
+};
 use crate::geom::{Point3, Vector3, Volume};
 use crate::{Error, Result};
 
@@ -118,49 +120,25 @@ fn anchor_circle(
     r: f64,
     hp: &HoughParams,
 ) -> std::result::Result<TrackPoint, String> {
-    let [ni, nj, _] = ct.dims();
     let sp = ct.spacing();
-    let half = (ANCHOR_SHIFT + ANCHOR_R.1) * r + 3.0 * hp.sigma_mm;
-    let (hi, hj) = ((half / sp[0]).ceil() as i64, (half / sp[1]).ceil() as i64);
-    let i0 = (at.0.round() as i64 - hi).clamp(0, ni as i64 - 1) as usize;
-    let i1 = (at.0.round() as i64 + hi).clamp(0, ni as i64 - 1) as usize;
-    let j0 = (at.1.round() as i64 - hj).clamp(0, nj as i64 - 1) as usize;
-    let j1 = (at.1.round() as i64 + hj).clamp(0, nj as i64 - 1) as usize;
-    let (wi, wj) = (i1 - i0 + 1, j1 - j0 + 1);
-    if wi < 3 || wj < 3 {
-        return Err("at the edge of the scan".into());
-    }
-    let full = slice_f32(ct, k);
-    let mut win = vec![0f32; wi * wj];
-    for j in 0..wj {
-        for i in 0..wi {
-            win[i + j * wi] = full[i0 + i + (j0 + j) * ni];
-        }
-    }
-    let p = HoughParams {
-        r_min_mm: ANCHOR_R.0 * r,
-        r_max_mm: ANCHOR_R.1 * r,
-        ..*hp
-    };
-    let map = circleness(&win, wi, wj, sp[0], sp[1], &p);
-    let (ci, cj) = (at.0 - i0 as f64, at.1 - j0 as f64);
-    let mut best: Option<(f32, usize)> = None;
-    for j in 0..wj {
-        for i in 0..wi {
-            let v = i + j * wi;
-            let (a, b) = ((i as f64 - ci) * sp[0], (j as f64 - cj) * sp[1]);
-            if a.hypot(b) <= ANCHOR_SHIFT * r && best.is_none_or(|(c, _)| map.c[v] > c) {
-                best = Some((map.c[v], v));
-            }
-        }
-    }
-    let (c, v) = best.ok_or("no pixel near the axis")?;
+    let w = best_circle_near(
+        ct,
+        k,
+        at,
+        (ANCHOR_SHIFT + ANCHOR_R.1) * r + 3.0 * hp.sigma_mm,
+        (ANCHOR_R.0 * r, ANCHOR_R.1 * r),
+        ANCHOR_SHIFT * r,
+        hp,
+    )
+    .ok_or("at the edge of the scan")?;
+    let (c, v, map, win, wi, wj) = (w.c, w.v, &w.map, &w.win, w.wi, w.wj);
+    let (i0, j0) = (w.i0, w.j0);
     if (c as f64) < C_ANCHOR {
         return Err(format!("circleness {c:.2} < {C_ANCHOR}"));
     }
     let circ = map.refine(v % wi, v / wi, map.r_mm[v] as f64);
     let inside = median(&mut annulus_values(
-        &win,
+        win,
         wi,
         wj,
         [sp[0], sp[1]],

@@ -417,16 +417,71 @@ pub(super) fn track_step(
     last: &TrackPoint,
     hp: &HoughParams,
 ) -> Option<TrackPoint> {
+    let r = last.r_mm;
+    let w = best_circle_near(
+        ct,
+        k,
+        (last.i, last.j),
+        (TRACK_SHIFT + 1.0 + TRACK_DR) * r + 3.0 * hp.sigma_mm,
+        (r * (1.0 - TRACK_DR), r * (1.0 + TRACK_DR)),
+        TRACK_SHIFT * r,
+        hp,
+    )?;
+    let rr = w.map.r_mm[w.v] as f64;
+    if (w.c as f64) < C_TRACK || (rr - r).abs() / r >= TRACK_DR {
+        return None;
+    }
+    let circ = w.map.refine(w.v % w.wi, w.v / w.wi, rr);
+    Some(TrackPoint {
+        k,
+        i: circ.i + w.i0 as f64,
+        j: circ.j + w.j0 as f64,
+        r_mm: circ.r_mm,
+        c: w.c as f64,
+    })
+}
+
+/// The circleness peak nearest a point of a slice, searched in a window.
+pub(super) struct WindowPeak {
+    /// The window's HU (i fastest), its origin in the slice and its width.
+    pub win: Vec<f32>,
+    pub i0: usize,
+    pub j0: usize,
+    pub wi: usize,
+    pub wj: usize,
+    pub map: CircleMap,
+    /// The peak's circleness and window index.
+    pub c: f32,
+    pub v: usize,
+}
+
+/// Circleness of radii `r_mm` in a window of slice `k` reaching `half_mm`
+/// around index point `at`, and its highest value within `shift_mm` of it;
+/// None when the window is under 3 pixels wide (the point at the scan's
+/// edge) or no pixel lies that near.
+pub(super) fn best_circle_near(
+    ct: &Volume<i16>,
+    k: usize,
+    at: (f64, f64),
+    half_mm: f64,
+    r_mm: (f64, f64),
+    shift_mm: f64,
+    hp: &HoughParams,
+) -> Option<WindowPeak> {
     let [ni, nj, _] = ct.dims();
     let sp = ct.spacing();
-    let r = last.r_mm;
-    let half = (TRACK_SHIFT + 1.0 + TRACK_DR) * r + 3.0 * hp.sigma_mm;
-    let (hi, hj) = ((half / sp[0]).ceil() as i64, (half / sp[1]).ceil() as i64);
-    let i0 = (last.i.round() as i64 - hi).max(0) as usize;
-    let i1 = (last.i.round() as i64 + hi).min(ni as i64 - 1) as usize;
-    let j0 = (last.j.round() as i64 - hj).max(0) as usize;
-    let j1 = (last.j.round() as i64 + hj).min(nj as i64 - 1) as usize;
+    let (hi, hj) = (
+        (half_mm / sp[0]).ceil() as i64,
+        (half_mm / sp[1]).ceil() as i64,
+    );
+    let i0 = (at.0.round() as i64 - hi).clamp(0, ni as i64 - 1) as usize;
+    let i1 = (at.0.round() as i64 + hi).clamp(0, ni as i64 - 1) as usize;
+    let j0 = (at.1.round() as i64 - hj).clamp(0, nj as i64 - 1) as usize;
+    let j1 = (at.1.round() as i64 + hj).clamp(0, nj as i64 - 1) as usize;
     let (wi, wj) = (i1 - i0 + 1, j1 - j0 + 1);
+    if wi < 3 || wj < 3 {
+        return None;
+    }
     let full = &ct.as_slice()[k * ni * nj..(k + 1) * ni * nj];
     let mut win = vec![0f32; wi * wj];
     for j in 0..wj {
@@ -435,34 +490,32 @@ pub(super) fn track_step(
         }
     }
     let p = HoughParams {
-        r_min_mm: r * (1.0 - TRACK_DR),
-        r_max_mm: r * (1.0 + TRACK_DR),
+        r_min_mm: r_mm.0,
+        r_max_mm: r_mm.1,
         ..*hp
     };
     let map = circleness(&win, wi, wj, sp[0], sp[1], &p);
-    let (ci, cj) = (last.i - i0 as f64, last.j - j0 as f64);
+    let (ci, cj) = (at.0 - i0 as f64, at.1 - j0 as f64);
     let mut best: Option<(f32, usize)> = None;
     for j in 0..wj {
         for i in 0..wi {
             let v = i + j * wi;
             let (a, b) = ((i as f64 - ci) * sp[0], (j as f64 - cj) * sp[1]);
-            if within(a, b, TRACK_SHIFT * r) && best.is_none_or(|(b, _)| map.c[v] > b) {
+            if within(a, b, shift_mm) && best.is_none_or(|(b, _)| map.c[v] > b) {
                 best = Some((map.c[v], v));
             }
         }
     }
     let (c, v) = best?;
-    let rr = map.r_mm[v] as f64;
-    if (c as f64) < C_TRACK || (rr - r).abs() / r >= TRACK_DR {
-        return None;
-    }
-    let circ = map.refine(v % wi, v / wi, rr);
-    Some(TrackPoint {
-        k,
-        i: circ.i + i0 as f64,
-        j: circ.j + j0 as f64,
-        r_mm: circ.r_mm,
-        c: c as f64,
+    Some(WindowPeak {
+        win,
+        i0,
+        j0,
+        wi,
+        wj,
+        map,
+        c,
+        v,
     })
 }
 
