@@ -108,6 +108,7 @@ pub fn from_commissures(ct: &Volume<i16>, c: &[Point3; 3], hp: &HoughParams) -> 
         track: up,
         top_map,
         direction: Some(axis),
+        level_radii: Vec::new(),
     })
 }
 

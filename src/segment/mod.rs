@@ -270,13 +270,17 @@ pub struct TubeCheck {
     pub ratio: f64,
 }
 
-/// Volume of `mask` over that of a tube of the track's median radius, as
-/// long as the mask's extent along the aorta (from the VAJ plane toward the
-/// seed, or along the head–feet axis without a plane).
+/// Volume of `mask` over that of a tube of the vessel's median radius (the
+/// track's circles and, without landmarks, the seed vessel's circles on the
+/// other searched levels: a seed on a marginal circle where the aorta bends
+/// into the arch tracked one slice of r 10.4 mm on the real CT's 1 mm copy,
+/// whose good mask then read as a leak), as long as the mask's extent along
+/// the aorta (from the VAJ plane toward the seed, or along the head–feet
+/// axis without a plane).
 fn tube_check(
     mask: &[bool],
     world: impl Fn(usize) -> Point3,
-    track: &[TrackPoint],
+    found: &track::Found,
     seed: &Point3,
     plane: Option<&vaj::Plane>,
     vox_ml: f64,
@@ -291,7 +295,8 @@ fn tube_check(
         hi = hi.max(h);
         n += 1;
     }
-    let mut radii: Vec<f64> = track.iter().map(|t| t.r_mm).collect();
+    let mut radii: Vec<f64> = found.track.iter().map(|t| t.r_mm).collect();
+    radii.extend_from_slice(&found.level_radii);
     let r = median(&mut radii);
     let length = if n > 0 { hi - lo } else { 0.0 };
     let tube_ml = std::f64::consts::PI * r * r * length / 1000.0;
@@ -474,7 +479,21 @@ pub fn segment(
         .iter()
         .filter_map(to_roi)
         .find(|&v| above[v])
-        .ok_or_else(|| Error::failed("segment", format!("the tracked aortic centre is below the threshold {threshold:.0} HU on every slice: no seed voxel")))?;
+        .ok_or_else(|| {
+            let s = track::world(ct, &found.track[0]);
+            Error::failed(
+                "segment",
+                format!(
+                    "the tracked aortic centre is below the threshold {threshold:.0} HU on every slice ({} tracked from the seed circle r {:.1} mm, circleness {:.2}, at {:.0}, {:.0}, {:.0} mm LPS): no seed voxel; landmarks C1–C3 on the aortic root let segment start there instead",
+                    found.track.len(),
+                    found.track[0].r_mm,
+                    found.track[0].c,
+                    s.x,
+                    s.y,
+                    s.z
+                ),
+            )
+        })?;
     let region = morphology::flood_fill(&above, dims, ground);
     drop(above);
     let vox_ml = roi_vol.voxel_volume() / 1000.0;
@@ -663,7 +682,7 @@ pub fn segment(
     let tube = tube_check(
         &keep,
         world,
-        &found.track,
+        &found,
         &seed_w,
         vaj_report.plane.as_ref(),
         vox_ml,

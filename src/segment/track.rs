@@ -47,6 +47,10 @@ pub struct Found {
     /// The aorta's direction where it is known (from the commissures): its
     /// axial cuts are ellipses stretched along its horizontal part.
     pub direction: Option<crate::geom::Vector3>,
+    /// Radii (mm) of the seed vessel's lumen circles on the other searched
+    /// levels (within [`SAME_VESSEL_MM`] of the seed in the axial plane):
+    /// the vessel's calibre where the track is short.
+    pub level_radii: Vec<f64>,
 }
 
 pub fn slice_f32(ct: &Volume<i16>, k: usize) -> Vec<f32> {
@@ -124,21 +128,32 @@ pub(super) fn in_ring(a: f64, b: f64, r0: f64, r1: f64) -> bool {
     }
 }
 
-/// Top unpadded slice: walk down while more than half of a slice equals its
-/// first pixel (scanner padding).
+/// Least body area (mm², pixels at or above [`BODY_HU`]) of the top slice
+/// searched: a neck slice holds 100–150 cm².
+const MIN_BODY_MM2: f64 = 5000.0;
+const BODY_HU: f32 = -500.0;
+
+/// Top slice showing the body: walk down while less than [`MIN_BODY_MM2`]
+/// of a slice is tissue. Scanner padding (−2048, −3024 HU) and the air
+/// the work grid puts beyond an oblique scan's corners are not tissue; the
+/// earlier rule (over half the slice equal to its first pixel) took the
+/// oblique copy of the real CT's corners for data and started 80 mm low,
+/// below the root.
 fn top_slice(ct: &Volume<i16>) -> (usize, isize) {
-    let nk = ct.dims()[2];
+    let [ni, nj, nk] = ct.dims();
+    let sp = ct.spacing();
     let up = ct.index_to_world([0.0, 0.0, (nk - 1) as f64]).z > ct.index_to_world([0.0; 3]).z;
     let (mut k, dk): (isize, isize) = if up { (nk as isize - 1, -1) } else { (0, 1) };
-    for _ in 0..nk / 2 {
-        let s = slice_f32(ct, k as usize);
-        let same = s.iter().filter(|&&v| v == s[0]).count();
-        if same * 2 <= s.len() {
-            break;
+    let need = (MIN_BODY_MM2 / (sp[0] * sp[1])).ceil() as usize;
+    let top = k;
+    while k >= 0 && (k as usize) < nk {
+        let s = &ct.as_slice()[k as usize * ni * nj..(k as usize + 1) * ni * nj];
+        if s.iter().filter(|&&v| v as f32 >= BODY_HU).count() >= need {
+            return (k as usize, dk);
         }
         k += dk;
     }
-    (k as usize, dk)
+    (top as usize, dk)
 }
 
 /// Spacing of the axial levels searched (mm) and how far below the top
@@ -262,6 +277,8 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
     };
     let mut searched = Vec::new();
     let mut first: Option<Level> = None;
+    // Where the levels after `first` begin in `searched`.
+    let mut first_at = 0;
     let mut chosen: Option<(Level, usize, String)> = None;
     let mut n = 0;
     while let Some(k) = level_k(n) {
@@ -289,10 +306,11 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
                 chosen = Some((level, aa, verdict));
             } else {
                 searched.push(level);
+                let (lv, at) = seed_on_chain(one, &mut searched, first_at);
                 chosen = Some((
-                    one,
-                    0,
-                    "ascending aorta (the only lumen on its level; the levels below show the descending aorta posterior of it)".into(),
+                    lv,
+                    at,
+                    "ascending aorta (the single lumen of a higher level, continued here; the levels below show the descending aorta posterior of it)".into(),
                 ));
             }
             break;
@@ -306,7 +324,10 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
                 ));
                 break;
             }
-            None if !level.lumens.is_empty() => first = Some(level),
+            None if !level.lumens.is_empty() => {
+                first_at = searched.len();
+                first = Some(level);
+            }
             None => searched.push(level),
         }
     }
@@ -332,10 +353,11 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
                 ),
             ));
         }
+        let (lv, at) = seed_on_chain(one, &mut searched, first_at);
         chosen = Some((
-            one,
-            0,
-            "ascending aorta (the only lumen, and no descending aorta seen below it)".into(),
+            lv,
+            at,
+            "ascending aorta (a single lumen from a higher level down, and no descending aorta seen below it)".into(),
         ));
     }
     let mut candidates: Vec<Candidate> =
@@ -382,6 +404,12 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
         }
     }
     candidates.extend(level_c);
+    let level_radii: Vec<f64> = searched
+        .iter()
+        .flat_map(|l| &l.lumens)
+        .filter(|(w, _)| (w.x - seed_w.x).hypot(w.y - seed_w.y) <= SAME_VESSEL_MM)
+        .map(|(_, c)| c.r_mm)
+        .collect();
     let k0 = level.k;
     let mut track = vec![TrackPoint {
         k: k0,
@@ -407,7 +435,67 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
         track,
         top_map: level.map,
         direction: None,
+        level_radii,
     })
+}
+
+/// Levels without the followed lumen that a chain bridges.
+const CHAIN_GAP: usize = 2;
+/// A seed circle this round is kept; a less round one is followed down.
+const C_ROUND: f64 = 0.6;
+
+/// The seed on the single lumen of level `one` followed down the levels
+/// after it (`searched` from index `from`, in search order; one lumen
+/// within [`SAME_VESSEL_MM`] of the last continues it): the first circle
+/// at least [`C_ROUND`] round, else the roundest, taken out of `searched`
+/// (`one` goes in its place). The first circle where the ascending aorta
+/// bends into the arch can be a marginal ellipse (the real CT at 1 and
+/// 2 mm: circleness 0.52–0.56, r 10 mm, at 2 mm its centre under the
+/// contrast threshold, so no seed voxel); 15 mm lower the same vessel is
+/// round (0.71–0.75, r 13.7 mm). Not the roundest of all: a seed in the
+/// middle of the ascending aorta (0.88, 35 mm lower) led the 1 mm copy's
+/// region into the left atrium.
+fn seed_on_chain(one: Level, searched: &mut [Level], from: usize) -> (Level, usize) {
+    if one.lumens[0].1.c >= C_ROUND {
+        return (one, 0);
+    }
+    let mut at = one.lumens[0].0;
+    let mut best: Option<(f64, usize, usize)> = None;
+    let mut missed = 0;
+    for (x, l) in searched.iter().enumerate().skip(from) {
+        let near: Vec<usize> = (0..l.lumens.len())
+            .filter(|&i| {
+                let w = l.lumens[i].0;
+                (w.x - at.x).hypot(w.y - at.y) <= SAME_VESSEL_MM
+            })
+            .collect();
+        match near[..] {
+            [i] => {
+                missed = 0;
+                at = l.lumens[i].0;
+                let c = l.lumens[i].1.c;
+                if best.is_none_or(|(b, _, _)| c > b) {
+                    best = Some((c, x, i));
+                }
+                if c >= C_ROUND {
+                    break;
+                }
+            }
+            // Up to [`CHAIN_GAP`] levels without the lumen (its circle
+            // under the circleness threshold in the bend: two levels on
+            // the real CT's 1 mm copy) are bridged; a second lumen near it
+            // ends the chain.
+            [] if missed < CHAIN_GAP => missed += 1,
+            _ => break,
+        }
+    }
+    match best.filter(|&(c, _, _)| c > one.lumens[0].1.c) {
+        Some((_, x, i)) => {
+            let lv = std::mem::replace(&mut searched[x], one);
+            (lv, i)
+        }
+        None => (one, 0),
+    }
 }
 
 /// The circle in slice `k` continuing `last`, if there is one.
