@@ -191,7 +191,8 @@ fn command() -> Command {
                     .arg(Arg::new("h-max").long("h-max").value_name("MM").default_value("3").value_parser(clap::value_parser!(f64)))
                     .arg(Arg::new("time-limit").long("time-limit").value_name("S").default_value("60").value_parser(clap::value_parser!(f64)).help("the solver's own limit per case; twice that plus 10 s counts as a hang"))
                     .arg(Arg::new("csv").long("csv").value_name("FILE").value_parser(clap::value_parser!(PathBuf)).help("one row per case"))
-                    .arg(Arg::new("only").long("only").value_name("I,J,…").value_delimiter(',').value_parser(clap::value_parser!(usize)).help("replay these cases of the seed's sequence (0-based indices, as in the CSV) instead of 0..N")),
+                    .arg(Arg::new("only").long("only").value_name("I,J,…").value_delimiter(',').value_parser(clap::value_parser!(usize)).help("replay these cases of the seed's sequence (0-based indices, as in the CSV) instead of 0..N"))
+                    .arg(Arg::new("plausible").long("plausible").action(clap::ArgAction::SetTrue).help("draw only from the plausible range: E 0.3–10 MPa, 40–120 mmHg, 0.2–0.8 mm, jittered but unsqueezed meshes (use with --h-max 2)")),
             )
             .subcommand(
                 Command::new("segment")
@@ -470,6 +471,11 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                         *b.get_one::<f64>("h-min").expect("has default"),
                         *b.get_one::<f64>("h-max").expect("has default"),
                     ),
+                    if b.get_flag("plausible") {
+                        &bench::stress_close::PLAUSIBLE
+                    } else {
+                        &bench::stress_close::HOSTILE
+                    },
                     limit,
                     &progress,
                 )?;

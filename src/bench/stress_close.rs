@@ -48,21 +48,55 @@ fn log_uniform(r: &mut SplitMix64, lo: f64, hi: f64) -> f64 {
     (r.range(lo.ln(), hi.ln())).exp()
 }
 
-/// The case `index` of the run `seed`; `h_range` bounds the mesh (mm).
-pub fn case(seed: u64, index: usize, h_range: (f64, f64)) -> Case {
+/// Where the physical parameters of the cases are drawn from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ranges {
+    pub pressure_mmhg: (f64, f64),
+    /// Drawn log-uniformly.
+    pub young_mpa: (f64, f64),
+    pub thickness_mm: (f64, f64),
+    /// Whether some triangles are squeezed toward degeneracy (height down
+    /// to 0.1 % of their size); the jitter (≤ 0.3 h) is always applied.
+    pub squeeze: bool,
+}
+
+/// The hostile ranges: far beyond any valve.
+pub const HOSTILE: Ranges = Ranges {
+    pressure_mmhg: (5.0, 200.0),
+    young_mpa: (0.01, 100.0),
+    thickness_mm: (0.1, 1.0),
+    squeeze: true,
+};
+
+/// The plausible ranges (issue "closure trust"): pericardium, fixed or
+/// fresh, 0.3–10 MPa; diastolic pressures 40–120 mmHg; 0.2–0.8 mm thick;
+/// the meshes an advancing front makes, jittered but not squeezed flat.
+/// With `--h-min 0.25 --h-max 2`.
+pub const PLAUSIBLE: Ranges = Ranges {
+    pressure_mmhg: (40.0, 120.0),
+    young_mpa: (0.3, 10.0),
+    thickness_mm: (0.2, 0.8),
+    squeeze: false,
+};
+
+/// The case `index` of the run `seed`; `h_range` bounds the mesh (mm),
+/// `ranges` the physics. The draws are the same in number and order for
+/// any ranges, so a seed's hostile cases keep their identity.
+pub fn case(seed: u64, index: usize, h_range: (f64, f64), ranges: &Ranges) -> Case {
     let mut r = SplitMix64::new(seed ^ (index as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
     // Burn one so neighbouring indices do not start from related states.
     r.next_u64();
+    let (p, e, t) = (ranges.pressure_mmhg, ranges.young_mpa, ranges.thickness_mm);
     Case {
         index,
         h_mm: log_uniform(&mut r, h_range.0, h_range.1),
         model: MODELS[(r.next_u64() % MODELS.len() as u64) as usize],
-        pressure_mmhg: r.range(5.0, 200.0),
-        young_mpa: log_uniform(&mut r, 0.01, 100.0),
-        thickness_mm: r.range(0.1, 1.0),
+        pressure_mmhg: r.range(p.0, p.1),
+        young_mpa: log_uniform(&mut r, e.0, e.1),
+        thickness_mm: r.range(t.0, t.1),
         bending: r.uniform() < 0.5,
         jitter: r.range(0.0, 0.3),
-        squeezed: r.range(0.0, 0.05),
+        squeezed: r.range(0.0, 0.05) * if ranges.squeeze { 1.0 } else { 0.0 },
         squeeze: r.range(0.9, 0.999),
         stream: r.next_u64(),
     }
@@ -336,6 +370,7 @@ pub fn run(
     seed: u64,
     indices: &[usize],
     h_range: (f64, f64),
+    ranges: &Ranges,
     time_limit_s: f64,
     on_done: &(dyn Fn(&Run) + Sync),
 ) -> Result<Summary> {
@@ -348,7 +383,7 @@ pub fn run(
     let results = indices
         .par_iter()
         .map(|&i| {
-            let r = run_case(&case(seed, i, h_range), time_limit_s);
+            let r = run_case(&case(seed, i, h_range, ranges), time_limit_s);
             on_done(&r);
             r
         })
@@ -362,9 +397,17 @@ mod tests {
 
     #[test]
     fn cases_are_reproducible_and_span_the_ranges() {
-        assert_eq!(case(7, 3, (0.25, 3.0)), case(7, 3, (0.25, 3.0)));
-        assert_ne!(case(7, 3, (0.25, 3.0)), case(7, 4, (0.25, 3.0)));
-        let cs: Vec<Case> = (0..500).map(|i| case(1, i, (0.25, 3.0))).collect();
+        assert_eq!(
+            case(7, 3, (0.25, 3.0), &HOSTILE),
+            case(7, 3, (0.25, 3.0), &HOSTILE)
+        );
+        assert_ne!(
+            case(7, 3, (0.25, 3.0), &HOSTILE),
+            case(7, 4, (0.25, 3.0), &HOSTILE)
+        );
+        let cs: Vec<Case> = (0..500)
+            .map(|i| case(1, i, (0.25, 3.0), &HOSTILE))
+            .collect();
         let span = |f: fn(&Case) -> f64| {
             let v: Vec<f64> = cs.iter().map(f).collect();
             (
@@ -383,9 +426,30 @@ mod tests {
         }
     }
 
+    /// The plausible cases are the hostile ones' draws mapped into the
+    /// plausible ranges: same laws, meshes and bending per index, physics
+    /// within range, nothing squeezed.
+    #[test]
+    fn plausible_cases_stay_in_range_and_keep_their_draws() {
+        for i in 0..300 {
+            let (h, p) = (
+                case(1, i, (0.25, 2.0), &HOSTILE),
+                case(1, i, (0.25, 2.0), &PLAUSIBLE),
+            );
+            assert_eq!(
+                (h.h_mm, h.model, h.bending, h.jitter, h.stream),
+                (p.h_mm, p.model, p.bending, p.jitter, p.stream)
+            );
+            assert!((40.0..=120.0).contains(&p.pressure_mmhg), "{p:?}");
+            assert!((0.3..=10.0).contains(&p.young_mpa), "{p:?}");
+            assert!((0.2..=0.8).contains(&p.thickness_mm), "{p:?}");
+            assert_eq!(p.squeezed, 0.0);
+        }
+    }
+
     #[test]
     fn squeezing_makes_nearly_flat_triangles_and_keeps_sutures() {
-        let mut c = case(3, 0, (1.0, 1.0));
+        let mut c = case(3, 0, (1.0, 1.0), &HOSTILE);
         c.squeezed = 0.05;
         c.squeeze = 0.999;
         c.jitter = 0.3;
@@ -425,7 +489,7 @@ mod tests {
     fn hostile_cases_end_converged_or_explained() {
         let seen = std::sync::Mutex::new(Vec::new());
         let all: Vec<usize> = (0..8).collect();
-        let s = run(11, &all, (1.0, 3.0), 20.0, &|r| {
+        let s = run(11, &all, (1.0, 3.0), &HOSTILE, 20.0, &|r| {
             seen.lock().unwrap().push(r.case.index)
         })
         .unwrap();
@@ -435,7 +499,7 @@ mod tests {
         seen.sort();
         assert_eq!(seen, all);
         // A case replayed alone ends as it did among the others.
-        let again = run(11, &[5], (1.0, 3.0), 20.0, &|_| {}).unwrap();
+        let again = run(11, &[5], (1.0, 3.0), &HOSTILE, 20.0, &|_| {}).unwrap();
         let (a, b) = (&again.results[0], &s.results[5]);
         assert_eq!(a.case, b.case);
         assert_eq!(a.verdict, b.verdict);
