@@ -128,8 +128,8 @@ def their_planes(x_ref, boundary):
     sut = x_ref[boundary == 1]
     mid_dir = sut[:, :2].mean(axis=0)
     mid = math.atan2(mid_dir[1], mid_dir[0])
-    rel = np.angle(np.exp(1j * (np.arctan2(sut[:, 1], sut[:, 0]) - mid)))
-    centre = mid + 0.5 * (rel.min() + rel.max())
+    da = np.angle(np.exp(1j * (np.arctan2(sut[:, 1], sut[:, 0]) - mid)))
+    centre = mid + 0.5 * (da.min() + da.max())
     normals = []
     for side in (-1.0, 1.0):
         a = centre + side * math.pi / 3.0
