@@ -28,6 +28,7 @@ pub mod raster;
 pub mod stage;
 pub mod symmetry;
 pub mod valve;
+pub mod verdict;
 
 pub use figure::Figure;
 pub use valve::ClosedValve;
