@@ -10,6 +10,7 @@
 //!   (`clip.rs`); `symmetry.rs` completes a one-leaflet closure.
 //! - `metrics.rs`: heights, areas, effective height, billowing; `orifice.rs`
 //!   the uncovered lumen; `criteria.rs` the surgical criteria;
+//!   `verdict.rs` the answer (met, fails, not assessable and why);
 //!   `document.rs` report.json.
 //! - `raster.rs` and `figures/`: the software rasteriser and the figures;
 //!   `html.rs`: the page; `stage.rs`: the stage.

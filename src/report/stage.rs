@@ -433,13 +433,12 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     // An extra closure at a low pressure (the seeds measure h_E at 3 mmHg),
     // when the close stage was asked for one: its effective height beside
     // the loaded one, and its leaflets count for the STJ bound too.
-    let pressures = Pressures {
+    let mut pressures = Pressures {
         closing_mmhg: log
             .as_ref()
             .and_then(|l| l["config"]["pressure_mmhg"].as_f64()),
         low_mmhg: None,
     };
-    let mut pressures = pressures;
     if let Some(low) = load::low_pressure_positions(&closed, cpath)? {
         let mut x = low;
         if let Some((w, _)) = &completed {
