@@ -310,6 +310,7 @@ fn value_name(kind: ParamKind) -> &'static str {
             crate::units::Kind::Force => "FORCE",
             crate::units::Kind::Time => "TIME",
             crate::units::Kind::LineForce => "FORCE/LENGTH",
+            crate::units::Kind::Area => "AREA",
         },
         ParamKind::Lengths3 => "\"X, Y, Z mm\"",
         ParamKind::Int { .. } => "N",

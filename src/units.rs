@@ -31,6 +31,8 @@ pub enum Kind {
     Time,
     /// Force per length. Internal unit: N/mm (the suturing force's K).
     LineForce,
+    /// Internal unit: mm² (the regurgitant orifice bound).
+    Area,
 }
 
 impl Kind {
@@ -43,6 +45,7 @@ impl Kind {
             Kind::Force => "force",
             Kind::Time => "time",
             Kind::LineForce => "force per length",
+            Kind::Area => "area",
         }
     }
 
@@ -55,6 +58,7 @@ impl Kind {
             Kind::Force => "\"1e-7 N\"",
             Kind::Time => "\"600 s\"",
             Kind::LineForce => "\"1 N/m\"",
+            Kind::Area => "\"1 mm2\" or \"0.01 cm2\"",
         }
     }
 
@@ -68,6 +72,7 @@ impl Kind {
             Kind::Force => "N",
             Kind::Time => "s",
             Kind::LineForce => "N/mm",
+            Kind::Area => "mm2",
         }
     }
 
@@ -98,6 +103,7 @@ impl Kind {
             Kind::Force => &[("N", 1.0), ("mN", 1e-3), ("uN", 1e-6)],
             Kind::Time => &[("s", 1.0), ("min", 60.0), ("ms", 1e-3)],
             Kind::LineForce => &[("N/mm", 1.0), ("N/m", 1e-3), ("mN/mm", 1e-3)],
+            Kind::Area => &[("mm2", 1.0), ("mm²", 1.0), ("cm2", 100.0), ("cm²", 100.0)],
         }
     }
 

@@ -135,10 +135,25 @@ pub fn measured(doc: &Json) -> Measured {
         })
         .collect();
     let m = &doc["metrics"];
+    let passed = criteria.len() - failures.len();
+    // A closure that cannot be judged (crossing leaflets, no convergence)
+    // says so before any criterion: its passes are not passes.
+    let mut failures = failures;
+    if doc["verdict"]["status"] == "not_assessable" {
+        let gates: Vec<String> = doc["verdict"]["not_assessable_reasons"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(Json::as_str)
+            .filter(|r| !r.contains(" is not measurable ("))
+            .map(|r| format!("not assessable: {r}"))
+            .collect();
+        failures.splice(0..0, gates);
+    }
     Measured {
         closed: m["closed"].as_bool().unwrap_or(false),
         meets_all: doc["verdict"]["meets_all_criteria"].as_bool() == Some(true),
-        passed: criteria.len() - failures.len(),
+        passed,
         judged: criteria.len(),
         failures,
         coaptation_height_mm: m["coaptation_height_mm"].as_f64(),

@@ -32,3 +32,64 @@ pub fn read_frame(path: &Path) -> Result<ValveFrame> {
     }
     Ok(f)
 }
+
+/// Height of the sinotubular junction's plane above the annulus plane,
+/// along the valve axis, mm; `Ok(Err(why))` when `valve.json` does not say
+/// (an older or hand-written file, or no STJ section was found).
+///
+/// The valve stage writes `sections.stj.height_mm` along the commissure
+/// axis from the commissure cylinder's centre (`commissure_cylinder.
+/// centre_mm`), and the frame's axis is that axis with its origin at the
+/// annulus centre, so the STJ lies `height_mm − (origin − centre)·axis`
+/// above the annulus. The file's `h_comm_mm` (mean commissure height above
+/// the annulus by the same rule) must agree with the frame's commissures,
+/// else the file was not written that way and nothing is guessed.
+pub fn read_stj_height(path: &Path, f: &ValveFrame) -> Result<std::result::Result<f64, String>> {
+    let v: Json = serde_json::from_slice(&std::fs::read(path).map_err(|e| Error::read(path, e))?)
+        .map_err(|e| Error::bad_input(path, format!("not JSON: {e}")))?;
+    Ok(stj_height(&v, f))
+}
+
+pub fn stj_height(v: &Json, f: &ValveFrame) -> std::result::Result<f64, String> {
+    let stj = &v["sections"]["stj"];
+    if stj.is_null() {
+        return Err(if v["sections"].is_object() {
+            "valve.json has no STJ section (no closed section of the wall above the commissures)"
+                .into()
+        } else {
+            "valve.json has no sections.stj (an older or hand-written file)".into()
+        });
+    }
+    let h = stj["height_mm"]
+        .as_f64()
+        .ok_or("valve.json sections.stj has no height_mm")?;
+    let c = v["commissure_cylinder"]["centre_mm"]
+        .as_array()
+        .and_then(|a| {
+            let x: Vec<f64> = a.iter().filter_map(Json::as_f64).collect();
+            (x.len() == 3).then(|| crate::geom::Point3::new(x[0], x[1], x[2]))
+        })
+        .ok_or("valve.json has no commissure_cylinder.centre_mm to place the STJ height")?;
+    let h_ann = (f.origin_mm - c).dot(&f.axis);
+    let comm = f
+        .commissures_mm
+        .iter()
+        .map(|p| (p - f.origin_mm).dot(&f.axis))
+        .sum::<f64>()
+        / 3.0;
+    match v["h_comm_mm"].as_f64() {
+        Some(hc) if (hc - comm).abs() <= 1e-6 * (1.0 + hc.abs()) => {}
+        _ => {
+            return Err(
+                "valve.json's h_comm_mm does not match its valve_frame: the STJ height cannot be placed"
+                    .into(),
+            );
+        }
+    }
+    let s = h - h_ann;
+    if s.is_finite() {
+        Ok(s)
+    } else {
+        Err("valve.json's STJ height is not a finite number".into())
+    }
+}

@@ -1,30 +1,87 @@
-//! The surgical criteria (seed 001 §1, VERIFICATION.md §5): central
+//! The surgical criteria of seed 001 §1 (its refs [21–25]): central
 //! coaptation > 4 mm, effective height > 9 mm, coaptation above the VAJ, no
-//! prolapse, closed. Each is judged pass, fail, or not measurable.
+//! billowing, no prolapse, no residual regurgitation; and two the valve's
+//! own anatomy bounds: the central coaptation point below the commissure
+//! tips, every leaflet below the sinotubular junction (seed 001 [18]: neo-
+//! leaflets too large cover the coronary orifices). Each is judged pass,
+//! fail, or not measurable; `verdict.rs` turns them into the answer.
 
 use super::metrics::Metrics;
 
-/// Configurable thresholds, mm.
+/// Configurable thresholds.
 #[derive(Debug, Clone, Copy)]
 pub struct Thresholds {
     pub central_coaptation_mm: f64,
     pub effective_height_mm: f64,
+    /// Largest regurgitant orifice that still counts as none, mm².
+    pub regurgitant_orifice_mm2: f64,
+    /// Deepest billowing that still counts as none, mm.
+    pub billowing_mm: f64,
 }
+
+/// ASE/EACVI (Zoghbi et al. 2017, Lancellotti et al. 2013) grade aortic
+/// regurgitation with an effective regurgitant orifice area below
+/// 0.10 cm² (10 mm²) as mild. "No residual regurgitation" (seed 001 [21]:
+/// any residual regurgitation after repair predicts its recurrence) must be
+/// stricter than mild: a tenth of that bound, 1 mm², i.e. 400 pixels of
+/// the 0.05 mm raster, far above what the raster resolves.
+pub const REGURGITANT_ORIFICE_MM2: f64 = 1.0;
+
+/// Billowing (seed 001 [21] le Polain de Waroux 2009, [24] Ridley 2017): the
+/// cusp body protruding below the annular plane towards the ventricle in
+/// diastole while its free edge stays above it. The plane here passes
+/// through the three lowest sutured points, so the belly beside them dips
+/// by a fraction of a millimetre in any closure; one leaflet thickness
+/// (0.5 mm, the closure's) below it is billowing.
+pub const BILLOWING_MM: f64 = 0.5;
 
 impl Default for Thresholds {
     fn default() -> Self {
         Thresholds {
             central_coaptation_mm: 4.0,
             effective_height_mm: 9.0,
+            regurgitant_orifice_mm2: REGURGITANT_ORIFICE_MM2,
+            billowing_mm: BILLOWING_MM,
         }
     }
+}
+
+/// What the valve's anatomy (valve.json) bounds, heights above the annulus
+/// plane along the valve axis, mm.
+#[derive(Debug, Clone)]
+pub struct Anatomy {
+    /// The lowest commissure tip.
+    pub lowest_commissure_mm: f64,
+    /// The sinotubular junction's plane; `Err`: why it is not known.
+    pub stj_mm: Result<f64, String>,
+}
+
+/// Pressures of the closures the metrics come from, mmHg.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Pressures {
+    /// The closing (diastolic) pressure, when closure.json says it.
+    pub closing_mmhg: Option<f64>,
+    /// The extra low-pressure closure's (seeds: 3 mmHg), when there is one.
+    pub low_mmhg: Option<f64>,
 }
 
 /// A value a criterion compares.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Value {
     Mm(Option<f64>),
+    Mm2(Option<f64>),
     Bool(Option<bool>),
+}
+
+/// How the value must compare to pass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Comparison {
+    /// Strictly above the threshold.
+    Above(f64),
+    /// At most the threshold.
+    AtMost(f64),
+    /// True.
+    IsTrue,
 }
 
 #[derive(Debug, Clone)]
@@ -32,49 +89,125 @@ pub struct Criterion {
     pub id: &'static str,
     pub name: &'static str,
     pub value: Value,
-    /// Numeric criteria: value must exceed this (mm).
-    pub threshold_mm: Option<f64>,
+    pub comparison: Comparison,
     /// `None`: could not be measured.
     pub pass: Option<bool>,
     pub note: String,
+    /// Where the criterion and its threshold come from.
+    pub source: &'static str,
 }
 
-/// Judge `m`; `pressure_mmhg` is the pressure the effective height was
-/// read at, when known.
-pub fn judge(m: &Metrics, t: &Thresholds, pressure_mmhg: Option<f64>) -> Vec<Criterion> {
-    let above = |v: Option<f64>, th: f64| v.map(|v| v > th);
+/// The effective height a criterion judges: the seeds' (seed 000 / 002,
+/// after Marom et al.: the valve height at 3 mmHg) when the close stage
+/// made that closure, else the one at the closing pressure; with its
+/// pressure and whether it is the low-pressure one.
+pub fn judged_effective_height(m: &Metrics, p: &Pressures) -> (Option<f64>, Option<f64>, bool) {
+    match m.effective_height_low_pressure_mm {
+        Some(h) => (Some(h), p.low_mmhg, true),
+        None => (m.effective_height_mm, p.closing_mmhg, false),
+    }
+}
+
+fn mmhg(p: Option<f64>) -> String {
+    p.map_or("an unrecorded pressure".into(), |p| format!("{p} mmHg"))
+}
+
+/// Judge `m` against `t`, the anatomy `a` and the closures' pressures `p`.
+pub fn judge(m: &Metrics, t: &Thresholds, a: &Anatomy, p: &Pressures) -> Vec<Criterion> {
+    let check = |v: Option<f64>, c: Comparison| {
+        v.map(|v| match c {
+            Comparison::Above(th) => v > th,
+            Comparison::AtMost(th) => v <= th,
+            Comparison::IsTrue => unreachable!("numbers are compared to thresholds"),
+        })
+    };
     let central = m.central_coaptation_height_mm;
+    let (eff, eff_p, low) = judged_effective_height(m, p);
+    // The point where the three leaflets meet: the higher of the central
+    // free-edge point (the judged effective height) and the top of the zone
+    // where all three touch.
+    let meet = match (eff, m.central_coaptation_top_mm) {
+        (Some(e), Some(z)) => Some(e.max(z)),
+        (e, z) => e.or(z),
+    };
+    let below_comm = meet.map(|h| a.lowest_commissure_mm - h);
+    let below_stj = a.stj_mm.as_ref().ok().map(|s| s - m.highest_leaflet_mm);
+    let billow = m
+        .leaflets
+        .iter()
+        .map(|l| l.billowing_mm)
+        .fold(None, |acc: Option<f64>, b| {
+            Some(acc.map_or(b, |a| a.max(b)))
+        });
+    let orifice = m.regurgitant_orifice_area_mm2;
+    let other = if low {
+        match m.effective_height_mm {
+            Some(h) => format!(
+                "; at the closing pressure ({}) it is {h:.2} mm",
+                mmhg(p.closing_mmhg)
+            ),
+            None => String::new(),
+        }
+    } else {
+        " (no low-pressure closure was run: set effective_height_pressure = \"3 mmHg\" in the close config for the seeds' definition)".into()
+    };
+    let numeric = |id, name, value: Option<f64>, c, note: String, source| Criterion {
+        id,
+        name,
+        value: Value::Mm(value),
+        comparison: c,
+        pass: check(value, c),
+        note,
+        source,
+    };
     vec![
         Criterion {
-            id: "central_coaptation",
-            name: "Central coaptation height",
-            value: Value::Mm(central),
-            threshold_mm: Some(t.central_coaptation_mm),
             // No triple zone: there is no central coaptation at all.
-            pass: Some(above(central, t.central_coaptation_mm).unwrap_or(false)),
-            note: match central {
-                Some(_) => "axial extent of the zone where all three leaflets touch".into(),
-                None => "no zone where all three leaflets touch".into(),
-            },
+            pass: Some(check(central, Comparison::Above(t.central_coaptation_mm)).unwrap_or(false)),
+            ..numeric(
+                "central_coaptation",
+                "Central coaptation height",
+                central,
+                Comparison::Above(t.central_coaptation_mm),
+                match central {
+                    Some(_) => "axial extent of the zone where all three leaflets touch".into(),
+                    None => "no zone where all three leaflets touch".into(),
+                },
+                "seed 001 §1, refs [21–25]",
+            )
         },
-        Criterion {
-            id: "effective_height",
-            name: "Effective height",
-            value: Value::Mm(m.effective_height_mm),
-            threshold_mm: Some(t.effective_height_mm),
-            pass: above(m.effective_height_mm, t.effective_height_mm),
-            note: match pressure_mmhg {
-                Some(p) => format!(
-                    "annulus plane to the central free-edge point, along the axis, at {p} mmHg"
+        numeric(
+            "effective_height",
+            "Effective height",
+            eff,
+            Comparison::Above(t.effective_height_mm),
+            format!(
+                "annulus plane to the central free-edge point, along the axis, at {}{other}",
+                mmhg(eff_p)
+            ),
+            "seed 001 §1 (Schäfers 2006, ref [25]); measured at 3 mmHg as seeds 000/002 (Marom et al.)",
+        ),
+        numeric(
+            "coaptation_below_commissures",
+            "Coaptation below the commissures",
+            below_comm,
+            Comparison::Above(0.0),
+            match meet {
+                Some(h) => format!(
+                    "the point where the three leaflets meet ({h:.2} mm above the annulus: the higher of the central free-edge point and the top of the zone where all three touch) lies this far below the lowest commissure tip ({:.2} mm); a competent valve meets below its commissures",
+                    a.lowest_commissure_mm
                 ),
-                None => "annulus plane to the central free-edge point, along the axis".into(),
+                None => {
+                    "no central free-edge point and no zone where all three leaflets touch".into()
+                }
             },
-        },
+            "anatomy: the commissure tips bound the cusps (clinical effective height ≈ 9–10 mm, below them)",
+        ),
         Criterion {
             id: "coaptation_above_vaj",
             name: "Coaptation above the VAJ",
             value: Value::Bool(m.coaptation_above_vaj),
-            threshold_mm: None,
+            comparison: Comparison::IsTrue,
             pass: m.coaptation_above_vaj,
             note: match m.lowest_coaptation_mm {
                 Some(z) => {
@@ -82,25 +215,73 @@ pub fn judge(m: &Metrics, t: &Thresholds, pressure_mmhg: Option<f64>) -> Vec<Cri
                 }
                 None => "no coaptation zone to place".into(),
             },
+            source: "seed 001 §1, ref [21] (coaptation below the annulus predicts recurrent regurgitation)",
+        },
+        numeric(
+            "leaflets_below_stj",
+            "Leaflets below the STJ",
+            below_stj,
+            Comparison::Above(0.0),
+            match &a.stj_mm {
+                Ok(s) => format!(
+                    "the highest leaflet point ({:.2} mm above the annulus, closed state{}) lies this far below the sinotubular junction's plane ({s:.2} mm, valve.json)",
+                    m.highest_leaflet_mm,
+                    if low { " at both pressures" } else { "" }
+                ),
+                Err(why) => format!("not measurable: {why}"),
+            },
+            "seed 001 §1, refs [18, 19] (neo-leaflets too large cover the coronary orifices)",
+        ),
+        Criterion {
+            id: "no_billowing",
+            name: "No billowing",
+            value: Value::Mm(billow),
+            comparison: Comparison::AtMost(t.billowing_mm),
+            pass: check(billow, Comparison::AtMost(t.billowing_mm)),
+            note: format!(
+                "deepest point of any leaflet's belly below the plane of the three lowest sutured points (the annular plane at the nadirs); more than {} mm (a leaflet thickness) is billowing",
+                t.billowing_mm
+            ),
+            source: "seed 001 §1, refs [21] le Polain de Waroux 2009, [24] Ridley 2017: cusp body below the annular plane in diastole, free edge above it",
         },
         Criterion {
             id: "no_prolapse",
             name: "No prolapse",
             value: Value::Bool(Some(m.lowest_free_edge_mm > 0.0)),
-            threshold_mm: None,
+            comparison: Comparison::IsTrue,
             pass: Some(m.lowest_free_edge_mm > 0.0),
             note: format!(
                 "lowest free-edge point {:.2} mm above the annulus plane",
                 m.lowest_free_edge_mm
             ),
+            source: "seed 001 §1, refs [21, 24] (free edge below the annular plane)",
+        },
+        Criterion {
+            id: "no_residual_regurgitation",
+            name: "No residual regurgitation",
+            value: Value::Mm2(orifice),
+            comparison: Comparison::AtMost(t.regurgitant_orifice_mm2),
+            pass: check(orifice, Comparison::AtMost(t.regurgitant_orifice_mm2)),
+            note: match (orifice, m.orifice_pixel_mm) {
+                (Some(_), Some(px)) => format!(
+                    "lumen area seen along the axis that no leaflet covers, rasterised at {px:.3} mm pixels; at most {} mm² counts as none (a tenth of the ASE/EACVI bound of mild regurgitation, EROA < 10 mm²)",
+                    t.regurgitant_orifice_mm2
+                ),
+                _ => {
+                    "not measured: the mirror images of a one-leaflet closure do not tile the lumen"
+                        .into()
+                }
+            },
+            source: "seed 001 §1, ref [21]; threshold: a tenth of ASE/EACVI mild AR (EROA < 0.10 cm²)",
         },
         Criterion {
             id: "closed",
             name: "Valve closed",
             value: Value::Bool(Some(m.closed)),
-            threshold_mm: None,
+            comparison: Comparison::IsTrue,
             pass: Some(m.closed),
             note: "a zone where all three leaflets touch exists".into(),
+            source: "seed 001 §1 (central coaptation exists)",
         },
     ]
 }

@@ -5,10 +5,11 @@
 use serde_json::{Value as Json, json};
 
 use super::coaptation::Options as ZoneOptions;
-use super::criteria::{Criterion, Value};
+use super::criteria::{self, Anatomy, Comparison, Criterion, Pressures, Value};
 use super::metrics::{Metrics, Stats};
+use super::verdict::{self, Verdict};
 
-pub const SCHEMA: &str = "coapt-report/1";
+pub const SCHEMA: &str = "coapt-report/2";
 
 /// Something the reader must know that is not a number.
 #[derive(Debug, Clone, PartialEq)]
@@ -37,8 +38,8 @@ impl Severity {
 /// Everything around the metrics that goes into the document.
 pub struct Context {
     pub zone: ZoneOptions,
-    /// Pressure at which `Metrics::effective_height_mm` was measured.
-    pub effective_height_pressure_mmhg: Option<f64>,
+    pub pressures: Pressures,
+    pub anatomy: Anatomy,
     pub solver: Json,
     pub timing_s: Json,
     pub inputs: Json,
@@ -56,9 +57,15 @@ fn stats(s: &Option<Stats>) -> Json {
 }
 
 fn criterion(c: &Criterion) -> Json {
-    let (value, unit, comparison, threshold) = match c.value {
-        Value::Mm(v) => (json!(v), "mm", ">", json!(c.threshold_mm)),
-        Value::Bool(b) => (json!(b), "", "is", json!(true)),
+    let (value, unit) = match c.value {
+        Value::Mm(v) => (json!(v), "mm"),
+        Value::Mm2(v) => (json!(v), "mm2"),
+        Value::Bool(b) => (json!(b), ""),
+    };
+    let (comparison, threshold) = match c.comparison {
+        Comparison::Above(t) => (">", json!(t)),
+        Comparison::AtMost(t) => ("<=", json!(t)),
+        Comparison::IsTrue => ("is", json!(true)),
     };
     json!({
         "id": c.id,
@@ -69,38 +76,17 @@ fn criterion(c: &Criterion) -> Json {
         "threshold": threshold,
         "pass": c.pass,
         "note": c.note,
+        "source": c.source,
     })
 }
 
-fn summary(m: &Metrics, criteria: &[Criterion]) -> String {
-    let failed: Vec<&str> = criteria
-        .iter()
-        .filter(|c| c.pass == Some(false))
-        .map(|c| c.name)
-        .collect();
-    let unknown: Vec<&str> = criteria
-        .iter()
-        .filter(|c| c.pass.is_none())
-        .map(|c| c.name)
-        .collect();
-    let mut s = if m.closed {
-        "The valve closes (all three leaflets meet).".to_string()
-    } else {
-        "The valve does not close: there is no zone where all three leaflets meet.".to_string()
-    };
-    if failed.is_empty() && unknown.is_empty() {
-        s += &format!(" It meets all {} criteria.", criteria.len());
-    }
-    if !failed.is_empty() {
-        s += &format!(" Not met: {}.", failed.join(", "));
-    }
-    if !unknown.is_empty() {
-        s += &format!(" Not measurable: {}.", unknown.join(", "));
-    }
-    s
-}
-
-pub fn build(m: &Metrics, criteria: &[Criterion], findings: &[Finding], ctx: &Context) -> Json {
+pub fn build(
+    m: &Metrics,
+    criteria: &[Criterion],
+    v: &Verdict,
+    findings: &[Finding],
+    ctx: &Context,
+) -> Json {
     let per: Vec<f64> = m.leaflets.iter().map(|l| l.coaptation_area_mm2).collect();
     let fold = |f: fn(f64, f64) -> f64, init: f64| per.iter().copied().fold(init, f);
     let leaflets: Vec<Json> = m
@@ -145,16 +131,12 @@ pub fn build(m: &Metrics, criteria: &[Criterion], findings: &[Finding], ctx: &Co
             })
         })
         .collect();
-    let meets_all = criteria.iter().all(|c| c.pass == Some(true));
+    let (eff, eff_p, _) = criteria::judged_effective_height(m, &ctx.pressures);
     json!({
         "schema": SCHEMA,
         "coapt_version": env!("CARGO_PKG_VERSION"),
         "frame": "LPS",
-        "verdict": {
-            "closed": m.closed,
-            "meets_all_criteria": meets_all,
-            "summary": summary(m, criteria),
-        },
+        "verdict": verdict::to_json(v, m.closed, criteria),
         "criteria": criteria.iter().map(criterion).collect::<Vec<_>>(),
         "metrics": {
             "coaptation_height_mm": m.coaptation_height_mm,
@@ -164,13 +146,22 @@ pub fn build(m: &Metrics, criteria: &[Criterion], findings: &[Finding], ctx: &Co
                 "max": fold(f64::max, f64::NEG_INFINITY),
                 "min": fold(f64::min, f64::INFINITY),
             },
-            "effective_height_mm": m.effective_height_mm,
-            "effective_height_pressure_mmhg": ctx.effective_height_pressure_mmhg,
+            "effective_height_mm": eff,
+            "effective_height_pressure_mmhg": eff_p,
+            "effective_height_closing_pressure_mm": m.effective_height_mm,
+            "closing_pressure_mmhg": ctx.pressures.closing_mmhg,
+            "effective_height_low_pressure_mm": m.effective_height_low_pressure_mm,
+            "low_pressure_mmhg": ctx.pressures.low_mmhg,
+            "central_coaptation_top_above_annulus_mm": m.central_coaptation_top_mm,
+            "lowest_commissure_above_annulus_mm": ctx.anatomy.lowest_commissure_mm,
+            "highest_leaflet_above_annulus_mm": m.highest_leaflet_mm,
+            "stj_above_annulus_mm": ctx.anatomy.stj_mm.as_ref().ok(),
             "h_cc_mm": m.h_cc_mm,
             "h_avr_mm": m.h_avr_mm,
             "ncca": m.ncca,
             "regurgitant_orifice_area_mm2": m.regurgitant_orifice_area_mm2,
             "lumen_area_mm2": m.lumen_area_mm2,
+            "regurgitant_orifice_pixel_mm": m.orifice_pixel_mm,
             "coaptation_above_vaj": m.coaptation_above_vaj,
             "closed": m.closed,
             "free_edge_length_mm": m.leaflets.iter().map(|l| l.free_edge_length_mm).collect::<Vec<_>>(),

@@ -172,30 +172,59 @@ fn verdict(h: &mut String, report: &Value, criteria: &[Value]) {
                 .then_some(true)
                 .or((!failed.is_empty()).then_some(false))
         });
-    let class = match (closed, meets_all) {
-        (Some(true), Some(true)) => "ok",
-        (Some(false), _) | (_, Some(false)) => "bad",
+    let status = v.and_then(|v| v.get("status")).and_then(Value::as_str);
+    let reasons: Vec<String> = array(v.and_then(|v| v.get("not_assessable_reasons")))
+        .iter()
+        .filter_map(|r| r.as_str().map(str::to_string))
+        .collect();
+    let class = match (status, closed, meets_all) {
+        (Some("not_assessable"), _, _) => "na",
+        (_, Some(true), Some(true)) => "ok",
+        (_, Some(false), _) | (_, _, Some(false)) => "bad",
         _ => "na",
     };
     let _ = writeln!(h, "<section id=\"verdict\" class=\"verdict {class}\">");
+    // Whether the closed state can be judged at all comes first: a green
+    // headline above a broken closure would be read and the rest skipped.
+    if status == Some("not_assessable") {
+        let _ = writeln!(
+            h,
+            "<p class=\"headline\">NOT ASSESSABLE: this closure cannot be judged against the criteria.</p>"
+        );
+        h.push_str("<ul class=\"reasons\">\n");
+        for r in &reasons {
+            let _ = writeln!(h, "<li>{}</li>", esc(r));
+        }
+        h.push_str("</ul>\n");
+    }
     let headline = match closed {
         Some(true) => "The valve closes: the three leaflets meet in a central coaptation zone.",
         Some(false) => "The valve does NOT close: there is no zone where all three leaflets meet.",
         None => "Closure could not be determined.",
     };
     let _ = writeln!(h, "<p class=\"headline\">{headline}</p>");
-    let crit = match meets_all {
-        Some(true) => format!("<strong>All {} criteria are met.</strong>", criteria.len()),
-        Some(false) if failed.is_empty() => {
+    let crit = match (status, meets_all) {
+        (Some("not_assessable"), _) if !failed.is_empty() => format!(
+            "<strong>As computed, these criteria would fail ({} of {}):</strong> {}.",
+            failed.len(),
+            criteria.len(),
+            esc(&failed.join(", "))
+        ),
+        (Some("not_assessable"), _) => {
+            "<strong>No criterion is judged met while the closure is not assessable.</strong>"
+                .to_string()
+        }
+        (_, Some(true)) => format!("<strong>All {} criteria are met.</strong>", criteria.len()),
+        (_, Some(false)) if failed.is_empty() => {
             "<strong>Not all criteria are met.</strong>".to_string()
         }
-        Some(false) => format!(
+        (_, Some(false)) => format!(
             "<strong>Criteria NOT met ({} of {}):</strong> {}.",
             failed.len(),
             criteria.len(),
             esc(&failed.join(", "))
         ),
-        None => {
+        (_, None) => {
             "<strong>Whether the criteria are met could not be determined.</strong>".to_string()
         }
     };
@@ -220,10 +249,13 @@ fn criteria_table(h: &mut String, criteria: &[Value]) {
         h.push_str("<p>No criteria in the report.</p>\n</section>\n");
         return;
     }
-    h.push_str("<table>\n<thead><tr><th>Criterion</th><th>Value</th><th>Required</th><th>Result</th><th>Note</th></tr></thead>\n<tbody>\n");
+    h.push_str("<table>\n<thead><tr><th>Criterion</th><th>Value</th><th>Required</th><th>Result</th><th>Note</th><th>Source</th></tr></thead>\n<tbody>\n");
     for c in criteria {
         let name = criterion_name(c);
-        let unit = text_or(c.get("unit"), "");
+        let unit = match text_or(c.get("unit"), "").as_str() {
+            "mm2" => "mm²".to_string(),
+            u => u.to_string(),
+        };
         let value = match c.get("value") {
             Some(Value::Bool(b)) => yes_no(*b).to_string(),
             Some(Value::Number(n)) => with_unit(&fixed(n.as_f64(), 2), &unit),
@@ -245,12 +277,13 @@ fn criteria_table(h: &mut String, criteria: &[Value]) {
         };
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             esc(&name),
             esc(&value),
             required,
             result_tag(c.get("pass").and_then(Value::as_bool)),
             esc(&text_or(c.get("note"), "")),
+            esc(&text_or(c.get("source"), "")),
         );
     }
     h.push_str("</tbody>\n</table>\n</section>\n");
@@ -345,7 +378,7 @@ fn key_metrics(h: &mut String, m: Option<&Value>) {
     h.push_str("<table>\n<thead><tr><th>Quantity</th><th>Value</th><th>Definition</th></tr></thead>\n<tbody>\n");
     let get = |k: &str| m.and_then(|m| m.get(k));
     let area = get("coaptation_area_mm2");
-    let rows: [(&str, String, &str); 13] = [
+    let rows: [(&str, String, &str); 18] = [
         (
             "Valve closed",
             boolean(get("closed")),
@@ -362,9 +395,24 @@ fn key_metrics(h: &mut String, m: Option<&Value>) {
             "axial extent of the zone where all three leaflets touch",
         ),
         (
-            "Effective height",
+            "Effective height (judged)",
             mm(get("effective_height_mm")),
-            "annulus plane to the central free-edge point, along the axis",
+            "annulus plane to the central free-edge point, along the axis, at the pressure below: the seeds' 3 mmHg when that closure was run, else the closing pressure",
+        ),
+        (
+            "… judged at (mmHg)",
+            num_text(get("effective_height_pressure_mmhg")),
+            "pressure of the closure the judged effective height is read on",
+        ),
+        (
+            "Effective height, closing pressure",
+            mm(get("effective_height_closing_pressure_mm")),
+            "the same point on the closure at the closing (diastolic) pressure",
+        ),
+        (
+            "Effective height, low pressure",
+            mm(get("effective_height_low_pressure_mm")),
+            "the same point on the extra low-pressure closure (seeds 000/002: h<sub>E</sub> at 3 mmHg); not measured unless the close config sets effective_height_pressure",
         ),
         (
             "h<sub>C-C</sub>",
@@ -410,6 +458,16 @@ fn key_metrics(h: &mut String, m: Option<&Value>) {
             "Lowest coaptation above annulus",
             mm(get("lowest_coaptation_above_annulus_mm")),
             "axial distance, annulus plane to the lowest coaptation point",
+        ),
+        (
+            "Lowest commissure tip above annulus",
+            mm(get("lowest_commissure_above_annulus_mm")),
+            "axial distance, annulus plane to the lowest commissure (valve.json)",
+        ),
+        (
+            "STJ above annulus",
+            mm(get("stj_above_annulus_mm")),
+            "axial distance, annulus plane to the sinotubular junction's section (valve.json)",
         ),
     ];
     for (name, value, def) in rows {
@@ -824,6 +882,13 @@ fn text_or(v: Option<&Value>, default: &str) -> String {
     v.and_then(Value::as_str).unwrap_or(default).to_string()
 }
 
+fn num_text(v: Option<&Value>) -> String {
+    match v.and_then(Value::as_f64) {
+        Some(x) => shortest(Some(x)),
+        None => NOT_MEASURED.to_string(),
+    }
+}
+
 fn array(v: Option<&Value>) -> &[Value] {
     v.and_then(Value::as_array).map_or(&[], Vec::as_slice)
 }
@@ -1060,7 +1125,7 @@ mod tests {
         assert!(pos.windows(2).all(|w| w[0] < w[1]), "{pos:?}");
         for needle in [
             "The valve closes",
-            "Criteria NOT met (1 of 5):</strong> Effective height.",
+            "Criteria NOT met (2 of 9):</strong> Effective height, No billowing.",
             "<td class=\"num\">8.62 mm</td><td class=\"num\">&gt; 9 mm</td><td><span class=\"tag fail\">&#10008; FAIL</span>",
             "<td class=\"num\">4.60 mm</td><td class=\"num\">&gt; 4 mm</td><td><span class=\"tag pass\">&#10004; PASS</span>",
             "<td class=\"num\">yes</td><td class=\"num\">yes</td>",
@@ -1274,6 +1339,28 @@ mod tests {
         ] {
             assert!(page.contains(needle), "missing {needle:?}");
         }
+    }
+
+    #[test]
+    fn a_not_assessable_verdict_leads_the_page_with_its_reasons() {
+        let mut r = example();
+        r["verdict"]["status"] = json!("not_assessable");
+        r["verdict"]["assessable"] = json!(false);
+        r["verdict"]["not_assessable_reasons"] =
+            json!(["594 pairs of triangles of different leaflets cross each other"]);
+        let page = render(&r, &[]);
+        assert!(page.contains("class=\"verdict na\""));
+        let head = page.find("NOT ASSESSABLE").expect("headline");
+        let reason = page.find("<li>594 pairs of triangles").expect("reason");
+        let closes = page.find("The valve closes").unwrap();
+        let criteria = page.find("<section id=\"criteria\"").unwrap();
+        assert!(head < reason && reason < closes && closes < criteria);
+        // Failed criteria are shown as what the computed state would fail,
+        // never as a verdict of their own.
+        assert!(page.contains(
+            "As computed, these criteria would fail (2 of 9):</strong> Effective height, No billowing."
+        ));
+        assert!(!page.contains("Criteria NOT met"));
     }
 
     #[test]

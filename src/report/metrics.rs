@@ -127,7 +127,15 @@ pub struct Leaflet {
 pub struct Metrics {
     pub coaptation_height_mm: Option<f64>,
     pub central_coaptation_height_mm: Option<f64>,
+    /// At the closing pressure (the positions measured).
     pub effective_height_mm: Option<f64>,
+    /// On an extra closure at a low pressure (the seeds' 3 mmHg), when the
+    /// close stage made one; set by the stage with [`effective_height_at`].
+    pub effective_height_low_pressure_mm: Option<f64>,
+    /// Top of the zone where all three leaflets touch, above the annulus.
+    pub central_coaptation_top_mm: Option<f64>,
+    /// Highest point of the measured leaflets above the annulus plane.
+    pub highest_leaflet_mm: f64,
     pub h_cc_mm: Option<f64>,
     pub h_avr_mm: Option<f64>,
     pub ncca: Option<f64>,
@@ -135,6 +143,8 @@ pub struct Metrics {
     /// one-leaflet closure do not tile the lumen).
     pub regurgitant_orifice_area_mm2: Option<f64>,
     pub lumen_area_mm2: Option<f64>,
+    /// Pixel of the orifice raster, mm, when it was drawn.
+    pub orifice_pixel_mm: Option<f64>,
     pub coaptation_above_vaj: Option<bool>,
     pub lowest_coaptation_mm: Option<f64>,
     pub lowest_free_edge_mm: f64,
@@ -254,6 +264,24 @@ pub fn effective_height_at(v: &ClosedValve, x: &[Point3], measured: usize) -> Op
         .filter_map(|e| central_free_edge(v, x, e).map(|b| b.1))
         .collect();
     (!h.is_empty()).then(|| h.iter().sum::<f64>() / h.len() as f64)
+}
+
+/// Highest point above the annulus plane of the first `measured` leaflets
+/// at positions `x`.
+pub fn highest_at(v: &ClosedValve, x: &[Point3], measured: usize) -> f64 {
+    let mut on = vec![false; x.len()];
+    for (t, tri) in v.tris.iter().enumerate() {
+        if (v.tri_leaflet[t] as usize) < measured {
+            for &k in tri {
+                on[k as usize] = true;
+            }
+        }
+    }
+    x.iter()
+        .zip(&on)
+        .filter(|(_, on)| **on)
+        .map(|(p, _)| hr(v, p).0)
+        .fold(f64::NEG_INFINITY, f64::max)
 }
 
 /// Measure a closed valve whose zones are `c`.
@@ -434,11 +462,15 @@ pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
         coaptation_height_mm: coaptation_height,
         central_coaptation_height_mm: central_height,
         effective_height_mm: effective,
+        effective_height_low_pressure_mm: None,
+        central_coaptation_top_mm: central.map(|(_, hi)| hi),
+        highest_leaflet_mm: highest_at(v, x, nm),
         h_cc_mm: h_cc,
         h_avr_mm: (free_total > 0.0).then(|| coapt_total / free_total),
         ncca: (cusp_total > 0.0).then(|| coapt_total / cusp_total),
         regurgitant_orifice_area_mm2: orifice.as_ref().map(|o| o.uncovered_mm2),
         lumen_area_mm2: orifice.as_ref().map(|o| o.lumen_mm2),
+        orifice_pixel_mm: orifice.as_ref().map(|o| o.pixel_mm),
         coaptation_above_vaj: any_zone.map(|(lo, _)| lo > 0.0),
         lowest_coaptation_mm: any_zone.map(|(lo, _)| lo),
         lowest_free_edge_mm: leaflets

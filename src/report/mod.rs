@@ -10,6 +10,7 @@
 //!   (`clip.rs`); `symmetry.rs` completes a one-leaflet closure.
 //! - `metrics.rs`: heights, areas, effective height, billowing; `orifice.rs`
 //!   the uncovered lumen; `criteria.rs` the surgical criteria;
+//!   `verdict.rs` the answer (met, fails, not assessable and why);
 //!   `document.rs` report.json.
 //! - `raster.rs` and `figures/`: the software rasteriser and the figures;
 //!   `html.rs`: the page; `stage.rs`: the stage.
@@ -28,6 +29,7 @@ pub mod raster;
 pub mod stage;
 pub mod symmetry;
 pub mod valve;
+pub mod verdict;
 
 pub use figure::Figure;
 pub use valve::ClosedValve;

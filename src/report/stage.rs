@@ -7,10 +7,10 @@ use std::time::Instant;
 use serde_json::{Value as Json, json};
 
 use super::coaptation::{self, Options as ZoneOptions};
-use super::criteria::{self, Thresholds};
+use super::criteria::{self, Anatomy, Pressures, Thresholds};
 use super::document::{self, Context, Finding, Severity};
 use super::metrics::{self, Metrics};
-use super::{ClosedValve, Figure, figures, html, load, symmetry};
+use super::{ClosedValve, Figure, figures, html, load, symmetry, verdict};
 use crate::geom::Point3;
 use crate::io::{Transaction, markups, nifti, vtp};
 use crate::pipeline::manifest::{self, Manifest};
@@ -158,6 +158,18 @@ pub static SPEC: StageSpec = StageSpec {
             help: "criterion: effective height must exceed this",
         },
         Param {
+            name: "max_regurgitant_orifice",
+            kind: ParamKind::Quantity(Kind::Area),
+            default: Some("1 mm2"),
+            help: "criterion \"no residual regurgitation\": largest uncovered lumen area, mm² (default a tenth of ASE/EACVI mild, EROA < 10 mm²)",
+        },
+        Param {
+            name: "max_billowing",
+            kind: ParamKind::Quantity(Kind::Length),
+            default: Some("0.5 mm"),
+            help: "criterion \"no billowing\": deepest leaflet point below the plane of the lowest sutured points (default a leaflet thickness)",
+        },
+        Param {
             name: "run_dir",
             kind: ParamKind::Path,
             default: None,
@@ -169,6 +181,13 @@ pub static SPEC: StageSpec = StageSpec {
 };
 
 fn check(p: &Params) -> Result<()> {
+    for name in ["max_billowing", "max_regurgitant_orifice"] {
+        if !(p.quantity(name) >= 0.0) {
+            return Err(Error::value(format!(
+                "report.{name} must be zero or positive"
+            )));
+        }
+    }
     for name in ["column_width", "hcc_radius"] {
         if !(p.quantity(name) > 0.0) {
             return Err(Error::value(format!("report.{name} must be positive")));
@@ -181,11 +200,6 @@ fn check(p: &Params) -> Result<()> {
     }
     Ok(())
 }
-
-/// Billowing worth a finding: the lowest sutured points are themselves on
-/// the plane, so the belly next to them dips by a fraction of a millimetre
-/// in any closure; a leaflet sagging a leaflet thickness below is news.
-const BILLOWING_NOTICE_MM: f64 = 0.5;
 
 /// Thickness multiple of the contact margin (VERIFICATION.md §5).
 const MARGIN_PER_THICKNESS: f64 = 1.8;
@@ -226,6 +240,7 @@ fn findings(
     completed: bool,
     log: Option<&Json>,
     margin_note: Option<String>,
+    max_billowing_mm: f64,
 ) -> Vec<Finding> {
     let mut f = Vec::new();
     let mut say = |severity, message: String| f.push(Finding { severity, message });
@@ -264,7 +279,7 @@ fn findings(
         _ => {}
     }
     for (i, l) in m.leaflets.iter().enumerate() {
-        if l.billowing_mm > BILLOWING_NOTICE_MM {
+        if l.billowing_mm > max_billowing_mm {
             say(
                 Severity::Warning,
                 format!(
@@ -414,28 +429,54 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         ..metrics::Options::default()
     };
     let mut m = metrics::measure(v, &coapt, &mopts);
+    let measured = mopts.measured.unwrap_or(v.leaflets);
     // An extra closure at a low pressure (the seeds measure h_E at 3 mmHg),
-    // when the close stage was asked for one, gives the effective height.
-    let mut eff_pressure = log
-        .as_ref()
-        .and_then(|l| l["config"]["pressure_mmhg"].as_f64());
+    // when the close stage was asked for one: its effective height beside
+    // the loaded one, and its leaflets count for the STJ bound too.
+    let mut pressures = Pressures {
+        closing_mmhg: log
+            .as_ref()
+            .and_then(|l| l["config"]["pressure_mmhg"].as_f64()),
+        low_mmhg: None,
+    };
     if let Some(low) = load::low_pressure_positions(&closed, cpath)? {
         let mut x = low;
         if let Some((w, _)) = &completed {
             x = mirror_positions(&valve, w, &x);
         }
-        m.effective_height_mm =
-            metrics::effective_height_at(v, &x, mopts.measured.unwrap_or(v.leaflets));
-        eff_pressure = log
+        m.effective_height_low_pressure_mm = metrics::effective_height_at(v, &x, measured);
+        m.highest_leaflet_mm = m
+            .highest_leaflet_mm
+            .max(metrics::highest_at(v, &x, measured));
+        pressures.low_mmhg = log
             .as_ref()
             .and_then(|l| l["config"]["effective_height_pressure_mmhg"].as_f64());
     }
+    let anatomy = Anatomy {
+        lowest_commissure_mm: v
+            .frame
+            .commissures_mm
+            .iter()
+            .map(|c| v.frame.to_cylindrical(c).0)
+            .fold(f64::INFINITY, f64::min),
+        stj_mm: crate::io::valve_json::read_stj_height(vpath, &v.frame)?,
+    };
     let thresholds = Thresholds {
         central_coaptation_mm: params.quantity("min_central_coaptation"),
         effective_height_mm: params.quantity("min_effective_height"),
+        regurgitant_orifice_mm2: params.quantity("max_regurgitant_orifice"),
+        billowing_mm: params.quantity("max_billowing"),
     };
-    let crit = criteria::judge(&m, &thresholds, eff_pressure);
-    let finds = findings(v, &m, completed.is_some(), log.as_ref(), margin_note);
+    let crit = criteria::judge(&m, &thresholds, &anatomy, &pressures);
+    let verdict = verdict::decide(&crit, verdict::gates(log.as_ref()));
+    let finds = findings(
+        v,
+        &m,
+        completed.is_some(),
+        log.as_ref(),
+        margin_note,
+        thresholds.billowing_mm,
+    );
     progress.set(0.5);
 
     // Figures.
@@ -548,13 +589,14 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     }
     let ctx = Context {
         zone,
-        effective_height_pressure_mmhg: eff_pressure,
+        pressures,
+        anatomy,
         solver,
         timing_s: timing,
         inputs: Json::Object(inputs),
         parameters: Json::Object(parameters),
     };
-    let mut doc = document::build(&m, &crit, &finds, &ctx);
+    let mut doc = document::build(&m, &crit, &verdict, &finds, &ctx);
     if let (Some(d), Json::Object(o)) = (design, &mut doc) {
         o.insert("design".into(), d);
     }
@@ -570,7 +612,8 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         "meets_all_criteria": doc["verdict"]["meets_all_criteria"],
         "coaptation_height_mm": m.coaptation_height_mm,
         "central_coaptation_height_mm": m.central_coaptation_height_mm,
-        "effective_height_mm": m.effective_height_mm,
+        "effective_height_mm": doc["metrics"]["effective_height_mm"],
+        "status": doc["verdict"]["status"],
         "refined_triangles": coapt.refined_triangles,
         "figures": figs.len(),
     }))

@@ -378,3 +378,356 @@ fn one_leaflet_closure_reproduces_the_seed_zone() {
         );
     }
 }
+
+// ------------------------------------------------------------ the verdict
+
+use super::criteria::{self as crit, Anatomy, Pressures, Thresholds};
+use super::verdict::{self, Status};
+
+/// A closed valve that meets every criterion by construction: each leaflet
+/// is the folded sheet above (wings on the 120° planes, GAP apart, from z0
+/// to its free edge at z1) over a flat floor at z0 that covers its 120°
+/// sector of the lumen out to radius W (sutured on the arc), so seen along
+/// the axis the floors tile the disc. `trim_deg` cuts that many degrees off
+/// the end of leaflet 3's floor (an uncovered wedge).
+fn cups(z0: f64, z1: f64, zc: f64, trim_deg: f64) -> ClosedValve {
+    let (h, nr, na) = (0.5, 16usize, 48usize);
+    let ns = (2.0 * W / h).round() as usize;
+    let nz = ((z1 - z0) / h).round() as usize;
+    let mut x = Vec::new();
+    let mut uv = Vec::new();
+    let mut boundary = Vec::new();
+    let mut tris = Vec::new();
+    let mut tri_leaflet = Vec::new();
+    for k in 0..3 {
+        let ta = 2.0 * PI * k as f64 / 3.0;
+        let tb = ta + 2.0 * PI / 3.0;
+        let (ua, ub) = (
+            Vector3::new(ta.cos(), ta.sin(), 0.0),
+            Vector3::new(tb.cos(), tb.sin(), 0.0),
+        );
+        let (na_, nb) = (
+            Vector3::new(-ta.sin(), ta.cos(), 0.0),
+            Vector3::new(tb.sin(), -tb.cos(), 0.0),
+        );
+        let a = GAP / 2.0;
+        let apex = a / 3f64.sqrt();
+        let base = x.len() as u32;
+        for iz in 0..=nz {
+            let z = z0 + (z1 - z0) * iz as f64 / nz as f64;
+            for is in 0..=ns {
+                let s = -W + 2.0 * W * is as f64 / ns as f64;
+                let (u, n) = if s < 0.0 { (ua, na_) } else { (ub, nb) };
+                x.push(Point3::from(
+                    (apex + s.abs()) * u + a * n + z * Vector3::z(),
+                ));
+                uv.push([s, z]);
+                boundary.push(if is == 0 || is == ns {
+                    1
+                } else if iz == nz {
+                    2
+                } else {
+                    0
+                });
+            }
+        }
+        let id = |iz: usize, is: usize| base + (iz * (ns + 1) + is) as u32;
+        for iz in 0..nz {
+            for is in 0..ns {
+                tris.push([id(iz, is), id(iz, is + 1), id(iz + 1, is + 1)]);
+                tris.push([id(iz, is), id(iz + 1, is + 1), id(iz + 1, is)]);
+                tri_leaflet.extend([k as u8, k as u8]);
+            }
+        }
+        // The floor: a fan around the axis, then rings out to W.
+        let span = 2.0 * PI / 3.0 - if k == 2 { trim_deg.to_radians() } else { 0.0 };
+        let centre = x.len() as u32;
+        x.push(Point3::new(0.0, 0.0, z0));
+        uv.push([100.0, 0.0]);
+        boundary.push(0);
+        let ring0 = x.len() as u32;
+        for i in 1..=nr {
+            for j in 0..=na {
+                let (r, t) = (W * i as f64 / nr as f64, ta + span * j as f64 / na as f64);
+                x.push(Point3::new(r * t.cos(), r * t.sin(), z0));
+                uv.push([100.0 + r * t.cos(), r * t.sin()]);
+                boundary.push(if i == nr { 1 } else { 0 });
+            }
+        }
+        let q = |i: usize, j: usize| ring0 + ((i - 1) * (na + 1) + j) as u32;
+        for j in 0..na {
+            tris.push([centre, q(1, j), q(1, j + 1)]);
+            tri_leaflet.push(k as u8);
+            for i in 1..nr {
+                tris.push([q(i, j), q(i + 1, j), q(i + 1, j + 1)]);
+                tris.push([q(i, j), q(i + 1, j + 1), q(i, j + 1)]);
+                tri_leaflet.extend([k as u8, k as u8]);
+            }
+        }
+    }
+    // The commissures sit 0.25 rad off the seams so that no floor edge runs
+    // along the orifice raster's rows (the frame's e1 points at C1): an
+    // edge on a row of pixel centres is counted whole on one side, half a
+    // pixel times its length (0.2 mm² here) of bias.
+    let c = |k: usize| {
+        let a = 2.0 * PI * k as f64 / 3.0 + 0.25;
+        Point3::new(W * a.cos(), W * a.sin(), zc)
+    };
+    ClosedValve {
+        x0: x.clone(),
+        x,
+        tris,
+        tri_leaflet,
+        boundary,
+        ref_uv: Some(uv),
+        frame: ValveFrame::new(Point3::origin(), Vector3::z(), [c(0), c(1), c(2)], None).unwrap(),
+        leaflets: 3,
+    }
+}
+
+const Z_FLOOR: f64 = 0.5;
+const Z_EDGE: f64 = 10.0;
+const Z_COMM: f64 = 12.0;
+const Z_STJ: f64 = 14.0;
+
+fn anatomy(v: &ClosedValve, stj: Result<f64, String>) -> Anatomy {
+    Anatomy {
+        lowest_commissure_mm: v
+            .frame
+            .commissures_mm
+            .iter()
+            .map(|c| v.frame.to_cylindrical(c).0)
+            .fold(f64::INFINITY, f64::min),
+        stj_mm: stj,
+    }
+}
+
+const P80: Pressures = Pressures {
+    closing_mmhg: Some(80.0),
+    low_mmhg: None,
+};
+
+fn clean_log() -> serde_json::Value {
+    serde_json::json!({"solver": {"converged": true, "reason": "converged"}, "intersecting_triangle_pairs": 0})
+}
+
+/// (criteria, verdict) of `v` with a clean closure.json.
+fn judged(v: &ClosedValve, stj: Result<f64, String>) -> (Vec<crit::Criterion>, verdict::Verdict) {
+    let (_, m) = measure(v);
+    let c = crit::judge(&m, &Thresholds::default(), &anatomy(v, stj), &P80);
+    let d = verdict::decide(&c, verdict::gates(Some(&clean_log())));
+    (c, d)
+}
+
+fn value(c: &[crit::Criterion], id: &str) -> f64 {
+    match c.iter().find(|c| c.id == id).expect(id).value {
+        crit::Value::Mm(Some(v)) | crit::Value::Mm2(Some(v)) => v,
+        other => panic!("{id}: {other:?}"),
+    }
+}
+
+#[test]
+fn a_valve_built_to_meet_every_criterion_meets_them_all() {
+    let v = cups(Z_FLOOR, Z_EDGE, Z_COMM, 0.0);
+    let (c, d) = judged(&v, Ok(Z_STJ));
+    let ids: Vec<&str> = c.iter().map(|c| c.id).collect();
+    assert_eq!(
+        ids,
+        [
+            "central_coaptation",
+            "effective_height",
+            "coaptation_below_commissures",
+            "coaptation_above_vaj",
+            "leaflets_below_stj",
+            "no_billowing",
+            "no_prolapse",
+            "no_residual_regurgitation",
+            "closed"
+        ]
+    );
+    let near = |id: &str, want: f64| {
+        let got = value(&c, id);
+        assert!((got - want).abs() < 1e-9, "{id}: {got} vs {want}");
+    };
+    near("central_coaptation", Z_EDGE - Z_FLOOR);
+    near("effective_height", Z_EDGE);
+    near("coaptation_below_commissures", Z_COMM - Z_EDGE);
+    near("leaflets_below_stj", Z_STJ - Z_EDGE);
+    near("no_billowing", 0.0);
+    // The floors tile the disc; what is left is the sliver between the
+    // floors' chords and the outline bridged through the wings' sutured
+    // ends, well under the 1 mm² bound.
+    let o = value(&c, "no_residual_regurgitation");
+    assert!(o < 0.3, "orifice {o} mm²");
+    assert!(c.iter().all(|c| c.pass == Some(true)), "{c:#?}");
+    assert_eq!(d.status, Status::MeetsAllCriteria);
+    assert!(d.assessable && d.meets_all_criteria && d.not_assessable_reasons.is_empty());
+}
+
+#[test]
+fn crossings_an_unconverged_solve_or_no_log_make_a_passing_valve_not_assessable() {
+    let v = cups(Z_FLOOR, Z_EDGE, Z_COMM, 0.0);
+    let (c, _) = judged(&v, Ok(Z_STJ));
+    let mut crossing = clean_log();
+    crossing["intersecting_triangle_pairs"] = 594.into();
+    let mut unconverged = clean_log();
+    unconverged["solver"] = serde_json::json!({"converged": false, "reason": "iteration limit"});
+    let mut low = clean_log();
+    low["low_pressure"] =
+        serde_json::json!({"pressure_mmhg": 3.0, "converged": false, "reason": "stalled"});
+    let mut unrecorded = clean_log();
+    unrecorded
+        .as_object_mut()
+        .unwrap()
+        .remove("intersecting_triangle_pairs");
+    for (log, words) in [
+        (Some(&crossing), "594 pairs of triangles"),
+        (Some(&unconverged), "did not converge (iteration limit)"),
+        (
+            Some(&low),
+            "low-pressure closure (3.0 mmHg) did not converge",
+        ),
+        (Some(&unrecorded), "does not record whether leaflets cross"),
+        (None, "no closure.json"),
+    ] {
+        let d = verdict::decide(&c, verdict::gates(log));
+        assert_eq!(d.status, Status::NotAssessable, "{words}");
+        assert!(!d.assessable && !d.meets_all_criteria);
+        assert_eq!(d.not_assessable_reasons.len(), 1, "{d:?}");
+        assert!(d.not_assessable_reasons[0].contains(words), "{d:?}");
+        assert!(verdict::summary(&d, true, &c).starts_with("Not assessable: "));
+    }
+}
+
+#[test]
+fn a_central_point_lifted_above_the_commissures_fails_that_criterion() {
+    // Free edges 0.5 mm above the commissure tips.
+    let v = cups(Z_FLOOR, Z_COMM + 0.5, Z_COMM, 0.0);
+    let (c, d) = judged(&v, Ok(Z_STJ));
+    assert!((value(&c, "coaptation_below_commissures") + 0.5).abs() < 1e-9);
+    assert_eq!(d.status, Status::FailsCriteria);
+    assert_eq!(d.failed, ["coaptation_below_commissures"]);
+    assert!(!d.meets_all_criteria);
+}
+
+#[test]
+fn a_leaflet_above_the_stj_fails_and_an_unknown_stj_is_not_measurable() {
+    let v = cups(Z_FLOOR, Z_EDGE, Z_COMM, 0.0);
+    let (c, d) = judged(&v, Ok(Z_EDGE - 1.0));
+    assert!((value(&c, "leaflets_below_stj") + 1.0).abs() < 1e-9);
+    assert_eq!(d.failed, ["leaflets_below_stj"]);
+    assert_eq!(d.status, Status::FailsCriteria);
+    let (c, d) = judged(&v, Err("valve.json has no sections.stj".into()));
+    let stj = c.iter().find(|c| c.id == "leaflets_below_stj").unwrap();
+    assert_eq!((stj.value, stj.pass), (crit::Value::Mm(None), None));
+    assert_eq!(d.status, Status::NotAssessable);
+    assert!(d.failed.is_empty() && !d.meets_all_criteria);
+    assert!(
+        d.not_assessable_reasons[0].contains("Leaflets below the STJ is not measurable"),
+        "{d:?}"
+    );
+}
+
+#[test]
+fn an_uncovered_wedge_above_the_bound_fails_no_residual_regurgitation() {
+    let (c0, _) = judged(&cups(Z_FLOOR, Z_EDGE, Z_COMM, 0.0), Ok(Z_STJ));
+    let (c, d) = judged(&cups(Z_FLOOR, Z_EDGE, Z_COMM, 6.0), Ok(Z_STJ));
+    // The missing 6° of leaflet 3's floor: a sector of radius W (its
+    // 48-chord floor differs from the arc by < 0.01 mm²).
+    let wedge = 0.5 * W * W * 6f64.to_radians();
+    let extra = value(&c, "no_residual_regurgitation") - value(&c0, "no_residual_regurgitation");
+    assert!((extra - wedge).abs() < 0.05, "{extra} vs {wedge} mm²");
+    assert_eq!(d.failed, ["no_residual_regurgitation"]);
+    assert_eq!(d.status, Status::FailsCriteria);
+}
+
+#[test]
+fn a_belly_pushed_below_the_annulus_plane_fails_no_billowing() {
+    let mut v = cups(Z_FLOOR, Z_EDGE, Z_COMM, 0.0);
+    // Leaflet 1's floor, 2.5–5.5 mm from the axis and away from both
+    // seams, sinks 1 mm: 0.5 mm below the annulus plane, while the free
+    // edge stays at Z_EDGE (billowing, not prolapse).
+    let mut moved = 0;
+    for (k, p) in v.x.iter_mut().enumerate() {
+        let (r, a) = (p.x.hypot(p.y), p.y.atan2(p.x));
+        if v.boundary[k] == 0
+            && (p.z - Z_FLOOR).abs() < 1e-12
+            && (2.5..=5.5).contains(&r)
+            && (0.4..=1.7).contains(&a)
+            && !(p.x.abs() < 1.0 || (a - 2.0 * PI / 3.0).abs() < 0.3)
+        {
+            p.z = Z_FLOOR - 1.0;
+            moved += 1;
+        }
+    }
+    assert!(moved > 20, "{moved}");
+    let (_, m) = measure(&v);
+    assert!((m.leaflets[0].billowing_mm - 1.0).abs() < 1e-12);
+    assert_eq!(m.leaflets[1].billowing_mm, 0.0);
+    let c = crit::judge(&m, &Thresholds::default(), &anatomy(&v, Ok(Z_STJ)), &P80);
+    let d = verdict::decide(&c, verdict::gates(Some(&clean_log())));
+    assert!((value(&c, "no_billowing") - 1.0).abs() < 1e-12);
+    assert_eq!(d.failed, ["no_billowing"]);
+    assert!(m.lowest_free_edge_mm > 0.0);
+}
+
+#[test]
+fn the_criterion_judges_the_low_pressure_effective_height_when_there_is_one() {
+    let v = cups(Z_FLOOR, Z_EDGE, Z_COMM, 0.0);
+    let (_, mut m) = measure(&v);
+    // The same leaflets 0.8 mm lower at 3 mmHg: h_E 9.2 mm passes, and a
+    // loaded value below 9 mm would not decide.
+    let low: Vec<Point3> = v.x.iter().map(|p| p - Vector3::z() * 0.8).collect();
+    m.effective_height_low_pressure_mm = metrics::effective_height_at(&v, &low, 3);
+    m.effective_height_mm = Some(8.0);
+    let p = Pressures {
+        closing_mmhg: Some(80.0),
+        low_mmhg: Some(3.0),
+    };
+    let c = crit::judge(&m, &Thresholds::default(), &anatomy(&v, Ok(Z_STJ)), &p);
+    let e = c.iter().find(|c| c.id == "effective_height").unwrap();
+    assert!((value(&c, "effective_height") - (Z_EDGE - 0.8)).abs() < 1e-9);
+    assert_eq!(e.pass, Some(true));
+    assert!(
+        e.note.contains("at 3 mmHg") && e.note.contains("(80 mmHg) it is 8.00 mm"),
+        "{}",
+        e.note
+    );
+    // Without the low-pressure closure the loaded 8 mm is judged: fails.
+    m.effective_height_low_pressure_mm = None;
+    let c = crit::judge(&m, &Thresholds::default(), &anatomy(&v, Ok(Z_STJ)), &P80);
+    assert_eq!(c[1].pass, Some(false));
+    assert!(c[1].note.contains("at 80 mmHg"), "{}", c[1].note);
+}
+
+#[test]
+fn the_stj_is_placed_from_the_commissure_cylinder_or_not_at_all() {
+    use crate::io::valve_json::stj_height;
+    // Annulus 17 mm below the commissure cylinder's centre, commissures on
+    // the centre's plane, STJ section 1.5 mm above it: 18.5 mm above the
+    // annulus.
+    let tilt = Vector3::new(0.3, -0.2, 1.0).normalize();
+    let e1 = tilt.cross(&Vector3::x()).normalize();
+    let e2 = tilt.cross(&e1);
+    let centre = Point3::new(-20.0, 10.0, -150.0);
+    let origin = centre - tilt * 17.0;
+    let c = |a: f64| centre + (e1 * a.cos() + e2 * a.sin()) * 12.0;
+    let f = ValveFrame::new(origin, tilt, [c(0.0), c(2.1), c(4.2)], None).unwrap();
+    let mut v = serde_json::json!({
+        "sections": {"stj": {"height_mm": 1.5}},
+        "commissure_cylinder": {"centre_mm": [centre.x, centre.y, centre.z]},
+        "h_comm_mm": 17.0,
+    });
+    let s = stj_height(&v, &f).unwrap();
+    assert!((s - 18.5).abs() < 1e-9, "{s}");
+    v["h_comm_mm"] = 16.0.into();
+    assert!(stj_height(&v, &f).unwrap_err().contains("does not match"));
+    v["sections"]["stj"] = serde_json::Value::Null;
+    assert!(stj_height(&v, &f).unwrap_err().contains("no STJ section"));
+    let old = serde_json::json!({"valve_frame": {}});
+    assert!(
+        stj_height(&old, &f)
+            .unwrap_err()
+            .contains("older or hand-written")
+    );
+}

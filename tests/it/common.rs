@@ -178,21 +178,38 @@ pub fn run_default_chain(dir: &Path, inputs: &[(&str, &Path)], extra: &str) -> P
     dir.join("run")
 }
 
-/// A report's verdict is its criteria's conjunction, a valve that does not
-/// close is never green, and the solver converged.
-pub fn assert_honest_verdict(report: &serde_json::Value) {
-    let all = report["verdict"]["meets_all_criteria"].as_bool().unwrap();
+/// A run's verdict (`run/report.json`) is its criteria's conjunction when
+/// the closure is assessable and never green otherwise; a valve that does
+/// not close is never green; leaflets crossing each other (closure.json)
+/// make it not assessable, naming their count; and the solver converged.
+pub fn assert_honest_verdict(run: &Path) {
+    let report = json(&run.join("report.json"));
+    let log = json(&run.join("closure.json"));
+    let v = &report["verdict"];
+    let all = v["meets_all_criteria"].as_bool().unwrap();
+    let reasons = v["not_assessable_reasons"].as_array().unwrap();
+    let assessable = v["assessable"].as_bool().unwrap();
+    assert_eq!(assessable, reasons.is_empty(), "{v}");
     let criteria = report["criteria"].as_array().unwrap();
     assert_eq!(
         all,
-        criteria.iter().all(|c| c["pass"].as_bool() == Some(true)),
+        assessable && criteria.iter().all(|c| c["pass"].as_bool() == Some(true)),
         "{report}"
     );
+    assert_eq!(v["status"] == "meets_all_criteria", all, "{v}");
     if report["metrics"]["closed"].as_bool() == Some(false) {
+        assert!(!all, "an open valve meets all criteria: {v}");
+    }
+    let crossing = log["intersecting_triangle_pairs"].as_u64().unwrap();
+    if crossing > 0 {
+        assert_eq!(
+            v["status"], "not_assessable",
+            "{crossing} crossing pairs: {v}"
+        );
+        let words = format!("{crossing} pairs of triangles of different leaflets cross");
         assert!(
-            !all,
-            "an open valve meets all criteria: {}",
-            report["verdict"]
+            reasons.iter().any(|r| r.as_str().unwrap().contains(&words)),
+            "{v}"
         );
     }
     assert!(

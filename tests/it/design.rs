@@ -1,7 +1,9 @@
 //! `coapt design`: leaflet sizing on the committed sample. The recommended
-//! size meets every criterion and every smaller size tried does not; the
-//! design report shows the sweep; the answer holds under h → h/2 and does
-//! not depend on the thread count; a second run redoes nothing.
+//! size meets every criterion and every smaller size tried does not, or,
+//! when no size's closure can be judged (leaflets crossing each other),
+//! nothing is recommended and each size says why; the design report shows
+//! the sweep; the answer holds under h → h/2 and does not depend on the
+//! thread count; a second run redoes nothing.
 
 use std::path::{Path, PathBuf};
 
@@ -39,12 +41,6 @@ fn design(cfg: &Path, extra: &[&str]) -> (Value, String) {
     (d, String::from_utf8_lossy(&o.stdout).into_owned())
 }
 
-fn recommended(d: &Value) -> u64 {
-    d["recommended_size"]
-        .as_u64()
-        .unwrap_or_else(|| panic!("no size recommended: {}", d["reason"]))
-}
-
 #[test]
 fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_halved() {
     const SIZES: &str = "[13, 15, 17]";
@@ -52,17 +48,19 @@ fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_ha
     let cfg = config(&coarse, "1 mm", SIZES);
     let (d, table) = design(&cfg, &[]);
     assert_eq!(d["schema"], "coapt-design/1");
-    let best = recommended(&d);
-    assert!(table.contains("← recommended"), "{table}");
-
-    // Every size is an ordinary run whose report agrees with design.json;
-    // the recommended one meets every criterion, every smaller one fails one.
+    // With "planes" contact the sample's leaflets cross each other at every
+    // size (closure.json), so no closure is assessable and none may be
+    // recommended; should a size become assessable and meet every
+    // criterion, the smallest such is the one.
+    let best = d["recommended_size"].as_u64();
     let run = coarse.join("run/design");
     let sizes = d["sizes"].as_array().unwrap();
     assert_eq!(sizes.len(), 3);
+    let mut first_meeting = None;
     for e in sizes {
         let size = e["size"].as_u64().unwrap();
-        let rep = json(&run.join(format!("size-{size}/report.json")));
+        let dir = run.join(format!("size-{size}"));
+        let rep = json(&dir.join("report.json"));
         let meets = rep["verdict"]["meets_all_criteria"].as_bool().unwrap();
         assert_eq!(
             e["meets_all_criteria"].as_bool(),
@@ -77,27 +75,56 @@ fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_ha
             e["effective_height_mm"],
             rep["metrics"]["effective_height_mm"]
         );
-        if size < best {
-            assert!(!meets, "size {size} meets all, but {best} was recommended");
+        if meets && first_meeting.is_none() {
+            first_meeting = Some(size);
+        }
+        if !meets {
             assert!(!strings(&e["failures"]).is_empty(), "{e}");
         }
-        if size == best {
-            assert!(meets);
+        // Crossing leaflets: not assessable, and the sweep's first failure
+        // says so with the count.
+        let crossing = json(&dir.join("closure.json"))["intersecting_triangle_pairs"]
+            .as_u64()
+            .unwrap();
+        if crossing > 0 {
+            assert!(
+                !meets && rep["verdict"]["status"] == "not_assessable",
+                "size {size}"
+            );
+            let first = strings(&e["failures"])[0].clone();
+            assert!(
+                first.starts_with(&format!("not assessable: {crossing} pairs of triangles")),
+                "size {size}: {first}"
+            );
         }
     }
-    // The reason names the failure just below, or says the sweep starts there.
+    assert_eq!(best, first_meeting, "{}", d["reason"]);
     let reason = d["reason"].as_str().unwrap();
-    assert!(
-        reason.contains(&format!("Size {best} is the smallest")),
-        "{reason}"
-    );
-    if best > 13 {
-        assert!(
-            reason.contains(&format!("size {} fails", best - 2)),
-            "{reason}"
-        );
-    } else {
-        assert!(reason.contains("widen the sweep downwards"), "{reason}");
+    match best {
+        Some(best) => {
+            assert!(table.contains("← recommended"), "{table}");
+            // The reason names the failure just below, or says the sweep
+            // starts there.
+            assert!(
+                reason.contains(&format!("Size {best} is the smallest")),
+                "{reason}"
+            );
+            if best > 13 {
+                assert!(
+                    reason.contains(&format!("size {} fails", best - 2)),
+                    "{reason}"
+                );
+            } else {
+                assert!(reason.contains("widen the sweep downwards"), "{reason}");
+            }
+        }
+        None => {
+            assert!(!table.contains("← recommended"), "{table}");
+            assert!(
+                reason.starts_with("No size tried meets every criterion"),
+                "{reason}"
+            );
+        }
     }
     // Leaflet area grows with size (same template family, same mesher).
     let areas: Vec<f64> = sizes
@@ -117,7 +144,10 @@ fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_ha
     let page = run.join("report.html");
     let html = std::fs::read_to_string(&page).unwrap();
     assert!(html.contains("<section id=\"sizing\">"));
-    assert!(html.contains(&format!("Recommended: Ozaki size {best}")));
+    assert!(html.contains(&match best {
+        Some(b) => format!("Recommended: Ozaki size {b}"),
+        None => "No size of the sweep meets every criterion.".to_string(),
+    }));
     assert!(html.contains("id=\"fig-sizing-heights\"") && html.contains("id=\"fig-sizing-areas\""));
     if let Some(b) = browser() {
         let (v, code) = check(&b, &page);
@@ -153,7 +183,7 @@ fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_ha
     let cfg2 = config(&fine, "0.5 mm", SIZES);
     let (d2, _) = design(&cfg2, &[]);
     assert_eq!(
-        recommended(&d2),
+        d2["recommended_size"].as_u64(),
         best,
         "h 1 mm: {}\nh 0.5 mm: {}",
         d["reason"],

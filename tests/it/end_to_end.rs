@@ -260,5 +260,5 @@ fn clinical_phantom_runs_the_whole_chain() {
         (tilt - 20.0).abs() <= 2.0,
         "annulus plane tilted {tilt:.1}° (truth 20°)"
     );
-    assert_honest_verdict(&json(&run.join("report.json")));
+    assert_honest_verdict(&run);
 }

@@ -418,5 +418,5 @@ fn real_ct_chain_runs_to_an_honest_report() {
         (annulus - 27.0).abs() <= 2.0,
         "annulus {annulus:.1} mm across"
     );
-    assert_honest_verdict(&json(&run.join("report.json")));
+    assert_honest_verdict(&run);
 }

@@ -100,11 +100,87 @@ fn ct_to_report_in_one_command_and_an_edit_reruns_only_what_it_touches() {
         [
             "central_coaptation",
             "effective_height",
+            "coaptation_below_commissures",
             "coaptation_above_vaj",
+            "leaflets_below_stj",
+            "no_billowing",
             "no_prolapse",
+            "no_residual_regurgitation",
             "closed"
         ]
     );
+    let crit = |id: &str| {
+        rep["criteria"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["id"] == id)
+            .unwrap()
+            .clone()
+    };
+    // The anatomical bounds come from valve.json: every commissure lies at
+    // h_comm above the annulus in the valve frame (the frame's axis is the
+    // commissure cylinder's), and the STJ section's height is measured from
+    // the cylinder's centre, on the commissures' plane.
+    let valve = json(&run.join("valve.json"));
+    let comm = num("lowest_commissure_above_annulus_mm");
+    let h_comm = valve["h_comm_mm"].as_f64().unwrap();
+    assert!((comm - h_comm).abs() < 1e-9, "{comm} vs {h_comm}");
+    let stj = num("stj_above_annulus_mm") - comm;
+    let want = valve["sections"]["stj"]["height_mm"].as_f64().unwrap();
+    assert!((stj - want).abs() < 1e-9, "{stj} vs {want}");
+    // Each new criterion's value is the difference its note describes.
+    let meet = num("effective_height_mm").max(num("central_coaptation_top_above_annulus_mm"));
+    let below = crit("coaptation_below_commissures")["value"]
+        .as_f64()
+        .unwrap();
+    assert!((below - (comm - meet)).abs() < 1e-9);
+    assert_eq!(crit("coaptation_below_commissures")["pass"], below > 0.0);
+    let stj_margin = crit("leaflets_below_stj")["value"].as_f64().unwrap();
+    assert!(
+        (stj_margin - (num("stj_above_annulus_mm") - num("highest_leaflet_above_annulus_mm")))
+            .abs()
+            < 1e-9
+    );
+    let orifice = crit("no_residual_regurgitation");
+    assert_eq!(orifice["value"], m["regurgitant_orifice_area_mm2"]);
+    assert_eq!(
+        (orifice["unit"].as_str(), orifice["threshold"].as_f64()),
+        (Some("mm2"), Some(1.0))
+    );
+    assert_eq!(orifice["pass"], num("regurgitant_orifice_area_mm2") <= 1.0);
+    let deepest = m["billowing_mm"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| b.as_f64().unwrap())
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert_eq!(crit("no_billowing")["value"].as_f64(), Some(deepest));
+    // The verdict: with leaflets crossing each other in closure.json the
+    // sample is not assessable, whatever its criteria say (the count is in
+    // the reason); without crossings it is its criteria's conjunction.
+    let log = json(&run.join("closure.json"));
+    let crossing = log["intersecting_triangle_pairs"].as_u64().unwrap();
+    let v = &rep["verdict"];
+    eprintln!("report chain: sample verdict {v}");
+    if crossing > 0 {
+        assert_eq!(v["status"], "not_assessable", "{v}");
+        assert_eq!(v["meets_all_criteria"], false);
+        assert!(
+            v["not_assessable_reasons"][0]
+                .as_str()
+                .unwrap()
+                .starts_with(&format!("{crossing} pairs of triangles")),
+            "{v}"
+        );
+    } else {
+        let all = rep["criteria"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|c| c["pass"] == true);
+        assert_eq!(v["meets_all_criteria"], all, "{v}");
+    }
     for k in ["segment", "surface", "valve", "leaflets", "close", "report"] {
         assert!(
             rep["timing_s"][k].as_f64().is_some(),
@@ -336,11 +412,12 @@ fn report_numbers_do_not_depend_on_the_thread_count() {
     );
     let cfg = d.join("close.toml");
     let text = std::fs::read_to_string(repo().join("pipelines/close.toml")).unwrap();
-    std::fs::write(
-        &cfg,
-        format!("{text}effective_height_pressure = \"3 mmHg\"\n"),
-    )
-    .unwrap();
+    let text = if text.contains("effective_height_pressure") {
+        text
+    } else {
+        format!("{text}effective_height_pressure = \"3 mmHg\"\n")
+    };
+    std::fs::write(&cfg, text).unwrap();
     let o = coapt(&[
         "close",
         "--leaflets",
@@ -384,11 +461,28 @@ fn report_numbers_do_not_depend_on_the_thread_count() {
     let (a, b) = (report("1"), report("2"));
     assert_eq!(measured(&a), measured(&b));
     assert_eq!(a["verdict"]["closed"], true);
-    assert_eq!(a["metrics"]["effective_height_pressure_mmhg"], 3.0);
+    // Both effective heights are reported; the criterion judges the seeds'
+    // (3 mmHg), which the unloaded leaflets hold higher than 80 mmHg does.
+    let m = &a["metrics"];
+    assert_eq!(m["effective_height_pressure_mmhg"], 3.0);
+    assert_eq!(m["low_pressure_mmhg"], 3.0);
+    assert_eq!(m["closing_pressure_mmhg"], 80.0);
+    assert_eq!(
+        m["effective_height_mm"],
+        m["effective_height_low_pressure_mm"]
+    );
+    let (low, loaded) = (
+        m["effective_height_low_pressure_mm"].as_f64().unwrap(),
+        m["effective_height_closing_pressure_mm"].as_f64().unwrap(),
+    );
     assert!(
-        a["criteria"][1]["note"]
-            .as_str()
-            .unwrap()
-            .contains("3 mmHg")
+        low > loaded,
+        "h_E {low} mm at 3 mmHg, {loaded} mm at 80 mmHg"
+    );
+    assert_eq!(a["criteria"][1]["value"].as_f64(), Some(low));
+    let note = a["criteria"][1]["note"].as_str().unwrap();
+    assert!(
+        note.contains("at 3 mmHg") && note.contains("(80 mmHg)"),
+        "{note}"
     );
 }

@@ -109,7 +109,7 @@ fn schema_rejects_a_wrong_type() {
         ("/metrics/ncca", json!(24.6)), // a percentage where a fraction belongs
         ("/metrics/free_edge_length_mm/1", json!("28.1")),
         ("/criteria/0/value", json!("4.6")),
-        ("/criteria/2/threshold", json!(1)),
+        ("/criteria/3/threshold", json!(1)),
         ("/solver/iterations", json!(3.5)),
         ("/leaflets/2/index", json!(0)),
         ("/inputs/ct/blake3", json!("not-hex")),
@@ -148,7 +148,7 @@ fn schema_rejects_an_unknown_or_renamed_key() {
     v["criteria"][0]["id"] = json!("central_coaptation_height");
     assert_rejected(&v, "/criteria/0", "unknown criterion id");
     let mut v = example();
-    v["schema"] = json!("coapt-report/2");
+    v["schema"] = json!("coapt-report/1");
     assert_rejected(&v, "/schema", "other format version");
 }
 
