@@ -505,7 +505,24 @@ pub fn close_on(
         (None, suture::Mode::Off) => None,
         (None, _) => {
             let cyl = Wall::Cylinder(axis);
-            let s = suture::suture(l, &cfg.suture, &axis, wall.unwrap_or(&cyl), &stop, &nopt)?;
+            // With true contact the leaflets are sewn without crossing
+            // each other too (the closure's barrier cannot undo it).
+            let contact = (cfg.contact == ContactKind::Leaflets).then(|| {
+                let dhat = cfg.contact_margin;
+                suture::SewContact {
+                    dhat,
+                    xi: (cfg.thickness - 0.5 * dhat).max(0.0),
+                }
+            });
+            let s = suture::suture(
+                l,
+                &cfg.suture,
+                &axis,
+                wall.unwrap_or(&cyl),
+                &stop,
+                &nopt,
+                contact,
+            )?;
             if s.status == suture::Status::Failed {
                 let (crossings, sewn_contacts) = leaflet_crossings(l, &s.x);
                 return Ok(Closed {
