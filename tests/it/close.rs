@@ -348,6 +348,8 @@ fn sample_valve_closes_with_leaflet_contact_without_crossing() {
             .any(|&k| bnd[k as usize] == 1.0)
     };
     assert!(c1.iter().all(|&(i, j)| strip(i) && strip(j)), "{c1:?}");
+    // Suturing kept them apart too (it sews with the same barrier).
+    assert!(c0.iter().all(|&(i, j)| strip(i) && strip(j)), "{c0:?}");
     // Every leaflet touches both others (contact bits are leaflet numbers).
     let contact = after
         .point_data
