@@ -117,9 +117,21 @@ pub fn leaflet_pairs(
     leaflet: &[u16],
     sutured: &[bool],
 ) -> (Vec<(u32, u32)>, Vec<(u32, u32)>) {
-    let strip = |t: &[u32; 3]| t.iter().any(|&k| sutured[k as usize]);
     let v: Vec<V3> = x.iter().map(|p| p.coords).collect();
-    let bvh = Bvh::build(&v, tris);
+    leaflet_pairs_at(&v, tris, leaflet, sutured)
+}
+
+/// [`leaflet_pairs`] on coordinate vectors (the mechanics' positions): the
+/// one rule the placed leaflets (leaflets.json), the true-contact barrier's
+/// admissible states and the closed state (closure.json) are judged by.
+pub fn leaflet_pairs_at(
+    v: &[V3],
+    tris: &[[u32; 3]],
+    leaflet: &[u16],
+    sutured: &[bool],
+) -> (Vec<(u32, u32)>, Vec<(u32, u32)>) {
+    let strip = |t: &[u32; 3]| t.iter().any(|&k| sutured[k as usize]);
+    let bvh = Bvh::build(v, tris);
     let mut out = Vec::new();
     let mut sewn = Vec::new();
     for (i, ti) in tris.iter().enumerate() {

@@ -65,6 +65,18 @@ pub struct Closed {
     pub suturing: Option<Sutured>,
     /// The wall barrier's record at the final state (`wall_contact`).
     pub wall_contact: Option<WallSummary>,
+    /// Triangle pairs (i < j) of different leaflets that cross in the final
+    /// state, and the pairs that only meet where neighbours are sewn to the
+    /// same commissure post (both triangles with a sutured node): the rule
+    /// of leaflets.json ([`crate::leaflet::crossings`]).
+    pub crossings: Vec<(u32, u32)>,
+    pub sewn_contacts: Vec<(u32, u32)>,
+}
+
+/// [`Closed::crossings`] and [`Closed::sewn_contacts`] of the leaflets at `x`.
+pub fn leaflet_crossings(l: &Leaflets, x: &[V3]) -> (Vec<(u32, u32)>, Vec<(u32, u32)>) {
+    let sutured: Vec<bool> = l.boundary.iter().map(|&b| b == 1).collect();
+    crate::leaflet::crossings::leaflet_pairs_at(x, &l.tris, &l.leaflet, &sutured)
 }
 
 /// Lug corners: sutured nodes that share a triangle edge with a free-edge node.
@@ -493,9 +505,29 @@ pub fn close_on(
         (None, suture::Mode::Off) => None,
         (None, _) => {
             let cyl = Wall::Cylinder(axis);
-            let s = suture::suture(l, &cfg.suture, &axis, wall.unwrap_or(&cyl), &stop, &nopt)?;
+            // With true contact the leaflets are sewn without crossing
+            // each other too (the closure's barrier cannot undo it).
+            let contact = (cfg.contact == ContactKind::Leaflets).then(|| {
+                let dhat = cfg.contact_margin;
+                suture::SewContact {
+                    dhat,
+                    xi: (cfg.thickness - 0.5 * dhat).max(0.0),
+                }
+            });
+            let s = suture::suture(
+                l,
+                &cfg.suture,
+                &axis,
+                wall.unwrap_or(&cyl),
+                &stop,
+                &nopt,
+                contact,
+            )?;
             if s.status == suture::Status::Failed {
+                let (crossings, sewn_contacts) = leaflet_crossings(l, &s.x);
                 return Ok(Closed {
+                    crossings,
+                    sewn_contacts,
                     contact: vec![0; s.x.len()],
                     area_stretch: Vec::new(),
                     max_stretch: Vec::new(),
@@ -570,7 +602,12 @@ pub fn close_on(
         .collect();
     let mut terms: Vec<Box<dyn Term>> = Vec::new();
     match cfg.contact {
-        ContactKind::Leaflets if n_leaflets > 1 => {
+        ContactKind::Leaflets if n_leaflets < 2 => {
+            return Err(format!(
+                "contact = \"leaflets\" is contact between leaflets and there is {n_leaflets} leaflet; a lone leaflet of a symmetric valve closes against its neighbours' planes: contact = \"planes\""
+            ));
+        }
+        ContactKind::Leaflets => {
             if cfg.solver != SolverKind::Newton {
                 return Err(
                     "contact = \"leaflets\" needs solver = \"newton\" (its steps are filtered so that nothing crosses)"
@@ -732,6 +769,30 @@ pub fn close_on(
             outcome.reason
         ));
     }
+    // Judged by the rule of leaflets.json. True contact never accepts a
+    // state with a crossing the start (after suturing) did not have
+    // (`LeafletBarrier::admissible`), so a crossing here began at the
+    // start: the barrier keeps leaflets from passing through each other but
+    // cannot pull apart two that start through each other. Such a state is
+    // no closed valve, whatever the residual.
+    let (crossings, sewn_contacts) = leaflet_crossings(l, &x);
+    if cfg.contact == ContactKind::Leaflets && !crossings.is_empty() {
+        let (at_start, _) = leaflet_crossings(l, &l.x);
+        let kept = crossings
+            .iter()
+            .filter(|p| at_start.binary_search(p).is_ok())
+            .count();
+        let what = format!(
+            "{} triangle pairs of different leaflets cross in the final state ({kept} of them crossed at the start, after suturing, where {} did)",
+            crossings.len(),
+            at_start.len()
+        );
+        if outcome.converged {
+            outcome.converged = false;
+            outcome.stopped_by = Stopped::LeafletsCross;
+        }
+        outcome.reason = format!("{what}; {}", outcome.reason);
+    }
     // What the report calls touching: the contact term's own criterion at
     // the final state (gap < 0 for leaflets, d ≤ η₂ for planes).
     for t in sys.terms.iter_mut() {
@@ -771,6 +832,8 @@ pub fn close_on(
         pressure_sign: signs,
         suturing,
         wall_contact,
+        crossings,
+        sewn_contacts,
     })
 }
 

@@ -5,9 +5,13 @@
 //! mu = "300 kPa"             # neo-hookean, gent, goh (or young = "0.9 MPa": μ = E/3)
 //! thickness = "0.5 mm"
 //! pressure = "80 mmHg"
-//! contact = "leaflets"       # leaflets | planes | none
+//! contact = "leaflets"       # leaflets (default) | planes | none
 //! solver = "newton"          # newton | relax | combined
 //! ```
+//! `contact`: "leaflets" is true contact between leaflets (the barrier of
+//! `contact::leaflet_barrier`, Newton only; it needs two leaflets or more,
+//! and a closure that ends with a crossing triangle pair is not converged);
+//! "planes" the seed 001 planes, for a lone leaflet of a symmetric valve.
 //! Optional: `poisson` (svk), `jm` (gent, default 2.3), `k1`, `k2`, `kappa`
 //! (goh), `msm_law` ("linear" with `young`, "seed000-isotropic",
 //! "seed000-anisotropic"), `contact_margin` (the leaflet barrier's reach

@@ -10,9 +10,9 @@ use super::element::V3;
 use super::suture::{self, Wall};
 use crate::geom::bvh::Bvh;
 use crate::geom::closest_point::closest_point;
-use crate::geom::tri_tri;
 use crate::geom::{DataArray, DataValues, Frame, Point3, TriMesh};
 use crate::io::{Transaction, atomic, vtp};
+use crate::leaflet::crossings;
 use crate::pipeline::{ArtifactKind, Params, Port, Progress, StageIo, StageSpec};
 use crate::{Error, Result};
 
@@ -256,10 +256,10 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
     };
     progress.set(0.95);
     let o = &closed.outcome;
-    // Interpenetration check on the final state: exact triangle–triangle
-    // tests between different leaflets (BVH broad phase).
-    let bvh = Bvh::build(&closed.x, &leaflets.tris);
-    let crossing = tri_tri::intersecting_pairs(&closed.x, &leaflets.tris, &leaflets.leaflet, &bvh);
+    // Interpenetration check on the final state (`close_on`): exact
+    // triangle–triangle tests between different leaflets, by the rule of
+    // leaflets.json (neighbours sewn to one post touch there: counted apart).
+    let crossing = &closed.crossings;
     // Touching another leaflet (or plane), not the wall (its own record).
     let in_contact = |c: &[u8]| c.iter().filter(|&&m| m & !WALL_BIT != 0).count();
     let mut log = json!({
@@ -287,6 +287,8 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         },
         "nodes_in_contact": in_contact(&closed.contact),
         "intersecting_triangle_pairs": crossing.len(),
+        "sewn_contacts": closed.sewn_contacts.len(),
+        "crossing_rule": crossings::RULE,
         "low_pressure": low.as_ref().map(|l| json!({
             "pressure_mmhg": cfg.effective_height_pressure.map(|p| p / crate::units::MMHG_IN_MPA),
             "converged": l.outcome.converged,
@@ -294,6 +296,7 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
             "reason": l.outcome.reason,
             "iterations": l.outcome.iterations,
             "residual_n": l.outcome.residual_n,
+            "intersecting_triangle_pairs": l.crossings.len(),
         })),
         "timing_s": {"setup": closed.setup_s, "suture": closed.suturing.as_ref().map(|s| s.seconds), "solve": closed.solve_s, "low_pressure_solve": low.as_ref().map(|l| l.solve_s)},
     });

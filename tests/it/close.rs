@@ -181,7 +181,21 @@ fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
     use coapt::io::vtp;
     let d = tmpdir("close-planes");
     let surface = sample_leaflets(&d);
-    let cfg = repo().join("pipelines/close.toml");
+    // The pipeline's settings with the planes instead of its true contact.
+    let text = std::fs::read_to_string(repo().join("pipelines/close.toml")).unwrap();
+    let text: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("contact") {
+                "contact = \"planes\""
+            } else {
+                l
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let cfg = d.join("close-planes.toml");
+    std::fs::write(&cfg, text).unwrap();
     let log = close_on_one_and_two_threads(&d, &surface, &cfg);
     assert_eq!(log["solver"]["converged"], true);
     assert_eq!(log["solver"]["stopped_by"], "converged");
@@ -265,12 +279,12 @@ fn sample_valve_closes_with_contact_planes_and_is_thread_independent() {
 }
 
 /// The sample valve closes with true leaflet-to-leaflet contact (the
-/// barrier): converged, the same bytes whatever the thread count, every
-/// leaflet touching both others, and no triangle pair of different
-/// leaflets crossing that did not cross where the closure started, the
-/// sutured leaflets (exact triangle–triangle tests; the placement may sew
-/// neighbours over each other at the commissures, and suturing keeps each
-/// leaflet in its own sector with planes, not with contact).
+/// barrier; the pipeline's default): converged, the same bytes whatever the
+/// thread count, every leaflet touching both others, no crossing triangle
+/// pair by the rule of leaflets.json, and no triangle pair of different
+/// leaflets meeting at all that did not meet where the closure started, the
+/// sutured leaflets (exact triangle–triangle tests; neighbours sewn to the
+/// same commissure post meet there, in a point).
 #[test]
 fn sample_valve_closes_with_leaflet_contact_without_crossing() {
     use coapt::geom::bvh::Bvh;
@@ -279,22 +293,11 @@ fn sample_valve_closes_with_leaflet_contact_without_crossing() {
     use coapt::mech::element::V3;
     let d = tmpdir("close-leaflets");
     let surface = sample_leaflets(&d);
-    let text = std::fs::read_to_string(repo().join("pipelines/close.toml")).unwrap();
-    let text: String = text
-        .lines()
-        .map(|l| {
-            if l.starts_with("contact") {
-                "contact = \"leaflets\""
-            } else {
-                l
-            }
-        })
-        .collect::<Vec<_>>()
-        .join("\n");
-    let cfg = d.join("close-leaflets.toml");
-    std::fs::write(&cfg, text).unwrap();
+    let cfg = repo().join("pipelines/close.toml");
     let log = close_on_one_and_two_threads(&d, &surface, &cfg);
+    assert_eq!(log["config"]["contact"], "leaflets");
     assert_eq!(log["solver"]["converged"], true);
+    assert_eq!(log["intersecting_triangle_pairs"], 0);
     let crossing = |m: &coapt::geom::TriMesh| {
         let x: Vec<V3> = m.vertices.iter().map(|p| V3::new(p.x, p.y, p.z)).collect();
         let body: Vec<u16> = m
@@ -329,7 +332,24 @@ fn sample_valve_closes_with_leaflet_contact_without_crossing() {
         c1.len(),
         c0.len()
     );
-    assert_eq!(log["intersecting_triangle_pairs"], c1.len());
+    // What meets is the commissure seams: triangles that both have a
+    // sutured node (leaflets.json's sewn contacts).
+    assert_eq!(log["sewn_contacts"], c1.len());
+    let bnd = after
+        .point_data
+        .get("boundary")
+        .unwrap()
+        .values
+        .to_f64()
+        .unwrap();
+    let strip = |t: u32| {
+        after.triangles[t as usize]
+            .iter()
+            .any(|&k| bnd[k as usize] == 1.0)
+    };
+    assert!(c1.iter().all(|&(i, j)| strip(i) && strip(j)), "{c1:?}");
+    // Suturing kept them apart too (it sews with the same barrier).
+    assert!(c0.iter().all(|&(i, j)| strip(i) && strip(j)), "{c0:?}");
     // Every leaflet touches both others (contact bits are leaflet numbers).
     let contact = after
         .point_data

@@ -772,3 +772,86 @@ fn true_contact_and_offset_planes_agree_on_coaptation_height() {
     assert!(heights[0] > 1.0 && heights[1] > 1.0, "{heights:?}");
     assert!((heights[0] - heights[1]).abs() < 0.5, "{heights:?}");
 }
+
+/// Issue 22: three leaflets closed with the pipeline's settings (true
+/// contact, suturing first) end with no crossing triangle pair: the final
+/// state is judged by the exact rule of leaflets.json, the same one the
+/// barrier's admissible states obey. The peer leaflets have 4 mm gaps at
+/// the commissures, so nothing is sewn to a shared post either.
+#[test]
+fn three_leaflets_close_by_default_without_crossing() {
+    use crate::mech::config::{self, ContactKind};
+    use crate::mech::{closure, solve::Stopped};
+    let cfg = config::parse(include_str!("../../../pipelines/close.toml")).expect("config");
+    assert_eq!(cfg.contact, ContactKind::Leaflets);
+    // A lone leaflet of a symmetric valve has nothing to touch but its
+    // neighbours' planes: asking it for true contact is an error.
+    let (one, axis1) = crate::bench::close::ozaki_cylinder(1.0).expect("peer leaflet");
+    let err = closure::close(&one, &cfg, Some(axis1)).expect_err("one leaflet");
+    assert!(err.contains("contact = \"planes\""), "{err}");
+    let (l, axis) = three_peer_leaflets(1.0);
+    let c = closure::close(&l, &cfg, Some(axis)).expect("closure");
+    assert!(c.outcome.converged, "{}", c.outcome.reason);
+    assert_eq!(c.outcome.stopped_by, Stopped::Converged);
+    assert!(c.suturing.is_some(), "the pipeline sutures first");
+    assert_eq!(c.crossings, vec![], "crossing pairs in the closed state");
+    assert_eq!(c.sewn_contacts, vec![]);
+    // It closed: every leaflet touches both others.
+    let mut bits = [0u8; 3];
+    for (t, &k) in l.tris.iter().zip(&l.leaflet) {
+        for &i in t {
+            bits[k as usize] |= c.contact[i as usize];
+        }
+    }
+    for (k, b) in bits.iter().enumerate() {
+        assert_eq!(b & 0b111, 0b111 & !(1 << k), "leaflet {k} touches {b:b}");
+    }
+    // The independent count agrees: exact tests on every pair of triangles
+    // of different leaflets.
+    let (x, tris) = (&c.x, &l.tris);
+    let mut n = 0;
+    for i in 0..tris.len() {
+        for j in i + 1..tris.len() {
+            if l.leaflet[i] != l.leaflet[j]
+                && crate::geom::tri_tri::tri_tri_intersect(
+                    tris[i].map(|k| &x[k as usize]),
+                    tris[j].map(|k| &x[k as usize]),
+                )
+            {
+                n += 1;
+            }
+        }
+    }
+    assert_eq!(n, 0);
+}
+
+/// A closure with true contact that starts with leaflets through each
+/// other (where the seed's planes through the axis closed them: each sinks
+/// a little past its plane where the planes meet) cannot end as a closed
+/// valve: the barrier keeps what it finds but cannot pull leaflets apart,
+/// and the final state's crossings make it a failure, never a converged
+/// one, whatever the residual.
+#[test]
+fn leaflets_that_start_crossed_fail_with_their_crossings() {
+    use crate::mech::config;
+    use crate::mech::{closure, solve::Stopped};
+    let text = include_str!("../../../pipelines/close.toml");
+    let planes = config::parse(&text.replace("contact = \"leaflets\"", "contact = \"planes\""))
+        .expect("config");
+    let (mut l, axis) = three_peer_leaflets(1.0);
+    let c = closure::close(&l, &planes, Some(axis)).expect("closure");
+    assert!(c.outcome.converged, "{}", c.outcome.reason);
+    assert!(!c.crossings.is_empty(), "the planes leave crossings");
+    // From there, sutured already, with true contact.
+    l.x = c.x;
+    let cfg = config::parse(&format!("{text}[suture]\nmode = \"off\"\n")).expect("config");
+    let c = closure::close(&l, &cfg, Some(axis)).expect("closure");
+    assert!(!c.crossings.is_empty());
+    assert!(!c.outcome.converged, "{}", c.outcome.reason);
+    assert!(
+        c.outcome.reason.contains("cross in the final state"),
+        "{}",
+        c.outcome.reason
+    );
+    assert_eq!(c.outcome.stopped_by, Stopped::LeafletsCross);
+}

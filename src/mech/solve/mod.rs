@@ -84,6 +84,9 @@ pub enum Stopped {
     NotAnEquilibrium,
     /// Nodes ran off to many times the leaflets' size.
     Diverged,
+    /// Triangles of different leaflets cross in the final state (true
+    /// contact; pairs where neighbours are sewn to one post excepted).
+    LeafletsCross,
 }
 
 #[derive(Debug, Clone, Serialize)]
