@@ -264,7 +264,7 @@ pub fn judge(m: &Metrics, t: &Thresholds, a: &Anatomy, p: &Pressures) -> Vec<Cri
             pass: check(orifice, Comparison::AtMost(t.regurgitant_orifice_mm2)),
             note: match (orifice, m.orifice_pixel_mm) {
                 (Some(_), Some(px)) => format!(
-                    "lumen area seen along the axis that no leaflet covers, rasterised at {px:.3} mm pixels; at most {} mm² counts as none (a tenth of the ASE/EACVI bound of mild regurgitation, EROA < 10 mm²)",
+                    "lumen area seen along the axis that no leaflet covers (each leaflet a solid of its thickness about its mid-surface), rasterised at {px:.3} mm pixels; at most {} mm² counts as none (a tenth of the ASE/EACVI bound of mild regurgitation, EROA < 10 mm²)",
                     t.regurgitant_orifice_mm2
                 ),
                 _ => {

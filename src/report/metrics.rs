@@ -20,6 +20,11 @@ pub struct Options {
     pub hcc_radius_mm: f64,
     /// Pixel of the orifice raster, mm.
     pub pixel_mm: f64,
+    /// Half the leaflet thickness, mm: the shadow of a mid-surface
+    /// triangle reaches this far beyond its edges (two leaflets pressed
+    /// together by true contact keep their mid-surfaces a thickness apart,
+    /// and a bare mid-surface shadow leaves that slit open).
+    pub half_thickness_mm: f64,
     /// Leaflets whose own numbers are reported (the first ones); the others
     /// only serve as neighbours (mirror images of a one-leaflet closure).
     /// `None`: all.
@@ -32,6 +37,7 @@ impl Default for Options {
             column_mm: 0.5,
             hcc_radius_mm: 5.0,
             pixel_mm: 0.05,
+            half_thickness_mm: 0.0,
             measured: None,
         }
     }
@@ -457,7 +463,7 @@ pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
             .flat_map(|z| z.points())
             .map(|p| hr(v, p).0),
     );
-    let orifice = (nm == nl).then(|| orifice::measure(v, opts.pixel_mm));
+    let orifice = (nm == nl).then(|| orifice::measure(v, opts.pixel_mm, opts.half_thickness_mm));
     Metrics {
         coaptation_height_mm: coaptation_height,
         central_coaptation_height_mm: central_height,

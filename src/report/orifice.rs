@@ -69,8 +69,10 @@ fn outline(v: &ClosedValve) -> Option<Vec<f64>> {
     Some(filled)
 }
 
-/// Rasterise the lumen and the leaflets' shadow with pixels of `pixel_mm`.
-pub fn measure(v: &ClosedValve, pixel_mm: f64) -> Orifice {
+/// Rasterise the lumen and the leaflets' shadow with pixels of `pixel_mm`;
+/// a leaflet is a solid `2 half_t` thick about its mid-surface, so a
+/// pixel within `half_t` of a projected triangle is covered too.
+pub fn measure(v: &ClosedValve, pixel_mm: f64, half_t: f64) -> Orifice {
     let Some(rad) = outline(v) else {
         return Orifice {
             lumen_mm2: 0.0,
@@ -113,7 +115,7 @@ pub fn measure(v: &ClosedValve, pixel_mm: f64) -> Orifice {
             continue;
         }
         let det = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-        if det == 0.0 {
+        if det == 0.0 && half_t <= 0.0 {
             continue;
         }
         let lo = |k: usize| {
@@ -121,6 +123,7 @@ pub fn measure(v: &ClosedValve, pixel_mm: f64) -> Orifice {
                 .iter()
                 .cloned()
                 .fold(f64::INFINITY, f64::min)
+                - half_t
                 - origin)
                 / px
                 - 0.5)
@@ -132,6 +135,7 @@ pub fn measure(v: &ClosedValve, pixel_mm: f64) -> Orifice {
                 .iter()
                 .cloned()
                 .fold(f64::NEG_INFINITY, f64::max)
+                + half_t
                 - origin)
                 / px
                 - 0.5)
@@ -147,7 +151,15 @@ pub fn measure(v: &ClosedValve, pixel_mm: f64) -> Orifice {
                 let e = |u: [f64; 2], w: [f64; 2]| {
                     s * ((w[0] - u[0]) * (p[1] - u[1]) - (w[1] - u[1]) * (p[0] - u[0]))
                 };
-                if e(a, b) >= 0.0 && e(b, c) >= 0.0 && e(c, a) >= 0.0 && raster[row * n + col] == 2
+                if raster[row * n + col] != 2 {
+                    continue;
+                }
+                let inside = det != 0.0 && e(a, b) >= 0.0 && e(b, c) >= 0.0 && e(c, a) >= 0.0;
+                if inside
+                    || (half_t > 0.0
+                        && [(a, b), (b, c), (c, a)]
+                            .iter()
+                            .any(|&(u, w)| segment_distance(p, u, w) <= half_t))
                 {
                     raster[row * n + col] = 1;
                 }
@@ -162,4 +174,16 @@ pub fn measure(v: &ClosedValve, pixel_mm: f64) -> Orifice {
         raster,
         n,
     }
+}
+
+/// Distance from `p` to the segment `u`–`w` in the plane.
+fn segment_distance(p: [f64; 2], u: [f64; 2], w: [f64; 2]) -> f64 {
+    let (dx, dy) = (w[0] - u[0], w[1] - u[1]);
+    let l2 = dx * dx + dy * dy;
+    let t = if l2 > 0.0 {
+        (((p[0] - u[0]) * dx + (p[1] - u[1]) * dy) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - u[0] - t * dx).hypot(p[1] - u[1] - t * dy)
 }

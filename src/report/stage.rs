@@ -426,6 +426,8 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         column_mm: params.quantity("column_width"),
         hcc_radius_mm: params.quantity("hcc_radius"),
         measured: completed.is_some().then_some(1),
+        // The margin note says when 0.5 mm is assumed for want of closure.json.
+        half_thickness_mm: 0.5 * thickness.unwrap_or(0.5),
         ..metrics::Options::default()
     };
     let mut m = metrics::measure(v, &coapt, &mopts);

@@ -293,7 +293,7 @@ fn orifice_of_a_disc_with_a_missing_wedge() {
         .unwrap(),
         leaflets: 3,
     };
-    let o = orifice::measure(&v, 0.02);
+    let o = orifice::measure(&v, 0.02, 0.0);
     // Inscribed 60-gons per sector; the open wedge is a quarter of a sector.
     let sector = 0.5 * r * r * n as f64 * (120f64.to_radians() / n as f64).sin();
     let wedge = sector / 4.0;
@@ -730,4 +730,62 @@ fn the_stj_is_placed_from_the_commissure_cylinder_or_not_at_all() {
             .unwrap_err()
             .contains("older or hand-written")
     );
+}
+
+/// Two leaflets pressed together by true contact keep their mid-surfaces
+/// a thickness apart: seen along the axis, their bare mid-surfaces leave
+/// that slit open, their solids (half the thickness each side) close it.
+#[test]
+fn the_orifice_counts_the_leaflets_thickness() {
+    let v = slit_valve(0.4);
+    let bare = orifice::measure(&v, 0.02, 0.0);
+    let solid = orifice::measure(&v, 0.02, 0.2);
+    // The slit: 0.4 mm wide across the 20 mm lumen, less its ends.
+    assert!(
+        (bare.uncovered_mm2 - 0.4 * 20.0).abs() < 0.6,
+        "bare {}",
+        bare.uncovered_mm2
+    );
+    assert!(solid.uncovered_mm2 < 0.05, "solid {}", solid.uncovered_mm2);
+    assert!((bare.lumen_mm2 - solid.lumen_mm2).abs() < 1e-9);
+}
+
+/// Two flat half-discs of radius 10 mm at z = 0 (the rim sutured), `w` mm
+/// apart across x = 0.
+fn slit_valve(w: f64) -> ClosedValve {
+    let (r, n) = (10.0f64, 60);
+    let a0 = (0.5 * w / r).acos();
+    let (mut x, mut tris, mut leaf, mut boundary) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (k, side) in [1.0f64, -1.0].into_iter().enumerate() {
+        let c = x.len() as u32;
+        x.push(Point3::new(side * 0.5 * w, 0.0, 0.0));
+        boundary.push(2);
+        for i in 0..=n {
+            let a = -a0 + 2.0 * a0 * i as f64 / n as f64;
+            x.push(Point3::new(side * r * a.cos(), r * a.sin(), 0.0));
+            boundary.push(1);
+        }
+        for i in 0..n as u32 {
+            tris.push([c, c + 1 + i, c + 2 + i]);
+            leaf.push(k as u8);
+        }
+    }
+    ClosedValve {
+        x0: x.clone(),
+        x,
+        tris,
+        tri_leaflet: leaf,
+        boundary,
+        ref_uv: None,
+        frame: ValveFrame::new(
+            Point3::origin(),
+            Vector3::z(),
+            [90.0, 210.0, 330.0]
+                .map(|d: f64| Point3::new(r * d.to_radians().cos(), r * d.to_radians().sin(), 0.0)),
+            None,
+        )
+        .unwrap(),
+        leaflets: 2,
+    }
 }
