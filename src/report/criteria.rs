@@ -56,6 +56,20 @@ pub struct Anatomy {
     pub stj_mm: Result<f64, String>,
 }
 
+impl Anatomy {
+    /// The commissures from the valve frame, the STJ as given.
+    pub fn new(frame: &crate::geom::ValveFrame, stj_mm: Result<f64, String>) -> Self {
+        Anatomy {
+            lowest_commissure_mm: frame
+                .commissures_mm
+                .iter()
+                .map(|c| frame.to_cylindrical(c).0)
+                .fold(f64::INFINITY, f64::min),
+            stj_mm,
+        }
+    }
+}
+
 /// Pressures of the closures the metrics come from, mmHg.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Pressures {

@@ -454,15 +454,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             .as_ref()
             .and_then(|l| l["config"]["effective_height_pressure_mmhg"].as_f64());
     }
-    let anatomy = Anatomy {
-        lowest_commissure_mm: v
-            .frame
-            .commissures_mm
-            .iter()
-            .map(|c| v.frame.to_cylindrical(c).0)
-            .fold(f64::INFINITY, f64::min),
-        stj_mm: crate::io::valve_json::read_stj_height(vpath, &v.frame)?,
-    };
+    let anatomy = Anatomy::new(
+        &v.frame,
+        crate::io::valve_json::read_stj_height(vpath, &v.frame)?,
+    );
     let thresholds = Thresholds {
         central_coaptation_mm: params.quantity("min_central_coaptation"),
         effective_height_mm: params.quantity("min_effective_height"),

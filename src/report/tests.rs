@@ -491,15 +491,7 @@ const Z_COMM: f64 = 12.0;
 const Z_STJ: f64 = 14.0;
 
 fn anatomy(v: &ClosedValve, stj: Result<f64, String>) -> Anatomy {
-    Anatomy {
-        lowest_commissure_mm: v
-            .frame
-            .commissures_mm
-            .iter()
-            .map(|c| v.frame.to_cylindrical(c).0)
-            .fold(f64::INFINITY, f64::min),
-        stj_mm: stj,
-    }
+    Anatomy::new(&v.frame, stj)
 }
 
 const P80: Pressures = Pressures {
