@@ -28,6 +28,22 @@ fn frame() -> ValveFrame {
     ValveFrame::new(Point3::origin(), Vector3::z(), [c(0), c(1), c(2)], None).unwrap()
 }
 
+/// Leaflet `k`'s 120° sector: its first commissural angle, the unit
+/// directions of its two commissural planes and their normals into it.
+fn sector(k: usize) -> (f64, [Vector3; 4]) {
+    let ta = 2.0 * PI * k as f64 / 3.0;
+    let tb = ta + 2.0 * PI / 3.0;
+    (
+        ta,
+        [
+            Vector3::new(ta.cos(), ta.sin(), 0.0),
+            Vector3::new(tb.cos(), tb.sin(), 0.0),
+            Vector3::new(-ta.sin(), ta.cos(), 0.0),
+            Vector3::new(tb.sin(), -tb.cos(), 0.0),
+        ],
+    )
+}
+
 /// The folded-sheet valve, meshed with spacing `h`; skirt from `zb` to Z0
 /// opening at `beta` (radians).
 fn sheets(h: f64, zb: f64, beta: f64) -> ClosedValve {
@@ -39,16 +55,7 @@ fn sheets(h: f64, zb: f64, beta: f64) -> ClosedValve {
     let mut tris = Vec::new();
     let mut tri_leaflet = Vec::new();
     for k in 0..3 {
-        let ta = 2.0 * PI * k as f64 / 3.0;
-        let tb = ta + 2.0 * PI / 3.0;
-        let (ua, ub) = (
-            Vector3::new(ta.cos(), ta.sin(), 0.0),
-            Vector3::new(tb.cos(), tb.sin(), 0.0),
-        );
-        let (na, nb) = (
-            Vector3::new(-ta.sin(), ta.cos(), 0.0),
-            Vector3::new(tb.sin(), -tb.cos(), 0.0),
-        );
+        let (_, [ua, ub, na, nb]) = sector(k);
         let base = x.len() as u32;
         for iz in 0..=nz {
             let z = zb + (Z1 - zb) * iz as f64 / nz as f64;
@@ -400,16 +407,7 @@ fn cups(z0: f64, z1: f64, zc: f64, trim_deg: f64) -> ClosedValve {
     let mut tris = Vec::new();
     let mut tri_leaflet = Vec::new();
     for k in 0..3 {
-        let ta = 2.0 * PI * k as f64 / 3.0;
-        let tb = ta + 2.0 * PI / 3.0;
-        let (ua, ub) = (
-            Vector3::new(ta.cos(), ta.sin(), 0.0),
-            Vector3::new(tb.cos(), tb.sin(), 0.0),
-        );
-        let (na_, nb) = (
-            Vector3::new(-ta.sin(), ta.cos(), 0.0),
-            Vector3::new(tb.sin(), -tb.cos(), 0.0),
-        );
+        let (ta, [ua, ub, na_, nb]) = sector(k);
         let a = GAP / 2.0;
         let apex = a / 3f64.sqrt();
         let base = x.len() as u32;
