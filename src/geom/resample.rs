@@ -54,19 +54,10 @@ impl LpsGrid {
         max_spacing: f64,
         min_spacing: f64,
     ) -> Option<LpsGrid> {
-        let d = src.dims();
         // The source's world bounding box (its corner voxel centres).
         let mut blo = [f64::INFINITY; 3];
         let mut bhi = [f64::NEG_INFINITY; 3];
-        for c in 0..8 {
-            let ijk = [0, 1, 2].map(|a| {
-                if c >> a & 1 == 1 {
-                    (d[a] - 1) as f64
-                } else {
-                    0.0
-                }
-            });
-            let p = src.index_to_world(ijk);
+        for p in src.corner_centres() {
             for a in 0..3 {
                 blo[a] = blo[a].min(p[a]);
                 bhi[a] = bhi[a].max(p[a]);

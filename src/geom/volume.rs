@@ -167,6 +167,21 @@ impl<T> Volume<T> {
         Ok(())
     }
 
+    /// World positions of the eight corner voxel centres (the field of
+    /// view's extreme samples, in any orientation).
+    pub fn corner_centres(&self) -> [Point3; 8] {
+        let d = self.dims();
+        std::array::from_fn(|c| {
+            self.index_to_world([0, 1, 2].map(|a| {
+                if c >> a & 1 == 1 {
+                    d[a].saturating_sub(1) as f64
+                } else {
+                    0.0
+                }
+            }))
+        })
+    }
+
     /// World position of a (possibly fractional) voxel index.
     #[inline]
     pub fn index_to_world(&self, ijk: [f64; 3]) -> Point3 {

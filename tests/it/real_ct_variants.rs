@@ -102,18 +102,10 @@ pub fn resample_trilinear(src: &Volume<i16>, dims: [usize; 3], affine: Matrix4) 
 /// covers the whole field of view of `src` (its voxel centres' bounding box
 /// in the new axes).
 fn covering_grid(src: &Volume<i16>, dir: &Matrix3, spacing: f64) -> ([usize; 3], Matrix4) {
-    let d = src.dims();
     let mut lo = Vector3::repeat(f64::INFINITY);
     let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-    for c in 0..8 {
-        let ijk = [0, 1, 2].map(|a| {
-            if c >> a & 1 == 1 {
-                (d[a] - 1) as f64
-            } else {
-                0.0
-            }
-        });
-        let w = dir.transpose() * src.index_to_world(ijk).coords;
+    for p in src.corner_centres() {
+        let w = dir.transpose() * p.coords;
         lo = lo.inf(&w);
         hi = hi.sup(&w);
     }
