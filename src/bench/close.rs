@@ -102,6 +102,7 @@ pub fn ozaki_cylinder(h: f64) -> Result<(Leaflets, Axis), String> {
         leaflet: vec![0; m.tris.len()],
         ref_uv: Some(m.nodes.clone()),
         fibers: None,
+        pressure_side: None,
     };
     let axis = Axis {
         origin: V3::zeros(),

@@ -49,6 +49,7 @@ pub fn leaflet(h: f64, theta: f64) -> std::result::Result<(Leaflets, Axis), Stri
             leaflet: vec![0; m.tris.len()],
             ref_uv: Some(m.nodes.clone()),
             fibers: Some(f1.iter().zip(&f2).map(|(a, b)| [v(*a), v(*b)]).collect()),
+            pressure_side: None,
         },
         Axis {
             origin: V3::zeros(),

@@ -3,6 +3,7 @@
 
 pub mod aft;
 pub mod crossings;
+pub mod hang;
 pub mod outline;
 pub mod place;
 pub mod seed001;

@@ -160,6 +160,22 @@ pub fn column_coords(t: &Template, m: &FlatMesh) -> (Vec<f64>, Vec<f64>) {
     if let Template::Seed001(s) = t {
         return seed001_coords(s, m);
     }
+    let c = columns(m);
+    let w = c.lam.iter().zip(&c.len).map(|(l, n)| l * n).collect();
+    (c.s, w)
+}
+
+/// A flat template's columns: per node, the normalised attachment abscissa
+/// s, the fraction λ of the way from the sutured edge (0) to the free edge
+/// (1), and the flat length of its column (the distance between the
+/// attachment and free-edge points of equal s).
+pub struct Columns {
+    pub s: Vec<f64>,
+    pub lam: Vec<f64>,
+    pub len: Vec<f64>,
+}
+
+pub fn columns(m: &FlatMesh) -> Columns {
     let (sut, free) = chains(m);
     let cs = cumulative(m, &sut);
     let cf = cumulative(m, &free);
@@ -184,14 +200,14 @@ pub fn column_coords(t: &Template, m: &FlatMesh) -> (Vec<f64>, Vec<f64>) {
         let (a, b) = (m.nodes[chain[j - 1] as usize], m.nodes[chain[j] as usize]);
         [a[0] + (b[0] - a[0]) * u, a[1] + (b[1] - a[1]) * u]
     };
-    let w = (0..n)
+    let len = (0..n)
         .map(|i| {
             let p = at(&sut, &cs, s[i]);
             let q = at(&free, &cf, 1.0 - s[i]);
-            lam[i] * (p[0] - q[0]).hypot(p[1] - q[1])
+            (p[0] - q[0]).hypot(p[1] - q[1])
         })
         .collect();
-    (s, w)
+    Columns { s, lam, len }
 }
 
 fn seed001_coords(s: &Seed001, m: &FlatMesh) -> (Vec<f64>, Vec<f64>) {

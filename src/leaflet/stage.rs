@@ -5,6 +5,7 @@ use serde_json::{Value as Json, json};
 
 use super::aft;
 use super::crossings;
+use super::hang;
 use super::outline::Edge;
 use super::place::{self, Path3};
 use super::template::{Template, read_templates};
@@ -85,6 +86,18 @@ pub static SPEC: StageSpec = StageSpec {
             help: "extrusion lean (seed 001 ω = −2π/9; negative leans towards the axis); five-parameter templates use their own",
         },
         Param {
+            name: "placement",
+            kind: ParamKind::Choice(&["hanging", "extruded"]),
+            default: Some("extruded"),
+            help: "flat templates: hanging (free edge a taut V from commissure to centre to commissure, columns bowed between it and the suture line, see leaflet::hang) or extruded (columns along ω from the suture line); five-parameter templates are always extruded (seed 001)",
+        },
+        Param {
+            name: "clearance",
+            kind: ParamKind::Quantity(Kind::Length),
+            default: Some("0.5 mm"),
+            help: "hanging placement: how far off the axis each free edge's apex is put, into its own sector, so the leaflets start apart",
+        },
+        Param {
             name: "fiber_angle",
             kind: ParamKind::Quantity(Kind::Angle),
             default: Some("0 deg"),
@@ -94,6 +107,9 @@ pub static SPEC: StageSpec = StageSpec {
     check: |p| {
         if !(p.quantity("h") > 0.0) {
             return Err(Error::value("h must be positive"));
+        }
+        if !(p.quantity("clearance") >= 0.0 && p.quantity("clearance") <= 5.0) {
+            return Err(Error::value("clearance must lie in 0–5 mm"));
         }
         if !(p.quantity("omega").abs() < 1.5) {
             return Err(Error::value("omega must lie in (−86°, 86°)"));
@@ -143,6 +159,41 @@ pub(super) fn pull_inside(x: &mut [Point3], boundary: &[u8], wall: &Wall) -> Pul
     }
 }
 
+/// The plane through the three paths' lowest points (along the axis), its
+/// normal upwards: the annulus the hanging leaflets' strips stay above.
+fn annulus_plane(pd: &crate::geom::PolyData, axis: &Vector3) -> Option<(Point3, Vector3)> {
+    let low: Vec<Point3> = pd
+        .lines
+        .iter()
+        .map(|l| {
+            l.iter()
+                .map(|&i| pd.points[i as usize])
+                .min_by(|a, b| a.coords.dot(axis).total_cmp(&b.coords.dot(axis)))
+        })
+        .collect::<Option<_>>()?;
+    let n = (low[1] - low[0])
+        .cross(&(low[2] - low[0]))
+        .try_normalize(1e-9)?;
+    let n = if n.dot(axis) < 0.0 { -n } else { n };
+    Some((low[0], n))
+}
+
+/// Sign of the diastolic load on a leaflet placed leaning towards the axis:
+/// −1 when its triangles' normals point away from the axis (the aortic
+/// side), +1 otherwise.
+fn pressure_sign(x: &[Point3], tris: &[[u32; 3]], centre: &Point3, axis: &Vector3) -> f64 {
+    let s: f64 = tris
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| x[i as usize]);
+            let area = (b - a).cross(&(c - a));
+            let d = (a.coords + b.coords + c.coords) / 3.0 - centre.coords;
+            area.dot(&(d - axis * d.dot(axis)))
+        })
+        .sum();
+    if s > 0.0 { -1.0 } else { 1.0 }
+}
+
 fn vec3(v: &Json) -> Option<Vector3> {
     Some(Vector3::new(v[0].as_f64()?, v[1].as_f64()?, v[2].as_f64()?))
 }
@@ -178,6 +229,9 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     // Timings go to the run record, not the artifact: outputs depend on inputs only.
     let mut mesh_ms_all = Vec::new();
     let mut commissures = Vec::new();
+    let mut signs = Vec::new();
+    let (mut all_hanging, mut any_hanging) = (true, false);
+    let floor = annulus_plane(&pd, &axis);
     for k in 0..3 {
         let t: &Template = &templates[k];
         let outline = t.outline();
@@ -186,14 +240,40 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             .map_err(|e| Error::failed("leaflets", format!("leaflet {}: {e}", k + 1)))?;
         let mesh_ms = t0.elapsed().as_secs_f64() * 1e3;
         mesh_ms_all.push(mesh_ms);
-        let (s, w) = place::column_coords(t, &m);
         let path = Path3::new(pd.lines[k].iter().map(|&i| pd.points[i as usize]).collect());
         commissures.push(path.at(0.0));
+        let hanging = params.choice("placement") == "hanging" && !matches!(t, Template::Seed001(_));
+        all_hanging &= hanging;
+        any_hanging |= hanging;
+        // The aortic side is judged on the leaflet extruded towards the
+        // axis, where it is the outer one whatever the template's winding
+        // (the closure's own rule); a hanging leaflet turns it inwards.
+        let (s_e, w_e) = place::column_coords(t, &m);
         let omega = match t {
             Template::Seed001(s) => s.omega,
             _ => params.quantity("omega"),
         };
-        let (mut x, om) = place::place_radial(&s, &w, &path, &axis, &centre, omega, 0.5);
+        let (x_e, om_e) = place::place_radial(&s_e, &w_e, &path, &axis, &centre, omega, 0.5);
+        signs.push(pressure_sign(&x_e, &m.tris, &centre, &axis));
+        let (mut x, om, hang_record) = if hanging {
+            let c = place::columns(&m);
+            let v = hang::vee(
+                path.at(0.0),
+                path.at(1.0),
+                outline.length(Edge::Free),
+                &axis,
+                &centre,
+                params.quantity("clearance"),
+            );
+            let (x, excess) = hang::place(&c.s, &c.lam, &c.len, &path, &v, &axis, floor);
+            (
+                x,
+                None,
+                Some(json!({"free_edge": v.info, "column_excess_mm": excess})),
+            )
+        } else {
+            (x_e, Some(om_e), None)
+        };
         // Every node off the attachment edge must be inside the lumen. On a
         // real, slightly rough wall a few land just outside: they go back
         // radially to just inside the wall; far outside, the template does
@@ -232,7 +312,8 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             "free_edge_mm": outline.length(Edge::Free),
             "path_mm": path.length(),
             "attachment_vs_path": (att - path.length()) / path.length(),
-            "omega_used_deg": om.to_degrees(),
+            "omega_used_deg": om.map(f64::to_degrees),
+            "hanging": hang_record,
             "outside_wall": {
                 "nodes_moved_inside": pulled.count,
                 "max_mm": pulled.max_mm,
@@ -258,6 +339,21 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         .insert(DataArray::new("leaflet", 1, DataValues::I32(lf)));
     out.cell_data.insert(DataArray::vectors_f64("fiber1", &f1));
     out.cell_data.insert(DataArray::vectors_f64("fiber2", &f2));
+    // Only a hanging leaflet needs its side recorded: the closure's own
+    // rule reads an extruded one right.
+    if any_hanging {
+        out.field_data
+            .insert(DataArray::scalars_f64("pressure_sign", signs));
+    }
+    // A hanging leaflet is placed as sewn (its columns leave the wall where
+    // the suture holds them and hang to the free edge): the closure takes it
+    // as the sutured state rather than sewing it again by seed 001's
+    // Algorithm 1, whose third plane keeps leaflets 0.2 R off the axis,
+    // where a hanging free edge already is.
+    if all_hanging {
+        out.field_data
+            .insert(DataArray::new("sutured", 1, DataValues::U8(vec![1])));
+    }
     out.frame = Frame::Lps;
     out.sanity_check()
         .map_err(|e| Error::failed("leaflets", e.to_string()))?;

@@ -37,6 +37,10 @@ pub struct Leaflets {
     pub ref_uv: Option<Vec<[f64; 2]>>,
     /// Fibre directions per triangle.
     pub fibers: Option<Vec<[V3; 2]>>,
+    /// Sign of the load per leaflet, when the leaflets say which side is
+    /// the aortic one (field data `pressure_sign` of `coapt leaflets`);
+    /// else it is judged from the geometry, see [`pressure_signs`].
+    pub pressure_side: Option<Vec<f64>>,
 }
 
 /// Valve axis (unit, LV → aorta) and a point on it.
@@ -137,8 +141,15 @@ fn tri_area_vec(x: &[V3], t: &[u32; 3]) -> V3 {
 }
 
 /// Sign of the load per leaflet so that diastolic pressure pushes each
-/// leaflet towards the axis (the aortic side is the outer one).
+/// leaflet towards the axis (the aortic side is the outer one). The rule
+/// reads a leaflet that leans from its suture line towards the axis; a
+/// leaflet placed hanging (its belly bowed below the line, `leaflet::hang`)
+/// turns its aortic side inwards, so the leaflets stage records the side
+/// and that record wins.
 pub fn pressure_signs(l: &Leaflets, axis: &Axis, n_leaflets: usize) -> Vec<f64> {
+    if let Some(s) = l.pressure_side.as_ref().filter(|s| s.len() == n_leaflets) {
+        return s.clone();
+    }
     let mut s = vec![0.0; n_leaflets];
     for (t, tri) in l.tris.iter().enumerate() {
         let a = tri_area_vec(&l.x, tri);

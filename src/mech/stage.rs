@@ -127,7 +127,17 @@ pub fn leaflets_from_mesh(m: &TriMesh) -> std::result::Result<Leaflets, String> 
         }
         _ => None,
     };
+    let pressure_side = match m
+        .field_data
+        .get("pressure_sign")
+        .and_then(|a| a.values.to_f64())
+    {
+        Some(v) if v.iter().all(|s| *s == 1.0 || *s == -1.0) => Some(v),
+        Some(_) => return Err("field data 'pressure_sign' must hold +1 or -1 per leaflet".into()),
+        None => None,
+    };
     Ok(Leaflets {
+        pressure_side,
         x: m.vertices.iter().map(v3).collect(),
         tris: m.triangles.clone(),
         boundary,
