@@ -15,13 +15,18 @@ use crate::report_html::{browser, check, errors, strings};
 /// The sample's run config (closure settings of pipelines/close.toml) with
 /// a [design] section and the leaflet mesh size `h`.
 fn config(dir: &Path, h: &str, sizes: &str) -> PathBuf {
+    config_with(dir, h, sizes, "")
+}
+
+/// The same with more lines of the [leaflets] section.
+pub fn config_with(dir: &Path, h: &str, sizes: &str, leaflets: &str) -> PathBuf {
     let r = repo();
     let cfg = dir.join("run.toml");
     std::fs::write(
         &cfg,
         format!(
             "[run]\ndir = \"run\"\n[inputs]\nct = \"{}\"\nlandmarks = \"{}\"\ntemplate = \"{}\"\nconfig = \"{}\"\n\
-             [leaflets]\nh = \"{h}\"\n[design]\nsizes = {sizes}\n",
+             [leaflets]\nh = \"{h}\"\n{leaflets}[design]\nsizes = {sizes}\n",
             s(&r.join("sample_data/ct.nii.gz")),
             s(&r.join("sample_data/landmarks.mrk.json")),
             s(&r.join("pipelines/templates/ozaki_default.toml")),

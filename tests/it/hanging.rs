@@ -4,32 +4,13 @@
 //! coaptation below the commissures, where the extruded placement left it
 //! 5–9 mm above them at every size.
 
-use std::path::Path;
-
 use crate::common::*;
-
-fn config(dir: &Path) -> std::path::PathBuf {
-    let r = repo();
-    let cfg = dir.join("run.toml");
-    std::fs::write(
-        &cfg,
-        format!(
-            "[run]\ndir = \"run\"\n[inputs]\nct = \"{}\"\nlandmarks = \"{}\"\ntemplate = \"{}\"\nconfig = \"{}\"\n\
-             [leaflets]\nh = \"1 mm\"\nplacement = \"hanging\"\n[design]\nsizes = [19, 23]\n",
-            s(&r.join("sample_data/ct.nii.gz")),
-            s(&r.join("sample_data/landmarks.mrk.json")),
-            s(&r.join("pipelines/templates/ozaki_default.toml")),
-            s(&r.join("pipelines/close.toml")),
-        ),
-    )
-    .unwrap();
-    cfg
-}
+use crate::design::config_with;
 
 #[test]
 fn hanging_leaflets_meet_below_the_commissures_and_lower_for_a_longer_free_edge() {
     let d = tmpdir("hanging-design");
-    let cfg = config(&d);
+    let cfg = config_with(&d, "1 mm", "[19, 23]", "placement = \"hanging\"\n");
     let o = coapt(&["design", cfg.to_str().unwrap(), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let run = d.join("run");
