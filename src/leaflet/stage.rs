@@ -122,6 +122,9 @@ pub static SPEC: StageSpec = StageSpec {
 /// A node farther than this outside the wall (mm) means the leaflet does
 /// not fit the root: a rough wall puts nodes a voxel (≈ 1.5 mm) out at most.
 const FAR_OUTSIDE_MM: f64 = 2.0;
+/// Most nodes a leaflet may be meshed with (a closure at h 0.125 mm has
+/// ≈ 40,000 per leaflet).
+const MAX_NODES: f64 = 1e6;
 /// How far inside the wall a node outside is put back (mm).
 const INSIDE_MM: f64 = 0.05;
 
@@ -222,6 +225,19 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let wall = Wall::new(&surface).map_err(|e| Error::bad_input(surf_path, e))?;
     let templates = read_templates(io.input("template").expect("required"))?;
     let h = params.quantity("h");
+    // Nodes ∝ area / h² (`--h 0.001 mm` filled 8 GiB): the outline's area
+    // is at most L²/4π, and an equilateral mesh gives a node per √3/2 h².
+    for t in &templates {
+        let o = t.outline();
+        let l = o.length(Edge::Sutured) + o.length(Edge::Free);
+        let nodes = l * l / (4.0 * std::f64::consts::PI) / (0.866 * h * h);
+        if nodes > MAX_NODES {
+            return Err(Error::value(format!(
+                "--h {h} mm: template {} would be meshed with about {nodes:.1e} nodes, more than {MAX_NODES:.0e}; use a larger h",
+                t.name()
+            )));
+        }
+    }
     let theta = params.quantity("fiber_angle");
     let mut out = TriMesh::new(Vec::new(), Vec::new());
     let (mut uv, mut bnd, mut lf, mut f1, mut f2) = (vec![], vec![], vec![], vec![], vec![]);

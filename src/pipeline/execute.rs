@@ -90,6 +90,7 @@ pub fn execute(
     reason: String,
     inv: &Invocation,
 ) -> Result<StageRecord> {
+    super::no_overwrite::check(spec, io)?;
     let started = provenance::now_utc();
     tracing::info!(stage = spec.name, event = "start", reason = %reason, "{}: running ({reason})", spec.name);
     let progress = Progress::new(spec.name, inv.log);

@@ -10,6 +10,7 @@
 pub mod config;
 pub mod execute;
 pub mod manifest;
+pub mod no_overwrite;
 pub mod params;
 pub mod progress;
 pub mod provenance;

@@ -193,6 +193,15 @@ fn check(p: &Params) -> Result<()> {
             return Err(Error::value(format!("report.{name} must be positive")));
         }
     }
+    // The strip's columns cost time ∝ 1/width (1e-6 mm ran past 120 s);
+    // narrower than the 0.05 mm raster of the orifice they resolve nothing.
+    let w = p.quantity("column_width");
+    if w < MIN_COLUMN_MM {
+        return Err(Error::value(format!(
+            "--column-width {w} mm: about {:.0e} columns per strip; it must be at least {MIN_COLUMN_MM} mm",
+            30.0 / w
+        )));
+    }
     if let crate::pipeline::params::Value::Quantity(m, _) = p.get("margin") {
         if !(*m > 0.0) {
             return Err(Error::value("report.margin must be positive"));
@@ -200,6 +209,9 @@ fn check(p: &Params) -> Result<()> {
     }
     Ok(())
 }
+
+/// Narrowest column across a coaptation strip (mm).
+const MIN_COLUMN_MM: f64 = 0.01;
 
 /// Thickness multiple of the contact margin (VERIFICATION.md §5).
 const MARGIN_PER_THICKNESS: f64 = 1.8;

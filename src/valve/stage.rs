@@ -77,8 +77,20 @@ pub static SPEC: StageSpec = StageSpec {
         },
     ],
     check: |p| {
-        if !(p.quantity("hc") >= 0.0) || !(p.quantity("spacing") > 0.0) {
-            return Err(Error::value("hc must be ≥ 0 and spacing > 0"));
+        if !(p.quantity("hc") >= 0.0) {
+            return Err(Error::value("hc must be ≥ 0"));
+        }
+        // Points per path ∝ 1/spacing: below the wall's own resolution
+        // (vertices ≈ 0.5 mm apart) a finer spacing adds nothing, and
+        // 1e-9 mm asked for 568 GB.
+        let sp = p.quantity("spacing");
+        if !(SPACING_MM.0..=SPACING_MM.1).contains(&sp) {
+            return Err(Error::value(format!(
+                "--spacing {sp} mm: the suture paths would hold about {:.0e} points each; it must lie in {}–{} mm",
+                150.0 / sp.max(1e-300),
+                SPACING_MM.0,
+                SPACING_MM.1
+            )));
         }
         Ok(())
     },
@@ -86,6 +98,8 @@ pub static SPEC: StageSpec = StageSpec {
 };
 
 const MAX_SNAP_MM: f64 = 2.0;
+/// The paths' point spacing that makes sense (mm).
+const SPACING_MM: (f64, f64) = (0.01, 5.0);
 
 /// Everything the stage computes, for the CLI and for tests.
 pub struct ValveResult {

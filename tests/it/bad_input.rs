@@ -239,3 +239,110 @@ fn a_closed_stdout_is_not_a_panic() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// No stage writes over its own input, whether the output names the same
+/// path, a symlink to it or a hard link: exit 2 before any work, the input
+/// byte for byte as it was, nothing new beside it.
+#[test]
+fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
+    let d = tmpdir("no-overwrite");
+    let ct = d.join("ct.nii.gz");
+    std::fs::copy(repo().join("sample_data/ct.nii.gz"), &ct).unwrap();
+    std::os::unix::fs::symlink(&ct, d.join("sym.nii.gz")).unwrap();
+    std::fs::hard_link(&ct, d.join("hard.nii.gz")).unwrap();
+    let before = std::fs::read(&ct).unwrap();
+    let listing = entries(&d);
+    let lm = repo().join("sample_data/landmarks.mrk.json");
+    for out in ["ct.nii.gz", "sym.nii.gz", "hard.nii.gz"] {
+        let o = coapt(&[
+            "segment",
+            "--ct",
+            ct.to_str().unwrap(),
+            "--landmarks",
+            lm.to_str().unwrap(),
+            "--out",
+            d.join(out).to_str().unwrap(),
+        ]);
+        assert_bad_input(
+            &o,
+            &d.join(out),
+            &["--out", "--ct", "never writes over an input"],
+        );
+        assert_eq!(
+            std::fs::read(&ct).unwrap(),
+            before,
+            "--out {out} changed the CT"
+        );
+        assert_eq!(entries(&d), listing, "--out {out} left something behind");
+    }
+}
+
+/// Sizes that imply absurd work are refused before it, naming the option,
+/// what it would cost and the bound: the leaflet mesh size (8 GiB before),
+/// the suture paths' spacing (568 GB) and the report's column width (past
+/// 120 s).
+#[test]
+fn sizes_that_imply_absurd_work_are_refused_before_it() {
+    let d = tmpdir("absurd-sizes");
+    let surface = sample_valve_and_leaflets(&d, "pipelines/templates/ozaki_default.toml", &[]);
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let cases: [(Vec<String>, &[&str]); 3] = [
+        (
+            vec![
+                "leaflets".into(),
+                "--valve".into(),
+                s(&d.join("valve.json")),
+                "--paths".into(),
+                s(&d.join("paths.vtp")),
+                "--surface".into(),
+                s(&surface),
+                "--template".into(),
+                s(&repo().join("pipelines/templates/ozaki_default.toml")),
+                "--out".into(),
+                s(&d.join("fine/leaflets.vtp")),
+                "--h".into(),
+                "0.001 mm".into(),
+            ],
+            &["--h 0.001 mm", "nodes", "1e6"],
+        ),
+        (
+            vec![
+                "valve".into(),
+                "--surface".into(),
+                s(&surface),
+                "--landmarks".into(),
+                s(&repo().join("sample_data/landmarks.mrk.json")),
+                "--out".into(),
+                s(&d.join("fine/valve.json")),
+                "--spacing".into(),
+                "1e-9 mm".into(),
+            ],
+            &["--spacing", "points", "0.01–5 mm"],
+        ),
+        (
+            vec![
+                "report".into(),
+                "--closed".into(),
+                s(&d.join("leaflets.vtp")),
+                "--leaflets".into(),
+                s(&d.join("leaflets.vtp")),
+                "--valve".into(),
+                s(&d.join("valve.json")),
+                "--out".into(),
+                s(&d.join("fine")),
+                "--column-width".into(),
+                "1e-6 mm".into(),
+            ],
+            &["--column-width", "columns", "0.01 mm"],
+        ),
+    ];
+    for (args, words) in cases {
+        let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{}: {err}", args[0]);
+        for w in words {
+            assert!(err.contains(w), "{}: no {w:?} in {err}", args[0]);
+        }
+        assert!(!d.join("fine").exists(), "{} wrote output", args[0]);
+    }
+}

@@ -458,7 +458,7 @@ fn placed_leaflets_are_sutured_first_unless_they_say_they_are() {
         b
     })
     .unwrap();
-    let (c_marked, log_marked) = run(&mpath, &cfg, "marked");
+    let (c_marked, log_marked) = run(&mpath, &cfg, "marked-closed");
     assert!(
         log_marked["suturing"]
             .as_str()
