@@ -4,7 +4,7 @@
 //!
 //! Why not extrusion. A leaflet extruded from its suture line leans its
 //! free edge towards the axis at the full length of the template's columns:
-//! an Ozaki template's central column (22–28 mm) put the free edge 5–9 mm
+//! an Ozaki template's central column (28–30 mm) put the free edge 5–9 mm
 //! above the commissures on the sample, and since the sutured state is the
 //! stress-free reference, the closure kept it there (effective height
 //! 24–29 mm against commissures at 17.4 mm, for every sizer size). Ozaki's
@@ -23,14 +23,19 @@
 //! * **Columns**: each node's column (the flat segment from its attachment
 //!   point to the free-edge point of equal abscissa s) runs from the suture
 //!   path to the free edge, keeping its flat length: a circular arc bowed
-//!   towards the ventricle, then, when the arc would have to bow so far that
-//!   it turned back on itself, a vertical strip up to the free edge (the
-//!   coapting surface). A column shorter than its chord stops short of the
-//!   free edge.
+//!   towards the ventricle that leaves the suture line level or upwards,
+//!   then a vertical strip up to the free edge (the coapting surface) whose
+//!   foot stays 0.5 mm above the suture point and the annulus plane. A
+//!   column shorter than its chord stops short of the free edge; one too
+//!   long to fit is placed at the longest length that does, and the rest is
+//!   reported as excess.
 //!
 //! Lengths along the free edge and the columns are kept; lengths across the
 //! columns are not (the template is flat, the sewn leaflet is not
-//! developable), which the suturing pre-stage and the closure settle.
+//! developable). The closure takes this as the sewn state (seed 001's
+//! Algorithm 1 is skipped); with the sutured reference it is stress-free,
+//! so the closed shape follows this placement's geometry (see the README's
+//! sizing section for how much).
 
 use crate::geom::{Point3, Vector3};
 
@@ -230,13 +235,12 @@ impl Column {
             // Too short (or degenerate): straight towards q, as far as it goes.
             return straight(len.min(c0));
         }
-        // The arc may turn until its end runs vertically: beyond that it
-        // would come back on itself past the free edge, into the next
-        // leaflet's sector. Where it can, it turns no more than its chord
-        // rises, so it leaves the suture line level or upwards (no belly
-        // below the line), and the rest of the length is a vertical strip
-        // (the coapting surface) whose foot stays above the suture point.
-        let arc = |v: f64, _level: bool| {
+        // The arc turns no more than its chord rises, so it leaves the
+        // suture line level or upwards (no belly below the line), and never
+        // so far that its end runs past vertical (back on itself, into the
+        // next leaflet's sector). The rest of the length is a vertical
+        // strip (the coapting surface).
+        let arc = |v: f64| {
             let ql = q - axis * v;
             let d = ql - p;
             let c = d.norm();
@@ -246,23 +250,23 @@ impl Column {
             let cap = elev.clamp(0.05, turn);
             (ql, c, u, cap)
         };
-        let fits = |v: f64, level: bool| {
-            let (_, c, _, cap) = arc(v, level);
+        let fits = |v: f64| {
+            let (_, c, _, cap) = arc(v);
             c / (len - v) >= cap.sin() / cap
         };
-        let first_fit = |v_max: f64, level: bool| -> Option<f64> {
+        let first_fit = |v_max: f64| -> Option<f64> {
             const STEPS: usize = 64;
             let mut prev = 0.0;
             for k in 0..=STEPS {
                 let v = v_max * k as f64 / STEPS as f64;
-                if fits(v, level) {
+                if fits(v) {
                     if k == 0 {
                         return Some(0.0);
                     }
                     let (mut lo, mut hi) = (prev, v);
                     for _ in 0..50 {
                         let m = 0.5 * (lo + hi);
-                        if fits(m, level) {
+                        if fits(m) {
                             hi = m;
                         } else {
                             lo = m;
@@ -286,20 +290,20 @@ impl Column {
                 rise = rise.min((((q - o).dot(&n) - 0.5) / down).max(0.0));
             }
         }
-        let (v, len) = match first_fit(rise.min(len * (1.0 - 1e-9)), true) {
+        let (v, len) = match first_fit(rise.min(len * (1.0 - 1e-9))) {
             Some(v) => (v, len),
             None => {
                 const STEPS: usize = 64;
                 (0..=STEPS)
                     .map(|k| {
                         let v = rise * k as f64 / STEPS as f64;
-                        let (_, c, _, cap) = arc(v, true);
+                        let (_, c, _, cap) = arc(v);
                         (v, v + c * cap / cap.sin())
                     })
                     .fold((0.0, 0.0), |best, t| if t.1 > best.1 { t } else { best })
             }
         };
-        let (q_low, c, u, _) = arc(v, true);
+        let (q_low, c, u, _) = arc(v);
         let arc_len = len - v;
         let theta = half_angle(c / arc_len).min(3.0);
         let bow = {

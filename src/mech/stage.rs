@@ -152,19 +152,13 @@ fn axis_from_valve(path: &std::path::Path) -> Result<Axis> {
         .map_err(|e| Error::bad_input(path, e.to_string()))?;
     let get =
         |p: &Json| -> Option<V3> { Some(V3::new(p[0].as_f64()?, p[1].as_f64()?, p[2].as_f64()?)) };
-    let dir = get(&v["valve_frame"]["axis"])
-        .ok_or_else(|| Error::bad_input(path, "no valve_frame.axis"))?;
+    // The frame as every stage reads it.
+    let a = crate::io::valve_json::read_frame(path)?.axis;
     let origin = get(&v["commissure_cylinder"]["centre_mm"])
         .ok_or_else(|| Error::bad_input(path, "no commissure_cylinder.centre_mm"))?;
-    if !(dir.norm() > 0.5) {
-        return Err(Error::bad_input(
-            path,
-            "valve_frame.axis is not a unit vector",
-        ));
-    }
     Ok(Axis {
         origin,
-        dir: dir.normalize(),
+        dir: V3::new(a.x, a.y, a.z),
     })
 }
 

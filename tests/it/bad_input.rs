@@ -346,3 +346,108 @@ fn sizes_that_imply_absurd_work_are_refused_before_it() {
         assert!(!d.join("fine").exists(), "{} wrote output", args[0]);
     }
 }
+
+/// Absurd voxel spacings are refused at read, by `info` and `convert` and
+/// so by every stage: 1e-6 mm sent the segmentation after 160 GB.
+#[test]
+fn absurd_voxel_spacings_are_refused_at_read() {
+    let d = tmpdir("absurd-spacing");
+    for (name, sp) in [
+        ("tiny.nii.gz", [1e-6, 1e-6, 1e-6]),
+        ("thin.nii.gz", [0.8, 0.8, 1e-5]),
+        ("huge.nii.gz", [0.8, 80.0, 0.8]),
+    ] {
+        let a = affine_from_parts(sp, &Matrix3::identity(), Point3::new(1.0, 2.0, 3.0));
+        let v =
+            Volume::from_fortran_vec([6, 5, 4], a, (0..120).map(|x| x as i16).collect()).unwrap();
+        let p = d.join(name);
+        coapt::io::nifti::write(&p, &v).unwrap();
+        refused(&p, &["voxel spacing", "0.01–50 mm"]);
+        let out = d.join("mask.nii.gz");
+        let o = coapt(&[
+            "segment",
+            "--ct",
+            p.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_bad_input(&o, &p, &["voxel spacing"]);
+        assert!(!out.exists());
+    }
+}
+
+/// One reading of valve.json for every stage: a zero axis (leaflets moved
+/// them 7.45 mm with exit 0 where the report refused) is refused by
+/// leaflets, close and report alike; and `valve --hc 1000 mm` (72–90 mm
+/// paths before) is refused before any work.
+#[test]
+fn a_zero_valve_axis_and_an_absurd_hc_are_refused_everywhere() {
+    let d = tmpdir("zero-axis");
+    let surface = sample_valve_and_leaflets(&d, "pipelines/templates/ozaki_default.toml", &[]);
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let mut v = json(&d.join("valve.json"));
+    v["valve_frame"]["axis"] = serde_json::json!([0.0, 0.0, 0.0]);
+    let bad = d.join("zero.json");
+    std::fs::write(&bad, serde_json::to_string(&v).unwrap()).unwrap();
+    let runs: [Vec<String>; 3] = [
+        vec![
+            "leaflets".into(),
+            "--quiet".into(),
+            "--valve".into(),
+            s(&bad),
+            "--paths".into(),
+            s(&d.join("paths.vtp")),
+            "--surface".into(),
+            s(&surface),
+            "--template".into(),
+            s(&repo().join("pipelines/templates/ozaki_default.toml")),
+            "--out".into(),
+            s(&d.join("out/leaflets.vtp")),
+        ],
+        vec![
+            "close".into(),
+            "--quiet".into(),
+            "--leaflets".into(),
+            s(&d.join("leaflets.vtp")),
+            "--surface".into(),
+            s(&surface),
+            "--config".into(),
+            s(&repo().join("pipelines/close.toml")),
+            "--valve".into(),
+            s(&bad),
+            "--out".into(),
+            s(&d.join("out/closed.vtp")),
+        ],
+        vec![
+            "report".into(),
+            "--quiet".into(),
+            "--closed".into(),
+            s(&d.join("leaflets.vtp")),
+            "--leaflets".into(),
+            s(&d.join("leaflets.vtp")),
+            "--valve".into(),
+            s(&bad),
+            "--out".into(),
+            s(&d.join("out")),
+        ],
+    ];
+    for args in runs {
+        let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        assert_bad_input(&o, &bad, &["axis", "unit"]);
+        assert!(!d.join("out").exists(), "{} wrote output", args[0]);
+    }
+    let o = coapt(&[
+        "valve",
+        "--surface",
+        &s(&surface),
+        "--landmarks",
+        &s(&repo().join("sample_data/landmarks.mrk.json")),
+        "--out",
+        &s(&d.join("out/valve.json")),
+        "--hc",
+        "1000 mm",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--hc 1000 mm"), "{}", stderr(&o));
+    assert!(!d.join("out").exists());
+}

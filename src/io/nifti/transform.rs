@@ -5,12 +5,35 @@ use nalgebra::{Matrix3, Matrix4, Rotation3, UnitQuaternion};
 
 use super::header::{RawHeader, TransformSource};
 
+/// Voxel spacings a CT can have (mm). A spacing of 1e-6 mm asked the
+/// segmentation for 160 GB; 0.3–2 mm is what scanners write, so the bounds
+/// are far outside that, only to stop nonsense before it costs anything.
+pub const SPACING_MM: (f64, f64) = (0.01, 50.0);
+
 /// The RAS affine the header defines, by NIfTI precedence: sform, then
-/// qform, then pixdim scaling ("method 1").
+/// qform, then pixdim scaling ("method 1"), refused when a voxel axis is
+/// shorter or longer than [`SPACING_MM`].
 pub fn affine_ras(
     raw: &RawHeader,
     unit_to_mm: f64,
 ) -> Result<(Matrix4<f64>, TransformSource), String> {
+    let (a, src) = affine_any(raw, unit_to_mm)?;
+    for c in 0..3 {
+        let d = a.fixed_view::<3, 1>(0, c).norm();
+        if !(SPACING_MM.0..=SPACING_MM.1).contains(&d) {
+            return Err(format!(
+                "voxel spacing along axis {} is {d:e} mm (from the {}); a CT's lies in {}–{} mm: fix the header's spacing or its units",
+                c + 1,
+                src.as_str(),
+                SPACING_MM.0,
+                SPACING_MM.1
+            ));
+        }
+    }
+    Ok((a, src))
+}
+
+fn affine_any(raw: &RawHeader, unit_to_mm: f64) -> Result<(Matrix4<f64>, TransformSource), String> {
     if raw.sform_code > 0 {
         return sform(raw, unit_to_mm).map(|a| (a, TransformSource::Sform));
     }
