@@ -106,7 +106,10 @@ pub static SPEC: StageSpec = StageSpec {
     ],
     check: |p| {
         if !(p.quantity("h") > 0.0) {
-            return Err(Error::value("h must be positive"));
+            return Err(Error::value(format!(
+                "leaflets h (--h) must be positive, got {} mm",
+                p.quantity("h")
+            )));
         }
         if !(p.quantity("clearance") >= 0.0 && p.quantity("clearance") <= 5.0) {
             return Err(Error::value("clearance must lie in 0–5 mm"));

@@ -132,10 +132,21 @@ impl RunConfig {
                             return Err(Error::config(
                                 path,
                                 format!("{name}.{k}"),
-                                format!(
-                                    "unknown parameter (stage {name} takes: {})",
-                                    names.join(", ")
-                                ),
+                                if names.is_empty() {
+                                    format!(
+                                        "unknown parameter: stage {name} takes none here{}",
+                                        if spec.input("config").is_some() {
+                                            " (its settings live in the file of `config =` under [inputs])"
+                                        } else {
+                                            ""
+                                        }
+                                    )
+                                } else {
+                                    format!(
+                                        "unknown parameter (stage {name} takes: {})",
+                                        names.join(", ")
+                                    )
+                                },
                             ));
                         };
                         let parsed = params::parse_toml(p, v).map_err(|e| {

@@ -3,9 +3,9 @@
 use serde_json::{Value as Json, json};
 
 use super::{SegmentParams, segment};
-use crate::Result;
 use crate::io::{Transaction, markups, nifti};
 use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
+use crate::{Error, Result};
 
 pub static SPEC: StageSpec = StageSpec {
     name: "segment",
@@ -57,9 +57,34 @@ pub static SPEC: StageSpec = StageSpec {
     run,
 };
 
+/// Smallest extent of a CT along any of its axes that can hold a root (mm).
+const MIN_EXTENT_MM: f64 = 20.0;
+
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let t0 = std::time::Instant::now();
-    let ct = nifti::read_i16(io.input("ct").expect("required input"))?;
+    let ct_path = io.input("ct").expect("required input");
+    let ct = nifti::read_i16(ct_path)?;
+    // A root is some 30 mm tall and wide: a scan narrower than that along
+    // any axis cannot hold one (a 112 × 112 × 1 image made a one-slice
+    // "aorta").
+    let extent: Vec<f64> = ct
+        .dims()
+        .iter()
+        .zip(ct.spacing())
+        .map(|(&n, s)| n as f64 * s)
+        .collect();
+    if let Some(k) = (0..3).find(|&k| extent[k] < MIN_EXTENT_MM) {
+        return Err(Error::bad_input(
+            ct_path,
+            format!(
+                "the CT covers {:.1} mm along its axis {} ({} voxels of {:.2} mm); an aortic root needs at least {MIN_EXTENT_MM} mm in every direction",
+                extent[k],
+                k + 1,
+                ct.dims()[k],
+                ct.spacing()[k]
+            ),
+        ));
+    }
     let lm = match io.input("landmarks") {
         Some(p) => Some(markups::read(p)?),
         None => None,

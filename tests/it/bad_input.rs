@@ -451,3 +451,40 @@ fn a_zero_valve_axis_and_an_absurd_hc_are_refused_everywhere() {
     assert!(stderr(&o).contains("--hc 1000 mm"), "{}", stderr(&o));
     assert!(!d.join("out").exists());
 }
+
+/// A scan too thin to hold a root (a 112 × 112 × 1 image made a one-slice
+/// "aorta" with exit 0) is refused as bad input, with its extent.
+#[test]
+fn a_scan_too_thin_for_a_root_is_refused() {
+    let d = tmpdir("one-slice");
+    let a = affine_from_parts(
+        [0.8, 0.8, 0.8],
+        &Matrix3::identity(),
+        Point3::new(0.0, 0.0, 0.0),
+    );
+    let v = Volume::from_fortran_vec([112, 112, 1], a, vec![300i16; 112 * 112]).unwrap();
+    let p = d.join("one.nii.gz");
+    coapt::io::nifti::write(&p, &v).unwrap();
+    let out = d.join("mask.nii.gz");
+    let o = coapt(&[
+        "segment",
+        "--quiet",
+        "--ct",
+        p.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_bad_input(&o, &p, &["0.8 mm", "axis 3", "20 mm"]);
+    assert!(!out.exists());
+}
+
+/// A stage without parameters says where its settings live rather than
+/// listing nothing ("stage close takes: ").
+#[test]
+fn a_parameter_for_a_stage_without_any_says_where_settings_live() {
+    let d = tmpdir("no-params");
+    let cfg = d.join("run.toml");
+    std::fs::write(&cfg, "[run]\ndir = \"x\"\n[close]\nfoo = 1\n").unwrap();
+    let o = coapt(&["run", cfg.to_str().unwrap()]);
+    assert_bad_input(&o, &cfg, &["close.foo", "takes none", "config ="]);
+}
