@@ -26,19 +26,20 @@ fn identity(p: &Path) -> Option<std::path::PathBuf> {
 pub fn check(spec: &StageSpec, io: &StageIo) -> Result<()> {
     let flag_in = |name: &'static str| spec.input(name).map_or(name, |p| p.flag);
     let flag_out = |name: &'static str| spec.output(name).map_or(name, |p| p.flag);
+    let same_outputs = |a: &'static str, b: &'static str, path: &Path| {
+        Error::usage(format!(
+            "{}: --{} and --{} are the same file {}: give each output its own path",
+            spec.name,
+            flag_out(a),
+            flag_out(b),
+            path.display()
+        ))
+    };
     for (k, (out, path)) in io.outputs.iter().enumerate() {
         let Some(id) = identity(path) else {
             // Two outputs that do not exist yet can still be one path.
-            for (other, q) in &io.outputs[..k] {
-                if q == path {
-                    return Err(Error::usage(format!(
-                        "{}: --{} and --{} are the same file {}: give each output its own path",
-                        spec.name,
-                        flag_out(other),
-                        flag_out(out),
-                        path.display()
-                    )));
-                }
+            if let Some((other, _)) = io.outputs[..k].iter().find(|(_, q)| q == path) {
+                return Err(same_outputs(other, out, path));
             }
             continue;
         };
@@ -54,16 +55,11 @@ pub fn check(spec: &StageSpec, io: &StageIo) -> Result<()> {
                 )));
             }
         }
-        for (other, q) in &io.outputs[..k] {
-            if identity(q).as_ref() == Some(&id) {
-                return Err(Error::usage(format!(
-                    "{}: --{} and --{} are the same file {}: give each output its own path",
-                    spec.name,
-                    flag_out(other),
-                    flag_out(out),
-                    path.display()
-                )));
-            }
+        if let Some((other, _)) = io.outputs[..k]
+            .iter()
+            .find(|(_, q)| identity(q).as_ref() == Some(&id))
+        {
+            return Err(same_outputs(other, out, path));
         }
     }
     Ok(())

@@ -20,6 +20,16 @@ fn small_ct(dir: &Path, name: &str) -> PathBuf {
     p
 }
 
+/// `coapt STAGE --flag value …` from (flag, value) pairs.
+fn stage_args(stage: &str, pairs: &[(&str, String)]) -> Vec<String> {
+    let mut a = vec![stage.to_string()];
+    for (f, v) in pairs {
+        a.push(format!("--{f}"));
+        a.push(v.clone());
+    }
+    a
+}
+
 fn patch(path: &Path, offset: usize, bytes: &[u8]) {
     let mut b = std::fs::read(path).unwrap();
     b[offset..offset + bytes.len()].copy_from_slice(bytes);
@@ -286,53 +296,51 @@ fn sizes_that_imply_absurd_work_are_refused_before_it() {
     let d = tmpdir("absurd-sizes");
     let surface = sample_valve_and_leaflets(&d, "pipelines/templates/ozaki_default.toml", &[]);
     let s = |p: &Path| p.to_str().unwrap().to_string();
+    let template = s(&repo().join("pipelines/templates/ozaki_default.toml"));
+    let landmarks = s(&repo().join("sample_data/landmarks.mrk.json"));
+    let (valve, paths, leaflets) = (
+        s(&d.join("valve.json")),
+        s(&d.join("paths.vtp")),
+        s(&d.join("leaflets.vtp")),
+    );
     let cases: [(Vec<String>, &[&str]); 3] = [
         (
-            vec![
-                "leaflets".into(),
-                "--valve".into(),
-                s(&d.join("valve.json")),
-                "--paths".into(),
-                s(&d.join("paths.vtp")),
-                "--surface".into(),
-                s(&surface),
-                "--template".into(),
-                s(&repo().join("pipelines/templates/ozaki_default.toml")),
-                "--out".into(),
-                s(&d.join("fine/leaflets.vtp")),
-                "--h".into(),
-                "0.001 mm".into(),
-            ],
+            stage_args(
+                "leaflets",
+                &[
+                    ("valve", valve.clone()),
+                    ("paths", paths),
+                    ("surface", s(&surface)),
+                    ("template", template),
+                    ("out", s(&d.join("fine/leaflets.vtp"))),
+                    ("h", "0.001 mm".into()),
+                ],
+            ),
             &["--h 0.001 mm", "nodes", "1e6"],
         ),
         (
-            vec![
-                "valve".into(),
-                "--surface".into(),
-                s(&surface),
-                "--landmarks".into(),
-                s(&repo().join("sample_data/landmarks.mrk.json")),
-                "--out".into(),
-                s(&d.join("fine/valve.json")),
-                "--spacing".into(),
-                "1e-9 mm".into(),
-            ],
+            stage_args(
+                "valve",
+                &[
+                    ("surface", s(&surface)),
+                    ("landmarks", landmarks),
+                    ("out", s(&d.join("fine/valve.json"))),
+                    ("spacing", "1e-9 mm".into()),
+                ],
+            ),
             &["--spacing", "points", "0.01–5 mm"],
         ),
         (
-            vec![
-                "report".into(),
-                "--closed".into(),
-                s(&d.join("leaflets.vtp")),
-                "--leaflets".into(),
-                s(&d.join("leaflets.vtp")),
-                "--valve".into(),
-                s(&d.join("valve.json")),
-                "--out".into(),
-                s(&d.join("fine")),
-                "--column-width".into(),
-                "1e-6 mm".into(),
-            ],
+            stage_args(
+                "report",
+                &[
+                    ("closed", leaflets.clone()),
+                    ("leaflets", leaflets),
+                    ("valve", valve),
+                    ("out", s(&d.join("fine"))),
+                    ("column-width", "1e-6 mm".into()),
+                ],
+            ),
             &["--column-width", "columns", "0.01 mm"],
         ),
     ];
@@ -389,64 +397,60 @@ fn a_zero_valve_axis_and_an_absurd_hc_are_refused_everywhere() {
     v["valve_frame"]["axis"] = serde_json::json!([0.0, 0.0, 0.0]);
     let bad = d.join("zero.json");
     std::fs::write(&bad, serde_json::to_string(&v).unwrap()).unwrap();
-    let runs: [Vec<String>; 3] = [
-        vec![
-            "leaflets".into(),
-            "--quiet".into(),
-            "--valve".into(),
-            s(&bad),
-            "--paths".into(),
-            s(&d.join("paths.vtp")),
-            "--surface".into(),
-            s(&surface),
-            "--template".into(),
-            s(&repo().join("pipelines/templates/ozaki_default.toml")),
-            "--out".into(),
-            s(&d.join("out/leaflets.vtp")),
-        ],
-        vec![
-            "close".into(),
-            "--quiet".into(),
-            "--leaflets".into(),
-            s(&d.join("leaflets.vtp")),
-            "--surface".into(),
-            s(&surface),
-            "--config".into(),
-            s(&repo().join("pipelines/close.toml")),
-            "--valve".into(),
-            s(&bad),
-            "--out".into(),
-            s(&d.join("out/closed.vtp")),
-        ],
-        vec![
-            "report".into(),
-            "--quiet".into(),
-            "--closed".into(),
-            s(&d.join("leaflets.vtp")),
-            "--leaflets".into(),
-            s(&d.join("leaflets.vtp")),
-            "--valve".into(),
-            s(&bad),
-            "--out".into(),
-            s(&d.join("out")),
-        ],
+    let leaflets = s(&d.join("leaflets.vtp"));
+    let runs = [
+        stage_args(
+            "leaflets",
+            &[
+                ("valve", s(&bad)),
+                ("paths", s(&d.join("paths.vtp"))),
+                ("surface", s(&surface)),
+                (
+                    "template",
+                    s(&repo().join("pipelines/templates/ozaki_default.toml")),
+                ),
+                ("out", s(&d.join("out/leaflets.vtp"))),
+            ],
+        ),
+        stage_args(
+            "close",
+            &[
+                ("leaflets", leaflets.clone()),
+                ("surface", s(&surface)),
+                ("config", s(&repo().join("pipelines/close.toml"))),
+                ("valve", s(&bad)),
+                ("out", s(&d.join("out/closed.vtp"))),
+            ],
+        ),
+        stage_args(
+            "report",
+            &[
+                ("closed", leaflets.clone()),
+                ("leaflets", leaflets),
+                ("valve", s(&bad)),
+                ("out", s(&d.join("out"))),
+            ],
+        ),
     ];
-    for args in runs {
+    for mut args in runs {
+        args.push("--quiet".into());
         let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
         assert_bad_input(&o, &bad, &["axis", "unit"]);
         assert!(!d.join("out").exists(), "{} wrote output", args[0]);
     }
-    let o = coapt(&[
+    let args = stage_args(
         "valve",
-        "--surface",
-        &s(&surface),
-        "--landmarks",
-        &s(&repo().join("sample_data/landmarks.mrk.json")),
-        "--out",
-        &s(&d.join("out/valve.json")),
-        "--hc",
-        "1000 mm",
-    ]);
+        &[
+            ("surface", s(&surface)),
+            (
+                "landmarks",
+                s(&repo().join("sample_data/landmarks.mrk.json")),
+            ),
+            ("out", s(&d.join("out/valve.json"))),
+            ("hc", "1000 mm".into()),
+        ],
+    );
+    let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--hc 1000 mm"), "{}", stderr(&o));
     assert!(!d.join("out").exists());
