@@ -53,6 +53,47 @@ impl Transaction {
         Ok(())
     }
 
+    /// Removes the temporaries a killed run of coapt left beside `path`
+    /// (`.NAME.tmp-PID-N` of a process that no longer runs; only where
+    /// /proc tells which do). Returns how many went.
+    pub fn remove_stale(path: &Path) -> usize {
+        let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
+            return 0;
+        };
+        let dir = if dir.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            dir
+        };
+        let proc = Path::new("/proc/self");
+        if !proc.exists() {
+            return 0;
+        }
+        let prefix = format!(".{}.tmp-", name.to_string_lossy());
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return 0;
+        };
+        let mut n = 0;
+        for e in entries.flatten() {
+            let f = e.file_name().to_string_lossy().into_owned();
+            let Some(rest) = f.strip_prefix(&prefix) else {
+                continue;
+            };
+            let Some((pid, count)) = rest.split_once('-') else {
+                continue;
+            };
+            let (Ok(pid), Ok(_)) = (pid.parse::<u32>(), count.parse::<u64>()) else {
+                continue;
+            };
+            if !Path::new("/proc").join(pid.to_string()).exists()
+                && std::fs::remove_file(e.path()).is_ok()
+            {
+                n += 1;
+            }
+        }
+        n
+    }
+
     /// Write bytes already in memory.
     pub fn write_bytes(&mut self, path: &Path, bytes: &[u8]) -> Result<()> {
         self.write(path, |w| w.write_all(bytes))

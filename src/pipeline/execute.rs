@@ -91,6 +91,17 @@ pub fn execute(
     inv: &Invocation,
 ) -> Result<StageRecord> {
     super::no_overwrite::check(spec, io)?;
+    for (_, path) in &io.outputs {
+        let n = crate::io::Transaction::remove_stale(path);
+        if n > 0 {
+            tracing::info!(
+                stage = spec.name,
+                "{}: removed {n} temporary file(s) a killed run left beside {}",
+                spec.name,
+                path.display()
+            );
+        }
+    }
     let started = provenance::now_utc();
     tracing::info!(stage = spec.name, event = "start", reason = %reason, "{}: running ({reason})", spec.name);
     let progress = Progress::new(spec.name, inv.log);

@@ -492,3 +492,36 @@ fn a_parameter_for_a_stage_without_any_says_where_settings_live() {
     let o = coapt(&["run", cfg.to_str().unwrap()]);
     assert_bad_input(&o, &cfg, &["close.foo", "takes none", "config ="]);
 }
+
+/// A run killed between writing and renaming leaves `.NAME.tmp-PID-N`
+/// beside its output; the next run of that stage removes those of dead
+/// processes and nothing else.
+#[test]
+fn temporaries_a_killed_run_left_are_removed_by_the_next() {
+    let d = tmpdir("stale-tmp");
+    let surface = sample_valve_and_leaflets(&d, "pipelines/templates/ozaki_default.toml", &[]);
+    // A pid above the kernel's limit (2^22) belongs to no process.
+    let stale = d.join(".valve2.json.tmp-4999999-0");
+    let other = d.join(".valve2.json.tmp-notes");
+    std::fs::write(&stale, b"half a file").unwrap();
+    std::fs::write(&other, b"not ours").unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let args = stage_args(
+        "valve",
+        &[
+            ("surface", s(&surface)),
+            (
+                "landmarks",
+                s(&repo().join("sample_data/landmarks.mrk.json")),
+            ),
+            ("out", s(&d.join("valve2.json"))),
+        ],
+    );
+    let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stale.exists(), "the dead run's temporary is still there");
+    assert!(
+        other.exists(),
+        "a file that is not a coapt temporary was removed"
+    );
+}
