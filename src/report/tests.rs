@@ -79,14 +79,7 @@ fn sheets(h: f64, zb: f64, beta: f64) -> ClosedValve {
                 });
             }
         }
-        let id = |iz: usize, is: usize| base + (iz * (ns + 1) + is) as u32;
-        for iz in 0..nz {
-            for is in 0..ns {
-                tris.push([id(iz, is), id(iz, is + 1), id(iz + 1, is + 1)]);
-                tris.push([id(iz, is), id(iz + 1, is + 1), id(iz + 1, is)]);
-                tri_leaflet.extend([k as u8, k as u8]);
-            }
-        }
+        grid(base, nz, ns, k as u8, &mut tris, &mut tri_leaflet);
     }
     ClosedValve {
         x0: x.clone(),
@@ -97,6 +90,19 @@ fn sheets(h: f64, zb: f64, beta: f64) -> ClosedValve {
         ref_uv: Some(uv),
         frame: frame(),
         leaflets: 3,
+    }
+}
+
+/// Two triangles per cell of leaflet `k`'s (nz + 1) × (ns + 1) node grid,
+/// numbered from `base` row by row.
+fn grid(base: u32, nz: usize, ns: usize, k: u8, tris: &mut Vec<[u32; 3]>, leaf: &mut Vec<u8>) {
+    let id = |iz: usize, is: usize| base + (iz * (ns + 1) + is) as u32;
+    for iz in 0..nz {
+        for is in 0..ns {
+            tris.push([id(iz, is), id(iz, is + 1), id(iz + 1, is + 1)]);
+            tris.push([id(iz, is), id(iz + 1, is + 1), id(iz + 1, is)]);
+            leaf.extend([k, k]);
+        }
     }
 }
 
@@ -429,14 +435,7 @@ fn cups(z0: f64, z1: f64, zc: f64, trim_deg: f64) -> ClosedValve {
                 });
             }
         }
-        let id = |iz: usize, is: usize| base + (iz * (ns + 1) + is) as u32;
-        for iz in 0..nz {
-            for is in 0..ns {
-                tris.push([id(iz, is), id(iz, is + 1), id(iz + 1, is + 1)]);
-                tris.push([id(iz, is), id(iz + 1, is + 1), id(iz + 1, is)]);
-                tri_leaflet.extend([k as u8, k as u8]);
-            }
-        }
+        grid(base, nz, ns, k as u8, &mut tris, &mut tri_leaflet);
         // The floor: a fan around the axis, then rings out to W.
         let span = 2.0 * PI / 3.0 - if k == 2 { trim_deg.to_radians() } else { 0.0 };
         let centre = x.len() as u32;
