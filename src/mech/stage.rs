@@ -301,6 +301,7 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
             "iterations": l.outcome.iterations,
             "residual_n": l.outcome.residual_n,
             "intersecting_triangle_pairs": l.crossings.len(),
+            "history": l.outcome.history,
         })),
         "timing_s": {"setup": closed.setup_s, "suture": closed.suturing.as_ref().map(|s| s.seconds), "solve": closed.solve_s, "low_pressure_solve": low.as_ref().map(|l| l.solve_s)},
     });

@@ -99,6 +99,7 @@ mod tests {
                 max_force_n: r,
                 step,
                 shift: 0.0,
+                correction_mm: 0.0,
                 contact_pairs: pairs(i),
                 linear_solver: "cholesky",
                 gmres_iterations: 0,

@@ -913,6 +913,8 @@ mod tests {
             rel: 1e-7,
             max_iterations: 300,
             max_seconds: 300.0,
+            step_mm: 0.0,
+            step_residual_n: 0.0,
         };
         let nopt = NewtonOptions {
             stop: stop.clone(),

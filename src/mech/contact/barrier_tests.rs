@@ -333,6 +333,8 @@ fn a_pressed_sheet_settles_at_the_closed_form_gap() {
                 rel: 1e-13,
                 max_iterations: 100,
                 max_seconds: 60.0,
+                step_mm: 0.0,
+                step_residual_n: 0.0,
             },
             max_step_mm: 0.5,
             max_rejections: 12,

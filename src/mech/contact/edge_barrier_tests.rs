@@ -363,6 +363,8 @@ fn an_edge_pushed_onto_an_edge_is_held_by_the_edge_pair() {
                         rel: 1e-12,
                         max_iterations: 100,
                         max_seconds: 60.0,
+                        step_mm: 0.0,
+                        step_residual_n: 0.0,
                     },
                     max_step_mm: 0.05,
                     max_rejections: 12,

@@ -21,6 +21,11 @@ pub struct Stop {
     pub rel: f64,
     pub max_iterations: usize,
     pub max_seconds: f64,
+    /// A stalled Newton counts as converged when its exact correction moves
+    /// no node farther than this (mm; 0: never) and the residual is at most
+    /// `step_residual_n` (N). See `newton.rs`, "converged by the step".
+    pub step_mm: f64,
+    pub step_residual_n: f64,
 }
 
 impl Default for Stop {
@@ -31,6 +36,8 @@ impl Default for Stop {
             rel: 1e-7,
             max_iterations: 200,
             max_seconds: 600.0,
+            step_mm: 0.0,
+            step_residual_n: 0.0,
         }
     }
 }
@@ -49,6 +56,9 @@ pub struct Record {
     pub step: f64,
     /// Levenberg shift relative to the mean diagonal (Newton).
     pub shift: f64,
+    /// Newton: the largest nodal move (mm) of the step as solved, before the
+    /// cap, the barrier's limit and the line search (0 for relaxation).
+    pub correction_mm: f64,
     pub contact_pairs: usize,
     /// Newton: how the step's linear system was solved: "cholesky"
     /// (symmetric tangent), "gmres" (non-symmetric, preconditioned with

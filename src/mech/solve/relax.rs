@@ -115,6 +115,7 @@ pub fn relax(sys: &mut System, x: &mut Vec<V3>, opt: &RelaxOptions) -> Outcome {
                 max_force_n: max_norm(&r),
                 step: li,
                 shift: 0.0,
+                correction_mm: 0.0,
                 contact_pairs: contact_pairs(sys),
                 linear_solver: "",
                 gmres_iterations: 0,
