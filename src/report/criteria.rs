@@ -223,13 +223,23 @@ pub fn judge(m: &Metrics, t: &Thresholds, a: &Anatomy, p: &Pressures) -> Vec<Cri
             value: Value::Bool(m.coaptation_above_vaj),
             comparison: Comparison::IsTrue,
             pass: m.coaptation_above_vaj,
-            note: match m.lowest_coaptation_mm {
-                Some(z) => {
-                    format!("lowest point of the coaptation zone {z:.2} mm above the annulus plane")
-                }
-                None => "no coaptation zone to place".into(),
+            // Judged where the echocardiographers of ref [21] see the
+            // coaptation level, in the long-axis view through the valve's
+            // centre: the zone where all three leaflets meet. Contact next to
+            // the commissures runs down the posts, on a tilted root below the
+            // plane ⊥ the axis at the low nadir (real CT, hanging placement,
+            // size 23: any contact down to -0.07 mm, the central zone's
+            // bottom 4.5 mm up); it is reported beside, not judged.
+            note: match (m.lowest_central_coaptation_mm, m.lowest_coaptation_mm) {
+                (Some(z), any) => format!(
+                    "lowest point of the central coaptation (all three leaflets touching) {z:.2} mm above the annulus plane{}",
+                    any.map_or(String::new(), |a| format!(
+                        "; two leaflets touch down to {a:.2} mm, next to the commissures"
+                    ))
+                ),
+                (None, _) => "no zone where all three leaflets touch".into(),
             },
-            source: "seed 001 §1, ref [21] (coaptation below the annulus predicts recurrent regurgitation)",
+            source: "seed 001 §1, ref [21] (coaptation below the annulus, in the long-axis view through the valve's centre, predicts recurrent regurgitation)",
         },
         numeric(
             "leaflets_below_stj",

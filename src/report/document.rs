@@ -170,6 +170,7 @@ pub fn build(
             "billowing_mm": m.leaflets.iter().map(|l| l.billowing_mm).collect::<Vec<_>>(),
             "lowest_free_edge_above_annulus_mm": m.lowest_free_edge_mm,
             "lowest_coaptation_above_annulus_mm": m.lowest_coaptation_mm,
+            "lowest_central_coaptation_above_annulus_mm": m.lowest_central_coaptation_mm,
         },
         "leaflets": leaflets,
         "conventions": {

@@ -378,7 +378,7 @@ fn key_metrics(h: &mut String, m: Option<&Value>) {
     h.push_str("<table>\n<thead><tr><th>Quantity</th><th>Value</th><th>Definition</th></tr></thead>\n<tbody>\n");
     let get = |k: &str| m.and_then(|m| m.get(k));
     let area = get("coaptation_area_mm2");
-    let rows: [(&str, String, &str); 18] = [
+    let rows: [(&str, String, &str); 19] = [
         (
             "Valve closed",
             boolean(get("closed")),
@@ -447,7 +447,7 @@ fn key_metrics(h: &mut String, m: Option<&Value>) {
         (
             "Coaptation above the VAJ",
             boolean(get("coaptation_above_vaj")),
-            "the coaptation zone lies above the ventriculo-aortic junction",
+            "the central coaptation (all three leaflets touching) lies above the ventriculo-aortic junction",
         ),
         (
             "Lowest free edge above annulus",
@@ -457,7 +457,12 @@ fn key_metrics(h: &mut String, m: Option<&Value>) {
         (
             "Lowest coaptation above annulus",
             mm(get("lowest_coaptation_above_annulus_mm")),
-            "axial distance, annulus plane to the lowest coaptation point",
+            "axial distance, annulus plane to the lowest point where two leaflets touch (next to the commissures too)",
+        ),
+        (
+            "Lowest central coaptation above annulus",
+            mm(get("lowest_central_coaptation_above_annulus_mm")),
+            "axial distance, annulus plane to the lowest point where all three leaflets touch",
         ),
         (
             "Lowest commissure tip above annulus",

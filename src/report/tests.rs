@@ -137,6 +137,7 @@ fn parallel_sheets_coapt_over_their_whole_height_with_a_central_zone() {
     near(m.effective_height_mm, Z1, 1e-9);
     assert!(m.closed);
     assert_eq!(m.coaptation_above_vaj, Some(true));
+    near(m.lowest_central_coaptation_mm, Z0, 1e-9);
     for l in &m.leaflets {
         // Every point touches a neighbour: the zone is the whole leaflet.
         assert!(
