@@ -126,7 +126,7 @@ fn command() -> Command {
     }
     cmd.subcommand(
         Command::new("info")
-            .about("Describe a coapt artifact: NIfTI volume, .vtp mesh or polylines, landmarks")
+            .about("Describe a coapt artifact: volume (NIfTI, NRRD, MetaImage), .vtp mesh or polylines, landmarks")
             .arg(Arg::new("file").required(true).value_name("FILE").value_parser(clap::value_parser!(PathBuf)))
             .arg(Arg::new("json").long("json").action(ArgAction::SetTrue).help("print JSON instead of text")),
     )
@@ -145,7 +145,7 @@ fn command() -> Command {
     )
     .subcommand(
         Command::new("convert")
-            .about("Convert between formats: .vtp → .vtp/.stl/.ply; .nii ↔ .nii.gz; landmarks → .mrk.json/.fcsv/.json")
+            .about("Convert between formats: volume (.nii/.nii.gz/.nrrd/.nhdr/.mha/.mhd) → .nii/.nii.gz/.nrrd; .vtp → .vtp/.stl/.ply; landmarks → .mrk.json/.fcsv/.json")
             .arg(Arg::new("input").required(true).value_name("IN").value_parser(clap::value_parser!(PathBuf)))
             .arg(Arg::new("output").required(true).value_name("OUT").value_parser(clap::value_parser!(PathBuf)))
             .arg(
