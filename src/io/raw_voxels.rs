@@ -348,7 +348,14 @@ fn read_values<T: NiftiRead>(
     let fill = |src: &mut Source, buf: &mut [u8], done: u64| -> Result<()> {
         match read_full(src, buf) {
             Ok(k) if k == buf.len() => Ok(()),
-            Ok(k) => Err(bad(truncated_msg(total, done + k as u64))),
+            Ok(k) if layout.encoding == Encoding::Raw => {
+                Err(bad(truncated_msg(total, done + k as u64)))
+            }
+            Ok(k) => Err(bad(format!(
+                "corrupt or truncated {} stream: {}",
+                layout.encoding.name(),
+                truncated_msg(total, done + k as u64)
+            ))),
             Err(e) => Err(stream_err(bad, layout.encoding, e)),
         }
     };

@@ -8,6 +8,7 @@ mod close;
 mod common;
 mod design;
 mod end_to_end;
+mod formats;
 mod hanging;
 mod leaflets;
 mod phantom;
