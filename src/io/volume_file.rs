@@ -148,7 +148,7 @@ pub fn read_header(path: &Path, opts: &ReadOptions) -> Result<VolumeHeader> {
             affine_lps: h.affine_lps,
             transform: h.transform_source.to_string(),
             data_file: None,
-            encoding: if gz_name(path) { "gzip" } else { "raw" }.into(),
+            encoding: if gzipped(path) { "gzip" } else { "raw" }.into(),
         });
     }
     let l = layout(path, format, opts)?;
@@ -164,9 +164,13 @@ pub fn read_header(path: &Path, opts: &ReadOptions) -> Result<VolumeHeader> {
     })
 }
 
-fn gz_name(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("gz"))
+/// Whether the file starts with the gzip magic (the NIfTI reader decides
+/// by content too, whatever the name says).
+fn gzipped(path: &Path) -> bool {
+    let mut magic = [0u8; 2];
+    File::open(path)
+        .and_then(|mut f| f.read_exact(&mut magic))
+        .is_ok_and(|_| magic == [0x1f, 0x8b])
 }
 
 /// Read a volume of any accepted format as `T`, converting from any stored

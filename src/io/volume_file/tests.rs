@@ -386,3 +386,86 @@ fn coapt_nrrd_writer_round_trips_exactly() {
     let got: Volume<u8> = read(&p, &ReadOptions::default()).unwrap();
     assert_eq!(got.as_slice(), &[0, 1, 2, 255]);
 }
+
+/// Damaged files never panic and never allocate what a header merely
+/// claims: thousands of random byte edits, deletions and truncations of a
+/// valid NRRD (raw, gzip) and MetaImage (raw, zlib) each end in a volume or
+/// in a bad-input error, under a byte limit a little above the real size.
+#[test]
+fn random_damage_is_refused_or_read_never_a_panic() {
+    let d = tmp("damage");
+    let v = oblique();
+    let raw = le_bytes(&v, false);
+    let originals: Vec<(&str, Vec<u8>)> = vec![
+        (
+            "a.nrrd",
+            [
+                nrrd_header(&v, "right-anterior-superior", "raw", "\n").into_bytes(),
+                raw.clone(),
+            ]
+            .concat(),
+        ),
+        (
+            "b.nrrd",
+            [
+                nrrd_header(&v, "left-posterior-superior", "gzip", "\n").into_bytes(),
+                gzip(&raw),
+            ]
+            .concat(),
+        ),
+        (
+            "c.mha",
+            [
+                mha_header(&v, false, false, "LOCAL").into_bytes(),
+                raw.clone(),
+            ]
+            .concat(),
+        ),
+        (
+            "d.mha",
+            [
+                mha_header(&v, true, false, "LOCAL").into_bytes(),
+                zlib(&raw),
+            ]
+            .concat(),
+        ),
+    ];
+    let opts = ReadOptions { max_bytes: 4096 };
+    let mut rng = crate::rng::SplitMix64::new(24);
+    let (mut read_ok, mut refused) = (0, 0);
+    for (name, bytes) in &originals {
+        for _ in 0..1500 {
+            let mut b = bytes.clone();
+            let edits = 1 + rng.next_u64() % 4;
+            for _ in 0..edits {
+                let at = (rng.next_u64() % b.len() as u64) as usize;
+                match rng.next_u64() % 4 {
+                    0 => b[at] = rng.next_u64() as u8,
+                    1 => b[at] = b"0123456789-.e (),: =\n"[(rng.next_u64() % 21) as usize],
+                    2 => {
+                        b.remove(at);
+                    }
+                    _ => b.truncate(at.max(1)),
+                }
+            }
+            let p = d.join(name);
+            std::fs::write(&p, &b).unwrap();
+            match read::<i16>(&p, &opts) {
+                Ok(got) => {
+                    assert!(got.len() as u64 * 2 <= opts.max_bytes);
+                    read_ok += 1;
+                }
+                Err(e) => {
+                    assert_eq!(e.exit_code(), 2, "{e}");
+                    refused += 1;
+                }
+            }
+        }
+    }
+    // Both outcomes occur: edits in comments or digits of values can leave
+    // a valid file.
+    assert!(
+        refused > 3000 && read_ok > 10,
+        "{refused} refused, {read_ok} read"
+    );
+}
