@@ -7,7 +7,7 @@ use std::path::Path;
 use serde_json::{Value as Json, json};
 
 use crate::geom::{Frame, PolyData, TriMesh};
-use crate::io::{markups, nifti, nrrd, ply, stl, volume_file, vtp};
+use crate::io::{dicom, markups, nifti, nrrd, ply, stl, volume_file, vtp};
 use crate::{Error, Result};
 
 /// File formats coapt reads, by name.
@@ -72,6 +72,7 @@ pub fn describe(path: &Path, as_json: bool) -> Result<String> {
         return Err(Error::bad_input(path, "not found"));
     }
     let info = match input_format(path)? {
+        Format::Volume | Format::Nrrd if path.is_dir() => describe_dicom_folder(path)?,
         Format::Volume | Format::Nrrd => describe_volume(path)?,
         Format::Vtp => describe_polydata(&vtp::read(path)?),
         Format::Landmarks => describe_landmarks(path)?,
@@ -121,6 +122,45 @@ fn describe_volume(path: &Path) -> Result<Json> {
         "value_max": hi,
         "value_mean": sum / v.len() as f64,
     }))
+}
+
+/// The series a folder holds (UID, number, description, modality, images,
+/// spacing) and, when one is chosen (the only one, or `--series`), the
+/// volume it reads as.
+fn describe_dicom_folder(path: &Path) -> Result<Json> {
+    let (series, other) = dicom::scan(path)?;
+    if series.is_empty() {
+        return Err(dicom::no_images(path, other));
+    }
+    let list: Vec<Json> = series
+        .iter()
+        .map(|s| {
+            let first = s.slices.first();
+            json!({
+                "uid": s.uid,
+                "number": s.number,
+                "description": s.description,
+                "modality": s.modality,
+                "images": s.slices.len() + s.problems.len(),
+                "localiser": s.localiser,
+                "transfer_syntax": s.transfer_syntax,
+                "pixel_spacing_mm": first.map(|f| f.pixel_spacing),
+                "rows_columns": first.map(|f| [f.rows, f.columns]),
+            })
+        })
+        .collect();
+    let mut info = json!({
+        "file": path.display().to_string(),
+        "format": "DICOM folder",
+        "other_files": other,
+        "series": list,
+    });
+    if series.len() == 1 || volume_file::series_choice().is_some() {
+        info["volume"] = describe_volume(path)?;
+    } else {
+        info["note"] = json!("several series: choose one with --series UID|NUMBER");
+    }
+    Ok(info)
 }
 
 fn describe_polydata(pd: &PolyData) -> Json {

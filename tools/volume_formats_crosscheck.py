@@ -12,7 +12,10 @@ TransformMatrix or a missed RAS/LPS flip shows):
   .nii.gz; `coapt info --json` must report the same dims, the same LPS affine
   (to 1e-6 mm; NIfTI stores float32, so 1e-4 there) and the same value mean;
 * `coapt convert` writes .nrrd and .nii.gz; SimpleITK must read the same
-  voxels and grid back.
+  voxels and grid back;
+* SimpleITK (GDCM) writes it as a DICOM CT series, one file per slice,
+  named in reverse order: `coapt info DIR` must give the grid SimpleITK
+  wrote and SimpleITK's own series reader reads, and the same value mean.
 
 Exit status 1 on any mismatch. Needs SimpleITK and numpy (see tools/README.md).
 Not part of `cargo test`.
@@ -35,6 +38,51 @@ def lps_affine(img: sitk.Image) -> np.ndarray:
     a[:3, :3] = d @ np.diag(img.GetSpacing())
     a[:3, 3] = img.GetOrigin()
     return a
+
+
+def dicom_series(coapt: str, img: sitk.Image, voxels: np.ndarray, folder: Path) -> bool:
+    """`img` as a CT series written slice by slice by SimpleITK/GDCM (files
+    named in reverse order), read by coapt and by SimpleITK's series reader."""
+    folder.mkdir()
+    d = np.array(img.GetDirection()).reshape(3, 3)
+    # DICOM stacks slices along the normal of their rows and columns: make
+    # the third axis that normal (a right-handed grid), as a scanner would.
+    d[:, 2] = np.cross(d[:, 0], d[:, 1])
+    img = sitk.Image(img)
+    img.SetDirection(tuple(d.flatten()))
+    want = lps_affine(img)
+    uid = "1.2.826.0.1.3680043.2.1125.77"
+    n = img.GetDepth()
+    writer = sitk.ImageFileWriter()
+    writer.KeepOriginalImageUIDOn()
+    for k in range(n):
+        sl = img[:, :, k]
+        for tag, value in [
+            ("0008|0060", "CT"), ("0020|000e", uid), ("0020|0011", "7"),
+            ("0008|103e", "crosscheck"), ("0020|0013", str(n - k)),
+            ("0020|0032", "\\".join(f"{x:.10g}" for x in img.TransformIndexToPhysicalPoint((0, 0, k)))),
+            ("0020|0037", "\\".join(f"{x:.10g}" for x in list(d[:, 0]) + list(d[:, 1]))),
+            ("0028|1052", "0"), ("0028|1053", "1"),
+        ]:
+            sl.SetMetaData(tag, value)
+        writer.SetFileName(str(folder / f"slice{n - k:04d}.dcm"))
+        writer.Execute(sl)
+    info = json.loads(subprocess.check_output([coapt, "info", "--json", str(folder)]))
+    vol = info["volume"]
+    off = np.abs(np.array(vol["affine_voxel_to_lps"]) - want).max()
+    reader = sitk.ImageSeriesReader()
+    back = sitk.ReadImage(reader.GetGDCMSeriesFileNames(str(folder)))
+    off_sitk = np.abs(lps_affine(back) - np.array(vol["affine_voxel_to_lps"])).max()
+    same = (
+        vol["dims"] == list(img.GetSize())
+        and off < 1e-4
+        and off_sitk < 1e-4
+        and abs(vol["value_mean"] - voxels.mean()) < 1e-9 * max(1, abs(voxels.mean()))
+        and abs(vol["value_mean"] - sitk.GetArrayFromImage(back).mean()) < 1e-9 * max(1, abs(voxels.mean()))
+    )
+    print(f"{'ok  ' if same else 'FAIL'} SimpleITK DICOM series -> coapt: {info['series'][0]['images']} "
+          f"images, affine off by {off:.1e} mm (SimpleITK's series reader: {off_sitk:.1e} mm)")
+    return bool(same)
 
 
 def main() -> int:
@@ -80,6 +128,7 @@ def main() -> int:
             print(f"{'ok  ' if same else 'FAIL'} coapt {name:12} -> SimpleITK: "
                   f"{back.GetPixelIDTypeAsString()}, affine off by {off:.1e} mm, voxels equal")
             ok &= bool(same)
+        ok &= dicom_series(coapt, img, voxels, t / "dicom")
     print("volume formats crosscheck: " + ("all passed" if ok else "FAILED"))
     return 0 if ok else 1
 

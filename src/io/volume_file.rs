@@ -7,6 +7,7 @@
 //! | NIfTI-1/2 | `.nii`, `.nii.gz` | [`super::nifti`] |
 //! | NRRD | `.nrrd` (attached), `.nhdr` + data file | [`super::nrrd`] |
 //! | MetaImage | `.mha` (attached), `.mhd` + data file | [`super::metaimage`] |
+//! | DICOM | a folder holding a CT series | [`super::dicom`] |
 //!
 //! Every reader validates its header in full (sizes, byte limit, spacing
 //! bounds, a usable affine) before it allocates, and returns the volume with
@@ -15,29 +16,41 @@
 use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use nalgebra::Matrix4;
 
 use super::nifti::{self, DataType, NiftiRead, ReadOptions};
 use super::raw_voxels::{self, Layout};
-use super::{metaimage, nrrd};
+use super::{dicom, metaimage, nrrd};
 use crate::geom::Volume;
 use crate::{Error, Result};
 
 /// The volume formats coapt reads, for messages that list them.
 pub const ACCEPTED: &str = "NIfTI-1/2 (.nii, .nii.gz), NRRD (.nrrd, or .nhdr with its data \
-    file) or MetaImage (.mha, or .mhd with its data file)";
+    file), MetaImage (.mha, or .mhd with its data file) or a folder holding a DICOM CT series";
 
-/// What to do with a DICOM series or file, which coapt does not read.
-const DICOM_ADVICE: &str = "coapt does not read DICOM; convert the series to one volume first, \
-    e.g. `dcm2niix -z y -o OUTDIR DICOMDIR` (→ .nii.gz) or 3D Slicer's DICOM module \
-    (save as .nrrd)";
+/// The DICOM series chosen with `--series` (UID or SeriesNumber), for
+/// folders that hold several. Set once by the command line.
+static SERIES: OnceLock<String> = OnceLock::new();
+
+/// Choose the DICOM series read from folders that hold several.
+pub fn set_series(pick: &str) {
+    let _ = SERIES.set(pick.to_string());
+}
+
+/// The series chosen with `--series`, if any.
+pub fn series_choice() -> Option<&'static str> {
+    SERIES.get().map(String::as_str)
+}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Format {
     Nifti,
     Nrrd,
     MetaImage,
+    /// A folder holding a DICOM series.
+    Dicom,
 }
 
 /// A volume's header, validated: everything but the voxels.
@@ -58,18 +71,12 @@ pub struct VolumeHeader {
     pub encoding: String,
 }
 
-/// The format of `path`, from its content; the name decides only for
-/// headers whose content is not recognisable (so a corrupt `.nhdr` gets the
-/// NRRD reader's message, not a generic one).
+/// The format of `path`: a folder is a DICOM series; a file is judged by
+/// its content, and by its name only when the content is not recognisable
+/// (so a corrupt `.nhdr` gets the NRRD reader's message, not a generic one).
 pub fn sniff(path: &Path) -> Result<Format> {
     if path.is_dir() {
-        return Err(Error::bad_input(
-            path,
-            format!(
-                "is a directory; coapt reads a CT stored as one volume: {ACCEPTED}. If it holds \
-                 a DICOM series, {DICOM_ADVICE}"
-            ),
-        ));
+        return Ok(Format::Dicom);
     }
     let mut head = Vec::with_capacity(512);
     File::open(path)
@@ -83,7 +90,8 @@ pub fn sniff(path: &Path) -> Result<Format> {
     if head.len() >= 132 && &head[128..132] == b"DICM" {
         return Err(Error::bad_input(
             path,
-            format!("is a DICOM file; {DICOM_ADVICE}"),
+            "is a single DICOM file; give coapt the folder that holds its series (multi-frame \
+             files are not read: convert them with dcm2niix)",
         ));
     }
     let first_line = head
@@ -122,7 +130,7 @@ pub fn sniff(path: &Path) -> Result<Format> {
     };
     Err(Error::bad_input(
         path,
-        format!("{what}; coapt reads {ACCEPTED}; a DICOM series must be converted first"),
+        format!("{what}; coapt reads {ACCEPTED}"),
     ))
 }
 
@@ -131,7 +139,7 @@ fn layout(path: &Path, format: Format, opts: &ReadOptions) -> Result<Layout> {
     match format {
         Format::Nrrd => nrrd::layout(path, opts.max_bytes),
         Format::MetaImage => metaimage::layout(path, opts.max_bytes),
-        Format::Nifti => unreachable!("NIfTI has no text layout"),
+        Format::Nifti | Format::Dicom => unreachable!("only NRRD and MetaImage have a text layout"),
     }
 }
 
@@ -149,6 +157,18 @@ pub fn read_header(path: &Path, opts: &ReadOptions) -> Result<VolumeHeader> {
             transform: h.transform_source.to_string(),
             data_file: None,
             encoding: if gzipped(path) { "gzip" } else { "raw" }.into(),
+        });
+    }
+    if format == Format::Dicom {
+        let p = dicom::plan(path, series_choice(), opts, 2)?;
+        return Ok(VolumeHeader {
+            format: "DICOM".into(),
+            dims: p.dims,
+            datatype: DataType::I16,
+            affine_lps: p.affine_lps,
+            transform: format!("series {}", p.series.uid),
+            data_file: None,
+            encoding: p.series.transfer_syntax.clone(),
         });
     }
     let l = layout(path, format, opts)?;
@@ -178,6 +198,7 @@ fn gzipped(path: &Path) -> bool {
 pub fn read<T: NiftiRead>(path: &Path, opts: &ReadOptions) -> Result<Volume<T>> {
     match sniff(path)? {
         Format::Nifti => nifti::read_with(path, opts),
+        Format::Dicom => dicom::read(path, series_choice(), opts),
         f => raw_voxels::read(path, &layout(path, f, opts)?, opts),
     }
 }
@@ -192,6 +213,21 @@ pub fn read_ct(path: &Path) -> Result<Volume<i16>> {
 /// MetaImage header with detached data, its data file (for provenance
 /// hashes). Anything unreadable is left to the reader to report.
 pub fn files_of(path: &Path) -> Vec<PathBuf> {
+    if path.is_dir() {
+        // A DICOM series: its images, in name order.
+        if let Ok(p) = dicom::plan(
+            path,
+            series_choice(),
+            &ReadOptions {
+                max_bytes: u64::MAX,
+            },
+            2,
+        ) {
+            let mut files: Vec<PathBuf> = p.series.slices.iter().map(|s| s.path.clone()).collect();
+            files.sort();
+            return files;
+        }
+    }
     let mut files = vec![path.to_path_buf()];
     if let Ok(f @ (Format::Nrrd | Format::MetaImage)) = sniff(path) {
         if let Ok(l) = layout(

@@ -39,7 +39,7 @@ impl ArtifactKind {
     pub fn describe(self) -> &'static str {
         match self {
             ArtifactKind::Volume => {
-                "CT volume (.nii/.nii.gz; as input also .nrrd/.nhdr, .mha/.mhd)"
+                "CT volume (.nii/.nii.gz; as input also .nrrd/.nhdr, .mha/.mhd or a DICOM series folder)"
             }
             ArtifactKind::Mask => "NIfTI mask (.nii/.nii.gz)",
             ArtifactKind::Landmarks => "landmarks (.mrk.json/.fcsv/.json)",

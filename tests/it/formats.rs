@@ -415,16 +415,16 @@ fn malformed_headers_are_refused_with_exit_2_and_nothing_written() {
     refused(&p, &p, &["ct.raw does not exist"]);
     std::fs::write(d.join("ct.raw"), &raw[..100]).unwrap();
     refused(&p, &d.join("ct.raw"), &["truncated", "voxel data of"]);
-    // A directory (a DICOM series?), a DICOM file, a text file.
+    // A folder without DICOM images, a lone DICOM file, a text file.
     let d = tmpdir("formats-bad-other");
     let dir = d.join("series");
     std::fs::create_dir_all(&dir).unwrap();
-    refused(&dir, &dir, &["directory", "NRRD", "MetaImage", "dcm2niix"]);
+    refused(&dir, &dir, &["no DICOM images", "NRRD", "MetaImage"]);
     let mut dcm = vec![0u8; 128];
     dcm.extend_from_slice(b"DICM\x02\x00\x00\x00");
     let p = d.join("IM0001.dcm");
     std::fs::write(&p, dcm).unwrap();
-    refused(&p, &p, &["DICOM", "dcm2niix"]);
+    refused(&p, &p, &["single DICOM file", "folder"]);
     let p = d.join("notes.txt");
     std::fs::write(&p, "not a volume\n").unwrap();
     refused(&p, &p, &["NIfTI", "NRRD", "MetaImage"]);

@@ -7,6 +7,7 @@ mod bench_stress_close;
 mod close;
 mod common;
 mod design;
+mod dicom;
 mod end_to_end;
 mod formats;
 mod hanging;

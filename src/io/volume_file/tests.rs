@@ -354,8 +354,8 @@ fn sniffing_is_by_content_and_lists_the_formats_when_unknown() {
     std::fs::write(d.join("empty.bin"), b"").unwrap();
     for (name, words) in [
         ("notes.txt", "not a volume coapt recognises"),
-        ("IM0001", "DICOM"),
-        ("", "directory"),
+        ("IM0001", "single DICOM file"),
+        ("", "holds no DICOM images"),
         ("empty.bin", "empty"),
     ] {
         let p = d.join(name);
@@ -364,7 +364,7 @@ fn sniffing_is_by_content_and_lists_the_formats_when_unknown() {
         let e = e.to_string();
         assert!(e.contains(words), "{name}: {e}");
         assert!(
-            e.contains("NRRD") && e.contains("MetaImage") || e.contains("dcm2niix"),
+            e.contains("NRRD") && e.contains("MetaImage") || e.contains("folder"),
             "{name}: {e}"
         );
     }
