@@ -128,7 +128,7 @@ fn describe_volume(path: &Path) -> Result<Json> {
 /// spacing) and, when one is chosen (the only one, or `--series`), the
 /// volume it reads as.
 fn describe_dicom_folder(path: &Path) -> Result<Json> {
-    let (series, other) = dicom::scan(path)?;
+    let (series, other) = dicom::scan(path, nifti::ReadOptions::default().max_bytes)?;
     if series.is_empty() {
         return Err(dicom::no_images(path, other));
     }

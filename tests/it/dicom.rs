@@ -445,3 +445,58 @@ fn malformed_series_are_refused_with_exit_2_and_nothing_written() {
         &["single DICOM file", "folder"],
     );
 }
+
+/// dicom-rs reserves a value's declared length before reading it: a 16 kB
+/// image claiming 4 GiB of pixel data cost 4.2 GB of memory. coapt walks the
+/// element lengths first and refuses the file; random damage to an image
+/// ends in a volume or an exit-2 refusal, never a panic.
+#[test]
+fn hostile_lengths_and_random_damage_are_refused_without_a_panic() {
+    let v = oblique();
+    let d = tmpdir("dicom-hostile");
+    let dir = d.join("series");
+    write_series(&dir, &v, &Spec::new("1.2.3.77", 1));
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    let victim = files[3].clone();
+    let good = std::fs::read(&victim).unwrap();
+    let at = good
+        .windows(6)
+        .position(|w| w == [0xE0, 0x7F, 0x10, 0x00, b'O', b'W'])
+        .unwrap();
+    let mut b = good.clone();
+    b[at + 8..at + 12].copy_from_slice(&0xFFFF_FFF0u32.to_le_bytes());
+    std::fs::write(&victim, &b).unwrap();
+    for args in [vec!["check", "--ct"], vec!["info"]] {
+        let mut a = args.clone();
+        let ds = s(&dir);
+        a.push(&ds);
+        assert_bad_input(&coapt(&a), &victim, &["claims 4294967280 bytes", "corrupt"]);
+    }
+    let mut rng = coapt::rng::SplitMix64::new(2024);
+    let (mut ok, mut refused) = (0, 0);
+    for _ in 0..150 {
+        let mut b = good.clone();
+        for _ in 0..1 + rng.next_u64() % 3 {
+            let i = (rng.next_u64() % b.len() as u64) as usize;
+            match rng.next_u64() % 3 {
+                0 => b[i] = rng.next_u64() as u8,
+                1 => b.truncate(i.max(1)),
+                _ => {
+                    b.remove(i);
+                }
+            }
+        }
+        std::fs::write(&victim, &b).unwrap();
+        let o = coapt(&["info", &s(&dir)]);
+        match o.status.code() {
+            Some(0) => ok += 1,
+            Some(2) => refused += 1,
+            c => panic!("exit {c:?}: {}", stderr(&o)),
+        }
+    }
+    assert!(refused > 50, "{refused} refused, {ok} read");
+}

@@ -17,11 +17,11 @@
 //! syntax): JPEG-LS, JPEG 2000, JPEG XL, HTJ2K and video.
 
 mod geometry;
+mod lengths;
 mod scan;
 
 use std::path::Path;
 
-use dicom_object::open_file;
 use dicom_pixeldata::{PixelDecoder, PixelRepresentation};
 use nalgebra::Matrix4;
 
@@ -103,7 +103,7 @@ pub fn plan(
     opts: &ReadOptions,
     bytes_per_voxel: usize,
 ) -> Result<Plan> {
-    let (series, other) = scan(dir)?;
+    let (series, other) = scan(dir, opts.max_bytes)?;
     if series.is_empty() {
         return Err(no_images(dir, other));
     }
@@ -184,15 +184,21 @@ pub fn read<T: NiftiRead>(dir: &Path, pick: Option<&str>, opts: &ReadOptions) ->
     let per = plan.dims[0] * plan.dims[1];
     let mut out = vec![T::default(); per * plan.dims[2]];
     for (k, &i) in plan.order.iter().enumerate() {
-        decode_slice(&plan.series.slices[i], &mut out[k * per..(k + 1) * per], k)?;
+        decode_slice(
+            &plan.series.slices[i],
+            &mut out[k * per..(k + 1) * per],
+            k,
+            opts.max_bytes,
+        )?;
     }
     Volume::from_fortran_vec(plan.dims, plan.affine_lps, out).map_err(|e| e.in_file(dir))
 }
 
 /// One image's pixels, rescaled to HU, into `out` (row after row).
-fn decode_slice<T: NiftiRead>(sl: &Slice, out: &mut [T], k: usize) -> Result<()> {
+fn decode_slice<T: NiftiRead>(sl: &Slice, out: &mut [T], k: usize, max_bytes: u64) -> Result<()> {
     let bad = |p: String| Error::bad_input(&sl.path, p);
-    let obj = open_file(&sl.path).map_err(|e| bad(format!("not a readable DICOM file: {e}")))?;
+    let obj = scan::open_checked(&sl.path, max_bytes, false)?
+        .ok_or_else(|| bad("is no longer a DICOM file".into()))?;
     let ts = obj
         .meta()
         .transfer_syntax()

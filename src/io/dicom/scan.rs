@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use dicom_dictionary_std::tags;
+use dicom_object::file::ReadPreamble;
 use dicom_object::{DefaultDicomObject, OpenFileOptions};
 
 use crate::{Error, Result};
@@ -75,9 +76,48 @@ impl Series {
     }
 }
 
+/// A DICOM file's header, after [`super::lengths::check`] has bounded what
+/// parsing it can allocate; `Ok(None)` for a file that is not DICOM (no
+/// `DICM` marker). `max_bytes` bounds the file (and an inflated data set).
+pub fn open_checked(
+    path: &Path,
+    max_bytes: u64,
+    until_pixels: bool,
+) -> Result<Option<DefaultDicomObject>> {
+    let len = std::fs::metadata(path)
+        .map_err(|e| Error::read(path, e))?
+        .len();
+    let mut head = [0u8; 132];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| crate::io::nifti::read_full(&mut f, &mut head))
+        .map_err(|e| Error::read(path, e))?;
+    if n < 132 || &head[128..132] != b"DICM" {
+        return Ok(None);
+    }
+    if len > max_bytes {
+        return Err(Error::bad_input(
+            path,
+            format!(
+                "a DICOM file of {len} bytes, above the limit of {max_bytes} bytes for one image"
+            ),
+        ));
+    }
+    let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
+    super::lengths::check(&bytes, max_bytes)
+        .map_err(|p| Error::bad_input(path, format!("corrupt DICOM file: {p}")))?;
+    let mut opts = OpenFileOptions::new().read_preamble(ReadPreamble::Always);
+    if until_pixels {
+        opts = opts.read_until(tags::PIXEL_DATA);
+    }
+    opts.open_file(path)
+        .map(Some)
+        .map_err(|e| Error::bad_input(path, format!("not a readable DICOM file: {e}")))
+}
+
 /// The series in `dir` (sub-folders included), in SeriesNumber order, and
-/// how many files were not DICOM.
-pub fn scan(dir: &Path) -> Result<(Vec<Series>, usize)> {
+/// how many files were not DICOM. Every DICOM file's element lengths are
+/// checked first (see [`super::lengths`]).
+pub fn scan(dir: &Path, max_bytes: u64) -> Result<(Vec<Series>, usize)> {
     let mut files = Vec::new();
     walk(dir, 0, &mut files)?;
     if files.len() > MAX_FILES {
@@ -90,11 +130,8 @@ pub fn scan(dir: &Path) -> Result<(Vec<Series>, usize)> {
     let mut by_uid: BTreeMap<String, Series> = BTreeMap::new();
     let mut other = 0;
     for path in files {
-        let Ok(obj) = OpenFileOptions::new()
-            .read_until(tags::PIXEL_DATA)
-            .open_file(&path)
-        else {
-            // DICOMDIR, notes, thumbnails…: not an image of a series.
+        let Some(obj) = open_checked(&path, max_bytes, true)? else {
+            // Notes, thumbnails…: not DICOM.
             other += 1;
             continue;
         };
