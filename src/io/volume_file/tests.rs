@@ -352,10 +352,11 @@ fn sniffing_is_by_content_and_lists_the_formats_when_unknown() {
     dcm.extend_from_slice(b"DICM");
     std::fs::write(d.join("IM0001"), dcm).unwrap();
     std::fs::write(d.join("empty.bin"), b"").unwrap();
+    std::fs::create_dir_all(d.join("empty-folder")).unwrap();
     for (name, words) in [
         ("notes.txt", "not a volume coapt recognises"),
         ("IM0001", "single DICOM file"),
-        ("", "holds no DICOM images"),
+        ("empty-folder", "holds no DICOM images"),
         ("empty.bin", "empty"),
     ] {
         let p = d.join(name);
@@ -368,6 +369,9 @@ fn sniffing_is_by_content_and_lists_the_formats_when_unknown() {
             "{name}: {e}"
         );
     }
+    // A folder whose only DICOM-marked file is broken names that file.
+    let e = read_ct(&d).unwrap_err().to_string();
+    assert!(e.contains("IM0001") && e.contains("DICOM"), "{e}");
 }
 
 #[test]
