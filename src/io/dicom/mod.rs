@@ -13,8 +13,9 @@
 //!
 //! Transfer syntaxes decoded: implicit/explicit VR little endian, explicit
 //! VR big endian, deflated, RLE lossless, JPEG baseline/extended and JPEG
-//! lossless (dicom-rs's pure-Rust decoders). Not decoded (refused, naming the
-//! syntax): JPEG-LS, JPEG 2000, JPEG XL, HTJ2K and video.
+//! lossless (dicom-rs's pure-Rust decoders; tested here: explicit VR little
+//! endian and RLE). Not decoded (refused, naming the syntax): JPEG-LS,
+//! JPEG 2000, JPEG XL, HTJ2K and video.
 
 mod geometry;
 mod lengths;
