@@ -73,6 +73,13 @@ fn command() -> Command {
                 .help("worker threads (default: all cores); outputs do not depend on it"),
         )
         .arg(
+            Arg::new("series")
+                .long("series")
+                .global(true)
+                .value_name("UID|NUMBER")
+                .help("the DICOM series to read when a CT folder holds several (its SeriesInstanceUID or SeriesNumber; `coapt info DIR` lists them)"),
+        )
+        .arg(
             Arg::new("quiet")
                 .long("quiet")
                 .short('q')
@@ -126,7 +133,7 @@ fn command() -> Command {
     }
     cmd.subcommand(
         Command::new("info")
-            .about("Describe a coapt artifact: NIfTI volume, .vtp mesh or polylines, landmarks")
+            .about("Describe a coapt artifact: volume (NIfTI, NRRD, MetaImage; a DICOM folder: its series), .vtp mesh or polylines, landmarks")
             .arg(Arg::new("file").required(true).value_name("FILE").value_parser(clap::value_parser!(PathBuf)))
             .arg(Arg::new("json").long("json").action(ArgAction::SetTrue).help("print JSON instead of text")),
     )
@@ -145,7 +152,7 @@ fn command() -> Command {
     )
     .subcommand(
         Command::new("convert")
-            .about("Convert between formats: .vtp → .vtp/.stl/.ply; .nii ↔ .nii.gz; landmarks → .mrk.json/.fcsv/.json")
+            .about("Convert between formats: volume (.nii/.nii.gz/.nrrd/.nhdr/.mha/.mhd, DICOM series folder) → .nii/.nii.gz/.nrrd; .vtp → .vtp/.stl/.ply; landmarks → .mrk.json/.fcsv/.json")
             .arg(Arg::new("input").required(true).value_name("IN").value_parser(clap::value_parser!(PathBuf)))
             .arg(Arg::new("output").required(true).value_name("OUT").value_parser(clap::value_parser!(PathBuf)))
             .arg(
@@ -327,6 +334,9 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
         json: m.get_flag("log-json"),
     };
     pipeline::progress::init_logging(log);
+    if let Some(pick) = m.get_one::<String>("series") {
+        crate::io::volume_file::set_series(pick);
+    }
     let threads = match m.get_one::<usize>("threads") {
         Some(0) => return Err(Error::usage("--threads must be at least 1")),
         Some(&n) => n,

@@ -7,23 +7,31 @@ use std::path::Path;
 use serde_json::{Value as Json, json};
 
 use crate::geom::{Frame, PolyData, TriMesh};
-use crate::io::{markups, nifti, ply, stl, vtp};
+use crate::io::{dicom, markups, nifti, nrrd, ply, stl, volume_file, vtp};
 use crate::{Error, Result};
 
 /// File formats coapt reads, by name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Format {
-    Nifti,
+    /// A volume in any format [`volume_file`] reads.
+    Volume,
+    /// NRRD, as an output (volumes are read whatever their format).
+    Nrrd,
     Vtp,
     Stl,
     Ply,
     Landmarks,
 }
 
+/// The format a file's name asks for (as an output; inputs: [`input_format`]).
 pub fn format_of(path: &Path) -> Option<Format> {
     let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
     Some(if name.ends_with(".nii") || name.ends_with(".nii.gz") {
-        Format::Nifti
+        Format::Volume
+    } else if name.ends_with(".nrrd") {
+        Format::Nrrd
+    } else if name.ends_with(".nhdr") || name.ends_with(".mha") || name.ends_with(".mhd") {
+        Format::Volume
     } else if name.ends_with(".vtp") {
         Format::Vtp
     } else if name.ends_with(".stl") {
@@ -37,11 +45,25 @@ pub fn format_of(path: &Path) -> Option<Format> {
     })
 }
 
-fn unknown_format(path: &Path) -> Error {
-    Error::bad_input(
-        path,
-        "unknown format: expected .nii/.nii.gz, .vtp, .mrk.json, .fcsv or .json (landmarks)",
-    )
+/// The format of an input: a directory or a file whose name says nothing
+/// is judged by the volume reader, which recognises content and, if it is
+/// no volume either, lists what it reads.
+fn input_format(path: &Path) -> Result<Format> {
+    match format_of(path) {
+        Some(Format::Nrrd) => Ok(Format::Volume),
+        Some(f) if !path.is_dir() => Ok(f),
+        _ => match volume_file::sniff(path) {
+            Ok(_) => Ok(Format::Volume),
+            Err(Error::BadInput { problem, .. }) if !path.is_dir() => Err(Error::bad_input(
+                path,
+                format!(
+                    "unknown format: expected a volume, .vtp, .mrk.json, .fcsv or .json \
+                     (landmarks); as a volume it {problem}"
+                ),
+            )),
+            Err(e) => Err(e),
+        },
+    }
 }
 
 /// A description of the file, as text or JSON.
@@ -49,8 +71,9 @@ pub fn describe(path: &Path, as_json: bool) -> Result<String> {
     if !path.exists() {
         return Err(Error::bad_input(path, "not found"));
     }
-    let info = match format_of(path).ok_or_else(|| unknown_format(path))? {
-        Format::Nifti => describe_nifti(path)?,
+    let info = match input_format(path)? {
+        Format::Volume | Format::Nrrd if path.is_dir() => describe_dicom_folder(path)?,
+        Format::Volume | Format::Nrrd => describe_volume(path)?,
         Format::Vtp => describe_polydata(&vtp::read(path)?),
         Format::Landmarks => describe_landmarks(path)?,
         Format::Stl | Format::Ply => {
@@ -67,9 +90,10 @@ pub fn describe(path: &Path, as_json: bool) -> Result<String> {
     }
 }
 
-fn describe_nifti(path: &Path) -> Result<Json> {
-    let h = nifti::read_header(path)?;
-    let v = nifti::read_f32(path)?;
+fn describe_volume(path: &Path) -> Result<Json> {
+    let opts = nifti::ReadOptions::default();
+    let h = volume_file::read_header(path, &opts)?;
+    let v = volume_file::read::<f32>(path, &opts)?;
     let (mut lo, mut hi, mut sum) = (f64::INFINITY, f64::NEG_INFINITY, 0.0);
     for &x in v.as_slice() {
         let x = x as f64;
@@ -83,11 +107,13 @@ fn describe_nifti(path: &Path) -> Result<Json> {
         .collect();
     Ok(json!({
         "file": path.display().to_string(),
-        "format": format!("NIfTI-{}", h.version),
+        "format": h.format,
         "datatype": format!("{:?}", h.datatype),
+        "encoding": h.encoding,
+        "data_file": h.data_file.map(|p| p.display().to_string()),
         "dims": v.dims(),
         "spacing_mm": v.spacing(),
-        "transform": h.transform_source.to_string(),
+        "transform": h.transform,
         "frame": "LPS",
         "affine_voxel_to_lps": rows,
         "right_handed": v.is_right_handed(),
@@ -96,6 +122,45 @@ fn describe_nifti(path: &Path) -> Result<Json> {
         "value_max": hi,
         "value_mean": sum / v.len() as f64,
     }))
+}
+
+/// The series a folder holds (UID, number, description, modality, images,
+/// spacing) and, when one is chosen (the only one, or `--series`), the
+/// volume it reads as.
+fn describe_dicom_folder(path: &Path) -> Result<Json> {
+    let (series, other) = dicom::scan(path, nifti::ReadOptions::default().max_bytes)?;
+    if series.is_empty() {
+        return Err(dicom::no_images(path, other));
+    }
+    let list: Vec<Json> = series
+        .iter()
+        .map(|s| {
+            let first = s.slices.first();
+            json!({
+                "uid": s.uid,
+                "number": s.number,
+                "description": s.description,
+                "modality": s.modality,
+                "images": s.slices.len() + s.problems.len(),
+                "localiser": s.localiser,
+                "transfer_syntax": s.transfer_syntax,
+                "pixel_spacing_mm": first.map(|f| f.pixel_spacing),
+                "rows_columns": first.map(|f| [f.rows, f.columns]),
+            })
+        })
+        .collect();
+    let mut info = json!({
+        "file": path.display().to_string(),
+        "format": "DICOM folder",
+        "other_files": other,
+        "series": list,
+    });
+    if series.len() == 1 || volume_file::series_choice().is_some() {
+        info["volume"] = describe_volume(path)?;
+    } else {
+        info["note"] = json!("several series: choose one with --series UID|NUMBER");
+    }
+    Ok(info)
 }
 
 fn describe_polydata(pd: &PolyData) -> Json {
@@ -196,23 +261,23 @@ pub fn convert(input: &Path, output: &Path, frame: Frame) -> Result<()> {
     if !input.exists() {
         return Err(Error::bad_input(input, "not found"));
     }
-    let from = format_of(input).ok_or_else(|| unknown_format(input))?;
+    let from = input_format(input)?;
     let to = format_of(output).ok_or_else(|| {
         Error::usage(format!(
-            "{}: unknown output format (.nii, .nii.gz, .vtp, .stl, .ply, .mrk.json, .fcsv, .json)",
+            "{}: unknown output format (.nii, .nii.gz, .nrrd, .vtp, .stl, .ply, .mrk.json, .fcsv, .json)",
             output.display()
         ))
     })?;
     match (from, to) {
-        (Format::Nifti, Format::Nifti) => {
-            let h = nifti::read_header(input)?;
-            match h.datatype {
-                nifti::DataType::U8 => nifti::write(output, &nifti::read_u8(input)?),
-                nifti::DataType::I16 | nifti::DataType::I8 => {
-                    nifti::write(output, &nifti::read_i16(input)?)
-                }
-                _ => nifti::write(output, &nifti::read_f32(input)?),
+        (Format::Volume, Format::Volume | Format::Nrrd) => {
+            let name = output.to_string_lossy().to_ascii_lowercase();
+            if !(name.ends_with(".nii") || name.ends_with(".nii.gz") || name.ends_with(".nrrd")) {
+                return Err(Error::usage(format!(
+                    "{}: coapt writes volumes as .nii, .nii.gz or .nrrd",
+                    output.display()
+                )));
             }
+            convert_volume(input, output, to == Format::Nrrd)
         }
         (Format::Vtp, Format::Vtp) => {
             vtp::write(output, &vtp::read(input)?, &vtp::WriteOptions::default())
@@ -235,5 +300,27 @@ pub fn convert(input: &Path, output: &Path, frame: Frame) -> Result<()> {
             input.display(),
             output.display()
         ))),
+    }
+}
+
+/// A volume of any readable format into NIfTI or NRRD, keeping its voxel
+/// type where the writers have it (uint8, int16) and float32 otherwise.
+fn convert_volume(input: &Path, output: &Path, to_nrrd: bool) -> Result<()> {
+    let opts = nifti::ReadOptions::default();
+    let h = volume_file::read_header(input, &opts)?;
+    macro_rules! write_as {
+        ($t:ty) => {{
+            let v = volume_file::read::<$t>(input, &opts)?;
+            if to_nrrd {
+                nrrd::write(output, &v)
+            } else {
+                nifti::write(output, &v)
+            }
+        }};
+    }
+    match h.datatype {
+        nifti::DataType::U8 => write_as!(u8),
+        nifti::DataType::I16 | nifti::DataType::I8 => write_as!(i16),
+        _ => write_as!(f32),
     }
 }

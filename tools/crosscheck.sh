@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Cross-check coapt's files with independent readers (nibabel, VTK):
+# Cross-check coapt's files with independent readers (nibabel, VTK, SimpleITK):
 # the committed sample, a fresh `standard` phantom, and STL/PLY hand-offs.
 # Needs the venv of tools/README.md; not part of `cargo test`.
 #   tools/crosscheck.sh            (uses tools/.venv/bin/python)
@@ -35,5 +35,6 @@ done
 tris=$("$COAPT" info --json sample_data/truth_surface.vtp | "$PY" -c 'import json,sys; print(json.load(sys.stdin)["triangles"])')
 run "$PY" tools/vtp_crosscheck.py "$T/surface.stl" --expect-json "{\"polys\": $tris}"
 run "$PY" tools/vtp_crosscheck.py "$T/surface.ply" --expect-json "{\"polys\": $tris}"
+run "$PY" tools/volume_formats_crosscheck.py "$COAPT" sample_data/ct.nii.gz
 if [ "$fail" -ne 0 ]; then echo "crosscheck: FAILED"; exit 1; fi
 echo "crosscheck: all passed"

@@ -23,7 +23,7 @@ pub struct Invocation {
 pub fn hash_inputs(io: &StageIo, run_dir: &Path) -> Result<BTreeMap<String, FileRecord>> {
     io.inputs
         .iter()
-        .map(|(name, path)| Ok((name.to_string(), FileRecord::of(path, run_dir)?)))
+        .map(|(name, path)| Ok((name.to_string(), FileRecord::of_input(path, run_dir)?)))
         .collect()
 }
 

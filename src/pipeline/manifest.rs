@@ -31,6 +31,18 @@ impl FileRecord {
             bytes,
         })
     }
+
+    /// As [`FileRecord::of`], but a volume header whose voxels live in a
+    /// separate file (.nhdr, .mhd) is hashed together with that file, so a
+    /// changed data file makes the stage run again.
+    pub fn of_input(path: &Path, run_dir: &Path) -> Result<FileRecord> {
+        let (blake3, bytes) = provenance::hash_files(&crate::io::volume_file::files_of(path))?;
+        Ok(FileRecord {
+            path: display_path(path, run_dir),
+            blake3,
+            bytes,
+        })
+    }
 }
 
 fn display_path(path: &Path, run_dir: &Path) -> String {

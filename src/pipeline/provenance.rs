@@ -25,17 +25,25 @@ pub fn version_line() -> String {
 
 /// blake3 of a file's content, hex.
 pub fn hash_file(path: &Path) -> Result<(String, u64)> {
-    let mut f = std::fs::File::open(path).map_err(|e| Error::read(path, e))?;
+    hash_files(std::slice::from_ref(&path.to_path_buf()))
+}
+
+/// blake3 of the files' contents one after the other, hex, and their total
+/// size; one file hashes as [`hash_file`].
+pub fn hash_files(paths: &[std::path::PathBuf]) -> Result<(String, u64)> {
     let mut h = blake3::Hasher::new();
     let mut buf = vec![0u8; 1 << 20];
     let mut n = 0u64;
-    loop {
-        let k = f.read(&mut buf).map_err(|e| Error::read(path, e))?;
-        if k == 0 {
-            break;
+    for path in paths {
+        let mut f = std::fs::File::open(path).map_err(|e| Error::read(path, e))?;
+        loop {
+            let k = f.read(&mut buf).map_err(|e| Error::read(path, e))?;
+            if k == 0 {
+                break;
+            }
+            h.update(&buf[..k]);
+            n += k as u64;
         }
-        h.update(&buf[..k]);
-        n += k as u64;
     }
     Ok((h.finalize().to_hex().to_string(), n))
 }

@@ -38,7 +38,9 @@ pub enum ArtifactKind {
 impl ArtifactKind {
     pub fn describe(self) -> &'static str {
         match self {
-            ArtifactKind::Volume => "NIfTI volume (.nii/.nii.gz)",
+            ArtifactKind::Volume => {
+                "CT volume (.nii/.nii.gz; as input also .nrrd/.nhdr, .mha/.mhd or a DICOM series folder)"
+            }
             ArtifactKind::Mask => "NIfTI mask (.nii/.nii.gz)",
             ArtifactKind::Landmarks => "landmarks (.mrk.json/.fcsv/.json)",
             ArtifactKind::Mesh => "triangle mesh (.vtp)",

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use super::spec::ArtifactKind;
-use crate::io::{markups, nifti, vtp};
+use crate::io::{markups, nifti, volume_file, vtp};
 use crate::{Error, Result};
 
 /// Labels every landmarks input must hold.
@@ -15,7 +15,10 @@ pub fn input(kind: ArtifactKind, path: &Path) -> Result<()> {
         return Err(Error::bad_input(path, "not found"));
     }
     match kind {
-        ArtifactKind::Volume | ArtifactKind::Mask => {
+        ArtifactKind::Volume => {
+            volume_file::read_header(path, &nifti::ReadOptions::default())?;
+        }
+        ArtifactKind::Mask => {
             nifti::read_header(path)?;
         }
         ArtifactKind::Landmarks => {

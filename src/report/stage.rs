@@ -12,7 +12,7 @@ use super::document::{self, Context, Finding, Severity};
 use super::metrics::{self, Metrics};
 use super::{ClosedValve, Figure, figures, html, load, symmetry, verdict};
 use crate::geom::Point3;
-use crate::io::{Transaction, markups, nifti, vtp};
+use crate::io::{Transaction, markups, nifti, volume_file, vtp};
 use crate::pipeline::manifest::{self, Manifest};
 use crate::pipeline::{
     ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec, provenance,
@@ -496,7 +496,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     ));
     let ct_path = optional_input(io, run_dir, "ct");
     if let Some(ct_path) = &ct_path {
-        let ct = nifti::read_i16(ct_path)?;
+        let ct = volume_file::read_ct(ct_path)?;
         let mask = match optional_input(io, run_dir, "mask") {
             Some(p) => Some(nifti::read_u8(&p)?),
             None => None,
@@ -558,7 +558,8 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
 
     let mut inputs = serde_json::Map::new();
     let mut record = |name: &str, p: &Path| -> Result<()> {
-        let (blake3, bytes) = provenance::hash_file(p)?;
+        // A CT header with detached voxels is hashed with its data file.
+        let (blake3, bytes) = provenance::hash_files(&volume_file::files_of(p))?;
         inputs.insert(
             name.into(),
             json!({"path": p.display().to_string(), "blake3": blake3, "bytes": bytes}),

@@ -3,7 +3,7 @@
 use serde_json::{Value as Json, json};
 
 use super::{SegmentParams, segment};
-use crate::io::{Transaction, markups, nifti};
+use crate::io::{Transaction, markups, nifti, volume_file};
 use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
 use crate::{Error, Result};
 
@@ -63,7 +63,7 @@ const MIN_EXTENT_MM: f64 = 20.0;
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let t0 = std::time::Instant::now();
     let ct_path = io.input("ct").expect("required input");
-    let ct = nifti::read_i16(ct_path)?;
+    let ct = volume_file::read_ct(ct_path)?;
     // A root is some 30 mm tall and wide: a scan narrower than that along
     // any axis cannot hold one (a 112 × 112 × 1 image made a one-slice
     // "aorta").

@@ -25,8 +25,14 @@ mod tests;
 use std::path::Path;
 
 pub use header::{DataType, Endian, Header, TransformSource};
+pub use header::{MAX_AXIS, human_bytes};
 pub use read::{read_header, read_header_with, read_with};
-pub use write::{encode, write};
+pub use transform::SPACING_MM;
+
+// The other volume readers (NRRD, MetaImage) decode their voxels with the
+// same conversion, so every format refuses and converts values alike.
+pub(crate) use read::{convert as decode_voxels, read_full};
+pub use write::{GZIP_LEVEL, encode, write};
 
 use crate::Result;
 use crate::geom::Volume;
@@ -165,7 +171,7 @@ float_element!(f32, F32, u32);
 float_element!(f64, F64, u64);
 
 /// The voxels as raw bytes (native byte order).
-fn as_bytes<T: Element>(s: &[T]) -> &[u8] {
+pub(crate) fn as_bytes<T: Element>(s: &[T]) -> &[u8] {
     // SAFETY: Element is sealed to primitive numbers: no padding, no invalid
     // bit patterns, alignment of u8 is 1, and the length covers exactly the
     // same memory.
@@ -173,7 +179,7 @@ fn as_bytes<T: Element>(s: &[T]) -> &[u8] {
 }
 
 /// The voxels as raw mutable bytes (native byte order).
-fn as_bytes_mut<T: Element>(s: &mut [T]) -> &mut [u8] {
+pub(crate) fn as_bytes_mut<T: Element>(s: &mut [T]) -> &mut [u8] {
     // SAFETY: as in `as_bytes`; any byte pattern written is a valid T.
     unsafe { std::slice::from_raw_parts_mut(s.as_mut_ptr().cast::<u8>(), std::mem::size_of_val(s)) }
 }

@@ -285,7 +285,7 @@ fn truncated_msg(expected: u64, found: u64) -> String {
 }
 
 /// Read until `buf` is full or the stream ends; returns the bytes read.
-fn read_full(r: &mut impl Read, buf: &mut [u8]) -> io::Result<usize> {
+pub(crate) fn read_full(r: &mut impl Read, buf: &mut [u8]) -> io::Result<usize> {
     let mut n = 0;
     while n < buf.len() {
         match r.read(&mut buf[n..]) {
@@ -421,7 +421,7 @@ stored!(u8, i8, i16, u16, i32, u32, i64, u64, f32, f64);
 
 /// Convert `raw` (stored bytes) into `out`; on failure, the offending voxel's
 /// index within `out` and its value.
-fn convert<T: NiftiRead>(
+pub(crate) fn convert<T: NiftiRead>(
     dt: DataType,
     endian: Endian,
     raw: &[u8],

@@ -1,0 +1,279 @@
+//! DICOM CT series: a folder of single-frame CT images, as a PACS exports
+//! them, read with dicom-rs.
+//!
+//! The images are grouped by SeriesInstanceUID; a folder holding several
+//! series needs a choice (`--series UID|NUMBER`). The chosen series' slices
+//! are ordered by Image Position (Patient) projected on the slice normal,
+//! the slice step comes from the positions, the direction cosines and
+//! spacings make the LPS affine (DICOM's patient frame is LPS), and each
+//! slice's Rescale Slope/Intercept turns stored values into HU. Refused with
+//! a message: a non-CT modality, localisers, multi-frame images, missing
+//! slices, uneven steps, gantry tilt (sheared stacks), images of different
+//! sizes or orientations.
+//!
+//! Transfer syntaxes decoded: implicit/explicit VR little endian, explicit
+//! VR big endian, deflated, RLE lossless, JPEG baseline/extended and JPEG
+//! lossless (dicom-rs's pure-Rust decoders; tested here: explicit VR little
+//! endian and RLE). Not decoded (refused, naming the syntax): JPEG-LS,
+//! JPEG 2000, JPEG XL, HTJ2K and video.
+
+mod geometry;
+mod lengths;
+mod scan;
+
+use std::path::Path;
+
+use dicom_pixeldata::{PixelDecoder, PixelRepresentation};
+use nalgebra::Matrix4;
+
+pub use scan::{Series, Slice, scan};
+
+use super::nifti::{MAX_AXIS, NiftiRead, ReadOptions, SPACING_MM};
+use crate::geom::Volume;
+use crate::{Error, Result};
+
+/// The series `pick` names (its UID or its SeriesNumber), or the only one.
+pub fn choose<'a>(dir: &Path, series: &'a [Series], pick: Option<&str>) -> Result<&'a Series> {
+    let list = || {
+        series
+            .iter()
+            .map(|s| s.label())
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    match pick {
+        None if series.len() == 1 => Ok(&series[0]),
+        None => Err(Error::bad_input(
+            dir,
+            format!(
+                "holds {} series; choose one with --series UID|NUMBER ({})",
+                series.len(),
+                list()
+            ),
+        )),
+        Some(p) => {
+            let hits: Vec<&Series> = series
+                .iter()
+                .filter(|s| s.uid == p || s.number.is_some_and(|n| p.parse() == Ok(n)))
+                .collect();
+            match hits.as_slice() {
+                [one] => Ok(one),
+                [] => Err(Error::bad_input(
+                    dir,
+                    format!("has no series {p}; it holds: {}", list()),
+                )),
+                _ => Err(Error::bad_input(
+                    dir,
+                    format!(
+                        "several series have the number {p}; choose by UID ({})",
+                        list()
+                    ),
+                )),
+            }
+        }
+    }
+}
+
+/// The refusal of a folder without DICOM images (`other` files in it).
+pub fn no_images(dir: &Path, other: usize) -> Error {
+    Error::bad_input(
+        dir,
+        format!(
+            "holds no DICOM images ({other} other file{} looked at); coapt reads a CT as {}",
+            if other == 1 { "" } else { "s" },
+            super::volume_file::ACCEPTED
+        ),
+    )
+}
+
+/// A series checked to be one regular CT grid, ready to decode.
+pub struct Plan {
+    pub series: Series,
+    /// Slice indices into `series.slices`, in grid order (k).
+    order: Vec<usize>,
+    pub dims: [usize; 3],
+    pub affine_lps: Matrix4<f64>,
+}
+
+/// Scan `dir`, choose the series `pick`, and check everything but the
+/// pixels: a CT, no localiser, single-frame, one regular grid, within the
+/// size and spacing limits for voxels of `bytes_per_voxel`.
+pub fn plan(
+    dir: &Path,
+    pick: Option<&str>,
+    opts: &ReadOptions,
+    bytes_per_voxel: usize,
+) -> Result<Plan> {
+    let (series, other) = scan(dir, opts.max_bytes)?;
+    if series.is_empty() {
+        return Err(no_images(dir, other));
+    }
+    let s = choose(dir, &series, pick)?;
+    let bad = |p: String| Error::bad_input(dir, format!("series {}: {p}", s.uid));
+    if s.modality != "CT" {
+        return Err(bad(format!(
+            "modality is {:?}, not CT; coapt segments contrast CT angiograms",
+            s.modality
+        )));
+    }
+    if s.localiser {
+        return Err(bad(
+            "holds localiser (scout) images, not a volume; choose the CT series".into(),
+        ));
+    }
+    if let Some((path, p)) = s.problems.first() {
+        return Err(Error::bad_input(
+            path,
+            format!("image of series {}: {p}", s.uid),
+        ));
+    }
+    if let Some(sl) = s.slices.iter().find(|sl| sl.frames != 1) {
+        return Err(Error::bad_input(
+            &sl.path,
+            format!(
+                "has {} frames: multi-frame (enhanced) CT images are not read; export the series \
+                 as single-frame images, or convert it with dcm2niix",
+                sl.frames
+            ),
+        ));
+    }
+    let (order, affine) = geometry::grid(&s.slices).map_err(bad)?;
+    let (cols, rows, n) = (
+        s.slices[order[0]].columns as usize,
+        s.slices[order[0]].rows as usize,
+        order.len(),
+    );
+    let dims = [cols, rows, n];
+    if let Some(a) = (0..3).find(|&a| dims[a] == 0 || dims[a] as u64 > MAX_AXIS) {
+        return Err(bad(format!(
+            "its grid is {cols}×{rows}×{n}: axis {} is 0 or more than {MAX_AXIS}",
+            a + 1
+        )));
+    }
+    for c in 0..3 {
+        let d = affine.fixed_view::<3, 1>(0, c).norm();
+        if !(SPACING_MM.0..=SPACING_MM.1).contains(&d) {
+            return Err(bad(format!(
+                "voxel spacing along axis {} is {d:e} mm; a CT's lies in {}–{} mm",
+                c + 1,
+                SPACING_MM.0,
+                SPACING_MM.1
+            )));
+        }
+    }
+    crate::geom::volume::check_affine(&affine).map_err(|e| bad(e.to_string()))?;
+    let bytes = (cols * rows) as u128 * n as u128 * bytes_per_voxel as u128;
+    if bytes > opts.max_bytes as u128 {
+        return Err(bad(format!(
+            "{cols}×{rows}×{n} voxels take {bytes} bytes, above the limit of {} bytes; \
+             raise it with the environment variable {}=<bytes> if the series is genuine",
+            opts.max_bytes,
+            super::nifti::MAX_BYTES_ENV
+        )));
+    }
+    Ok(Plan {
+        series: s.clone(),
+        order,
+        dims,
+        affine_lps: affine,
+    })
+}
+
+/// Read the series `pick` of the folder `dir` as `T`.
+pub fn read<T: NiftiRead>(dir: &Path, pick: Option<&str>, opts: &ReadOptions) -> Result<Volume<T>> {
+    let plan = plan(dir, pick, opts, std::mem::size_of::<T>())?;
+    let per = plan.dims[0] * plan.dims[1];
+    let mut out = vec![T::default(); per * plan.dims[2]];
+    for (k, &i) in plan.order.iter().enumerate() {
+        decode_slice(
+            &plan.series.slices[i],
+            &mut out[k * per..(k + 1) * per],
+            k,
+            opts.max_bytes,
+        )?;
+    }
+    Volume::from_fortran_vec(plan.dims, plan.affine_lps, out).map_err(|e| e.in_file(dir))
+}
+
+/// One image's pixels, rescaled to HU, into `out` (row after row).
+fn decode_slice<T: NiftiRead>(sl: &Slice, out: &mut [T], k: usize, max_bytes: u64) -> Result<()> {
+    let bad = |p: String| Error::bad_input(&sl.path, p);
+    let obj = scan::open_checked(&sl.path, max_bytes, false)?
+        .ok_or_else(|| bad("is no longer a DICOM file".into()))?;
+    let ts = obj
+        .meta()
+        .transfer_syntax()
+        .trim_end_matches('\0')
+        .to_string();
+    let px = obj.decode_pixel_data().map_err(|e| {
+        bad(format!(
+            "cannot decode its pixel data (transfer syntax {ts}): {e}; coapt decodes \
+             uncompressed, deflated, RLE and JPEG (baseline, extended, lossless) images, not \
+             JPEG-LS or JPEG 2000: convert the series with dcm2niix or \
+             `gdcmconv --raw`"
+        ))
+    })?;
+    if px.rows() != sl.rows || px.columns() != sl.columns || px.samples_per_pixel() != 1 {
+        return Err(bad(format!(
+            "pixel data is {}×{} with {} samples per pixel; coapt needs {}×{} greyscale",
+            px.columns(),
+            px.rows(),
+            px.samples_per_pixel(),
+            sl.columns,
+            sl.rows
+        )));
+    }
+    let data = px.data();
+    let signed = px.pixel_representation() == PixelRepresentation::Signed;
+    let bytes = match px.bits_allocated() {
+        8 => 1,
+        16 => 2,
+        32 => 4,
+        b => {
+            return Err(bad(format!(
+                "{b} bits allocated per pixel is not supported"
+            )));
+        }
+    };
+    if data.len() < out.len() * bytes {
+        return Err(bad(format!(
+            "pixel data holds {} bytes, {} pixels of {bytes} bytes need {}: truncated",
+            data.len(),
+            out.len(),
+            out.len() * bytes
+        )));
+    }
+    let cols = sl.columns as usize;
+    // Bits above Bits Stored carry nothing (or an overlay): mask them, and
+    // sign-extend signed values from their top stored bit.
+    let stored_bits = (px.bits_stored() as u32).clamp(1, 8 * bytes as u32);
+    let unused = 64 - stored_bits;
+    let fix = |raw: u64| -> f64 {
+        if signed {
+            (((raw << unused) as i64) >> unused) as f64
+        } else {
+            ((raw << unused) >> unused) as f64
+        }
+    };
+    for (idx, (o, b)) in out.iter_mut().zip(data.chunks_exact(bytes)).enumerate() {
+        // Decoded samples are in native byte order.
+        let raw = match bytes {
+            1 => b[0] as u64,
+            2 => u16::from_ne_bytes([b[0], b[1]]) as u64,
+            _ => u32::from_ne_bytes([b[0], b[1], b[2], b[3]]) as u64,
+        };
+        let stored = fix(raw);
+        let v = stored * sl.slope + sl.intercept;
+        *o = T::from_f64(v).ok_or_else(|| {
+            bad(format!(
+                "pixel [{}, {}] of slice {k} is {v} after Rescale Slope/Intercept, but reading \
+                 as {} needs {}",
+                idx % cols,
+                idx / cols,
+                T::DATATYPE.name(),
+                T::RANGE
+            ))
+        })?;
+    }
+    Ok(())
+}
