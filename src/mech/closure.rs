@@ -910,26 +910,29 @@ mod tests {
         assert!(why.starts_with("triangle 1 collapsed to 1.0 %"), "{why}");
     }
 
+    /// The peer leaflet's St.V-K closure against planes, unsewn, with
+    /// `extra` config lines.
+    fn peer_svk(extra: &str) -> CloseConfig {
+        crate::mech::config::parse(&format!(
+            "model = \"svk\"\nyoung = \"1 MPa\"\npoisson = 0\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\n{extra}\n[suture]\nmode = \"off\"\n"
+        ))
+        .unwrap()
+    }
+
     /// What stopped the solve is told as a value, not only in words: a
     /// cohort script (and the grid) branch on it.
     #[test]
     fn the_outcome_says_what_stopped_it() {
         let (l, axis) = crate::bench::close::ozaki_cylinder(2.0).unwrap();
-        let cfg = |extra: &str| {
-            crate::mech::config::parse(&format!(
-                "model = \"svk\"\nyoung = \"1 MPa\"\npoisson = 0\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\n{extra}\n[suture]\nmode = \"off\"\n"
-            ))
-            .unwrap()
-        };
-        let done = close(&l, &cfg(""), Some(axis)).unwrap().outcome;
+        let done = close(&l, &peer_svk(""), Some(axis)).unwrap().outcome;
         assert!(done.converged, "{}", done.reason);
         assert_eq!(done.stopped_by, Stopped::Converged);
-        let few = close(&l, &cfg("max_iterations = 3"), Some(axis))
+        let few = close(&l, &peer_svk("max_iterations = 3"), Some(axis))
             .unwrap()
             .outcome;
         assert!(!few.converged);
         assert_eq!(few.stopped_by, Stopped::IterationLimit, "{}", few.reason);
-        let late = close(&l, &cfg("time_limit = \"0.000001 s\""), Some(axis))
+        let late = close(&l, &peer_svk("time_limit = \"0.000001 s\""), Some(axis))
             .unwrap()
             .outcome;
         assert!(!late.converged);
@@ -945,13 +948,7 @@ mod tests {
     #[test]
     fn a_stalled_newton_converges_by_its_step_to_the_same_state() {
         let (l, axis) = crate::bench::close::ozaki_cylinder(2.0).unwrap();
-        let cfg = |extra: &str| {
-            crate::mech::config::parse(&format!(
-                "model = \"svk\"\nyoung = \"1 MPa\"\npoisson = 0\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\n{extra}\n[suture]\nmode = \"off\"\n"
-            ))
-            .unwrap()
-        };
-        let reference = close(&l, &cfg(""), Some(axis)).unwrap();
+        let reference = close(&l, &peer_svk(""), Some(axis)).unwrap();
         assert!(reference.outcome.converged);
         assert!(
             reference.outcome.reason.contains("N ≤"),
@@ -962,13 +959,13 @@ mod tests {
             "tolerance = \"1e-18 N\"\nrelative_tolerance = 1e-18\nmax_iterations = 300";
         let stalled = close(
             &l,
-            &cfg(&format!("{unreachable}\nstep_tolerance = \"0 mm\"")),
+            &peer_svk(&format!("{unreachable}\nstep_tolerance = \"0 mm\"")),
             Some(axis),
         )
         .unwrap()
         .outcome;
         assert!(!stalled.converged, "{}", stalled.reason);
-        let by_step = close(&l, &cfg(unreachable), Some(axis)).unwrap();
+        let by_step = close(&l, &peer_svk(unreachable), Some(axis)).unwrap();
         let o = &by_step.outcome;
         assert!(o.converged, "{}", o.reason);
         assert_eq!(o.stopped_by, Stopped::Converged);
