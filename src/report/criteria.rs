@@ -237,7 +237,10 @@ pub fn judge(m: &Metrics, t: &Thresholds, a: &Anatomy, p: &Pressures) -> Vec<Cri
                         "; two leaflets touch down to {a:.2} mm, next to the commissures"
                     ))
                 ),
-                (None, _) => "no zone where all three leaflets touch".into(),
+                (None, Some(a)) => format!(
+                    "no zone where all three leaflets touch; the lowest point where two touch is {a:.2} mm above the annulus plane"
+                ),
+                (None, None) => "no coaptation zone to place".into(),
             },
             source: "seed 001 §1, ref [21] (coaptation below the annulus, in the long-axis view through the valve's centre, predicts recurrent regurgitation)",
         },

@@ -151,8 +151,8 @@ pub struct Metrics {
     pub lumen_area_mm2: Option<f64>,
     /// Pixel of the orifice raster, mm, when it was drawn.
     pub orifice_pixel_mm: Option<f64>,
-    /// The central coaptation (where all three leaflets touch) lies above
-    /// the annulus plane.
+    /// The central coaptation (where all three leaflets touch; without one,
+    /// the zones where two touch) lies above the annulus plane.
     pub coaptation_above_vaj: Option<bool>,
     /// Lowest point of the central coaptation above the annulus plane.
     pub lowest_central_coaptation_mm: Option<f64>,
@@ -483,7 +483,8 @@ pub fn measure(v: &ClosedValve, c: &Coaptation, opts: &Options) -> Metrics {
         regurgitant_orifice_area_mm2: orifice.as_ref().map(|o| o.uncovered_mm2),
         lumen_area_mm2: orifice.as_ref().map(|o| o.lumen_mm2),
         orifice_pixel_mm: orifice.as_ref().map(|o| o.pixel_mm),
-        coaptation_above_vaj: central.map(|(lo, _)| lo > 0.0),
+        // Without a triple zone the pairwise zones are all there is to place.
+        coaptation_above_vaj: central.or(any_zone).map(|(lo, _)| lo > 0.0),
         lowest_central_coaptation_mm: central.map(|(lo, _)| lo),
         lowest_coaptation_mm: any_zone.map(|(lo, _)| lo),
         lowest_free_edge_mm: leaflets
