@@ -169,6 +169,30 @@ fn parallel_sheets_coapt_over_their_whole_height_with_a_central_zone() {
     assert!(c.node_mask.iter().all(|&b| b.count_ones() >= 1));
 }
 
+/// Sheets whose middles are pushed 1 mm off the axis along their own
+/// bisectors: the wings still touch pairwise, but no point is within the
+/// margin of both other leaflets. "Coaptation above the VAJ" then places
+/// the pairwise zones rather than calling itself not measurable.
+#[test]
+fn without_a_triple_zone_the_vaj_criterion_places_the_pairwise_zones() {
+    let mut v = sheets(0.5, Z0, 0.0);
+    let uv = v.ref_uv.clone().unwrap();
+    let per = v.x.len() / 3;
+    for (i, p) in v.x.iter_mut().enumerate() {
+        let (ta, _) = sector(i / per);
+        let mid = ta + PI / 3.0;
+        if uv[i][0].abs() < 1.5 {
+            *p += Vector3::new(mid.cos(), mid.sin(), 0.0);
+        }
+    }
+    let (_, m) = measure(&v);
+    assert!(!m.closed);
+    assert_eq!(m.lowest_central_coaptation_mm, None);
+    let any = m.lowest_coaptation_mm.expect("the wings touch pairwise");
+    assert!((any - Z0).abs() < 1e-9, "{any}");
+    assert_eq!(m.coaptation_above_vaj, Some(true));
+}
+
 #[test]
 fn skirt_places_the_zone_boundary_where_the_gap_reaches_the_margin() {
     let beta = 10f64.to_radians();
