@@ -176,20 +176,7 @@ fn parse(
             }
             (path.to_path_buf(), Start::At(end))
         }
-        f if f.starts_with("LIST") || f.contains('%') || f.split_whitespace().count() > 1 => {
-            return Err(format!(
-                "ElementDataFile \"{f}\" names several files (one per slice); coapt reads a \
-                 volume stored in one file"
-            ));
-        }
-        f => {
-            let start = if header_size == -1 {
-                Start::FromEnd
-            } else {
-                Start::At(header_size as u64)
-            };
-            (raw_voxels::beside(path, f), start)
-        }
+        f => raw_voxels::detached(path, "ElementDataFile", f, header_size)?,
     };
     let layout = Layout {
         format: "MetaImage",

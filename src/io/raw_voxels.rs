@@ -453,6 +453,30 @@ pub fn header_lines(
 /// Header text larger than this is not a header.
 pub const MAX_HEADER_BYTES: u64 = 1 << 20;
 
+/// A detached data file named `name` by the header's `key` (NRRD's `data
+/// file`, MetaImage's `ElementDataFile`), its data `skip` bytes in (-1: the
+/// last bytes of the file). A list or pattern of files (one per slice) is
+/// refused: coapt reads a volume stored in one file.
+pub fn detached(
+    header: &Path,
+    key: &str,
+    name: &str,
+    skip: i64,
+) -> std::result::Result<(PathBuf, Start), String> {
+    if name.starts_with("LIST") || name.contains('%') || name.split_whitespace().count() > 1 {
+        return Err(format!(
+            "{key} \"{name}\" names several files (one per slice); coapt reads a volume stored \
+             in one file"
+        ));
+    }
+    let start = if skip == -1 {
+        Start::FromEnd
+    } else {
+        Start::At(skip as u64)
+    };
+    Ok((beside(header, name), start))
+}
+
 /// `name` resolved beside the header (data file names are relative to it).
 pub fn beside(header: &Path, name: &str) -> PathBuf {
     let p = Path::new(name);

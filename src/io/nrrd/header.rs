@@ -191,21 +191,7 @@ fn parse(
     }
     let byte_skip = skip("byte skip")?;
     let (data_file, start) = match get("data file") {
-        Some(name) => {
-            if name.starts_with("LIST") || name.contains('%') || name.split_whitespace().count() > 1
-            {
-                return Err(format!(
-                    "data file \"{name}\" names several files; coapt reads a volume stored in \
-                     one file"
-                ));
-            }
-            let start = if byte_skip == -1 {
-                Start::FromEnd
-            } else {
-                Start::At(byte_skip as u64)
-            };
-            (raw_voxels::beside(path, name), start)
-        }
+        Some(name) => raw_voxels::detached(path, "data file", name, byte_skip)?,
         None => {
             if byte_skip != 0 {
                 return Err(
