@@ -166,8 +166,8 @@ pub static SPEC: StageSpec = StageSpec {
         Param {
             name: "max_billowing",
             kind: ParamKind::Quantity(Kind::Length),
-            default: Some("0.5 mm"),
-            help: "criterion \"no billowing\": deepest leaflet point below the plane of the lowest sutured points (default a leaflet thickness)",
+            default: Some("1.4 mm"),
+            help: "criterion \"no billowing\": deepest leaflet point below the plane of the lowest sutured points (default the seeds' group's optimal range, < 1.4 mm)",
         },
         Param {
             name: "run_dir",
