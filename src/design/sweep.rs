@@ -200,7 +200,7 @@ mod tests {
         assert_eq!(cfg.sections["leaflets"], sections["leaflets"]);
         assert_eq!(cfg.sections["report"], sections["report"]);
         assert!(!cfg.has_section("segment"));
-        let t = crate::leaflet::template::parse_templates(&template(21)).unwrap();
+        let t = crate::leaflet::template::parse_templates(&template(21), None).unwrap();
         assert!(t.iter().all(|t| t.name() == "ozaki_size 21"));
     }
 

@@ -228,7 +228,16 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let surf_path = io.input("surface").expect("required");
     let surface = vtp::read_mesh(surf_path)?;
     let wall = Wall::new(&surface).map_err(|e| Error::bad_input(surf_path, e))?;
-    let templates = read_templates(io.input("template").expect("required"))?;
+    // Each leaflet spans its path's two ends, the commissures: the distance
+    // a sizer measures, for `size = "measured"`.
+    let gaps: [f64; 3] = std::array::from_fn(|k| {
+        let l = &pd.lines[k];
+        match (l.first(), l.last()) {
+            (Some(&a), Some(&b)) => (pd.points[a as usize] - pd.points[b as usize]).norm(),
+            _ => f64::NAN,
+        }
+    });
+    let templates = read_templates(io.input("template").expect("required"), Some(gaps))?;
     let h = params.quantity("h");
     // Nodes ∝ area / h² (`--h 0.001 mm` filled 8 GiB): the outline's area
     // is at most L²/4π, and an equilateral mesh gives a node per √3/2 h².

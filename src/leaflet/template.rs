@@ -8,7 +8,9 @@
 //!   reading cannot close example (a) (r = a = b = 11 mm).
 //! * `ozaki_size` — the Ozaki sizer table (VERIFICATION.md §4): the same
 //!   construction with a 170° arc (lean α = 5°), extension b, free segment a
-//!   at angle β to the horizontal, r = (a cos β − b sin α)/cos α.
+//!   at angle β to the horizontal, r = (a cos β − b sin α)/cos α. `size =
+//!   "measured"` is Ozaki's own rule: each leaflet is cut at the sizer size
+//!   nearest the distance between its two commissures.
 //! * `ozaki` — the group's later parametric template: belly circle of
 //!   diameter D, lug corners at height H above its centre and L_f apart,
 //!   apex H_f above the corners.
@@ -42,7 +44,7 @@ pub enum TemplateSpec {
         omega: Angle,
     },
     OzakiSize {
-        size: u32,
+        size: SizerSize,
     },
     Ozaki {
         diameter: Length,
@@ -50,6 +52,55 @@ pub enum TemplateSpec {
         apex_rise: Length,
         lug_chord: Length,
     },
+}
+
+/// An Ozaki sizer size: a number of the table, or `"measured"`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SizerSize {
+    Size(u32),
+    /// Ozaki's rule: the size nearest the leaflet's intercommissural
+    /// distance (what the surgeon's sizer measures in the opened root).
+    Measured,
+}
+
+impl<'de> Deserialize<'de> for SizerSize {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Size(u32),
+            Word(String),
+        }
+        match Raw::deserialize(d)? {
+            Raw::Size(n) => Ok(SizerSize::Size(n)),
+            Raw::Word(w) if w == "measured" => Ok(SizerSize::Measured),
+            Raw::Word(w) => Err(serde::de::Error::custom(format!(
+                "size = {w:?}: give a sizer size (13, 15, …, 35) or \"measured\""
+            ))),
+        }
+    }
+}
+
+/// Ozaki's rule: the sizer size nearest an intercommissural distance (the
+/// smaller of two equally near, as seed 001 asks for leaflets as small as
+/// suffices). A distance more than 1 mm beyond the table is refused.
+pub fn sizer_size_for(distance_mm: f64) -> Result<u32, String> {
+    let (lo, hi) = (
+        OZAKI_SIZES[0].0 as f64,
+        OZAKI_SIZES[OZAKI_SIZES.len() - 1].0 as f64,
+    );
+    if !(distance_mm >= lo - 1.0 && distance_mm <= hi + 1.0) {
+        return Err(format!(
+            "the intercommissural distance {distance_mm:.1} mm lies beyond the Ozaki sizer ({lo}–{hi} mm): give the size"
+        ));
+    }
+    let mut best = OZAKI_SIZES[0].0;
+    for &(size, ..) in &OZAKI_SIZES {
+        if (size as f64 - distance_mm).abs() < (best as f64 - distance_mm).abs() {
+            best = size;
+        }
+    }
+    Ok(best)
 }
 
 fn default_alpha() -> Angle {
@@ -85,7 +136,9 @@ pub enum Template {
 
 impl TemplateSpec {
     /// Validate and build; the error says which parameter is wrong and why.
-    pub fn build(&self) -> Result<Template, String> {
+    /// `gap_mm` is the distance between the leaflet's commissures, which
+    /// `size = "measured"` needs.
+    pub fn build(&self, gap_mm: Option<f64>) -> Result<Template, String> {
         match *self {
             TemplateSpec::FourParameter { r, alpha, a, b } => {
                 let alpha = alpha.0;
@@ -97,7 +150,19 @@ impl TemplateSpec {
                 }
                 ArcTemplate::new(r.0, PI / 2.0 - alpha / 2.0, a.0, b.0).map(Template::Arc)
             }
-            TemplateSpec::OzakiSize { size } => ArcTemplate::ozaki_size(size).map(Template::Arc),
+            TemplateSpec::OzakiSize {
+                size: SizerSize::Size(size),
+            } => ArcTemplate::ozaki_size(size).map(Template::Arc),
+            TemplateSpec::OzakiSize {
+                size: SizerSize::Measured,
+            } => {
+                let gap = gap_mm.ok_or(
+                    "size = \"measured\" needs the commissures: give this file to a stage that has valve.json or the suture paths",
+                )?;
+                let mut t = ArcTemplate::ozaki_size(sizer_size_for(gap)?)?;
+                t.name = format!("{} (measured: intercommissural {gap:.1} mm)", t.name);
+                Ok(Template::Arc(t))
+            }
             TemplateSpec::Ozaki {
                 diameter,
                 lug_height,
@@ -348,26 +413,59 @@ struct TemplateFile {
 }
 
 /// Read, parse and validate a template file (bad input names the file).
-pub fn read_templates(path: &std::path::Path) -> crate::Result<[Template; 3]> {
+/// `gaps_mm[k]`: the distance between leaflet k's two commissures (the
+/// ends of its suture path), for `size = "measured"`.
+pub fn read_templates(
+    path: &std::path::Path,
+    gaps_mm: Option<[f64; 3]>,
+) -> crate::Result<[Template; 3]> {
     let text = std::fs::read_to_string(path).map_err(|e| crate::Error::read(path, e))?;
-    parse_templates(&text).map_err(|e| crate::Error::bad_input(path, e))
+    parse_templates(&text, gaps_mm).map_err(|e| crate::Error::bad_input(path, e))
 }
 
-/// Parse and validate a template file's text: one template per leaflet.
-pub fn parse_templates(text: &str) -> Result<[Template; 3], String> {
+/// Check a template file before the commissures are known: every
+/// template with its own numbers is built, `"measured"` sizes are left
+/// for the stage that knows the commissures.
+pub fn check_templates(path: &std::path::Path) -> crate::Result<()> {
+    let text = std::fs::read_to_string(path).map_err(|e| crate::Error::read(path, e))?;
+    let specs = parse_specs(&text).map_err(|e| crate::Error::bad_input(path, e))?;
+    for (k, spec) in specs.iter().enumerate() {
+        if !matches!(
+            spec,
+            TemplateSpec::OzakiSize {
+                size: SizerSize::Measured
+            }
+        ) {
+            spec.build(None)
+                .map_err(|e| crate::Error::bad_input(path, format!("leaflet {}: {e}", k + 1)))?;
+        }
+    }
+    Ok(())
+}
+
+fn parse_specs(text: &str) -> Result<[TemplateSpec; 3], String> {
     let f: TemplateFile = toml::from_str(text).map_err(|e| e.to_string())?;
     let specs = [f.leaflet1, f.leaflet2, f.leaflet3];
     let mut out = Vec::with_capacity(3);
     for (i, s) in specs.into_iter().enumerate() {
-        let spec = s.or_else(|| f.template.clone()).ok_or_else(|| {
+        out.push(s.or_else(|| f.template.clone()).ok_or_else(|| {
             format!(
                 "no template for leaflet {}: give [template] or [leaflet{}]",
                 i + 1,
                 i + 1
             )
-        })?;
+        })?);
+    }
+    Ok(out.try_into().expect("three templates"))
+}
+
+/// Parse and validate a template file's text: one template per leaflet.
+pub fn parse_templates(text: &str, gaps_mm: Option<[f64; 3]>) -> Result<[Template; 3], String> {
+    let specs = parse_specs(text)?;
+    let mut out = Vec::with_capacity(3);
+    for (i, spec) in specs.iter().enumerate() {
         out.push(
-            spec.build()
+            spec.build(gaps_mm.map(|g| g[i]))
                 .map_err(|e| format!("leaflet {}: {e}", i + 1))?,
         );
     }
@@ -417,7 +515,7 @@ mod tests {
                 a: Length(a),
                 b: Length(b),
             };
-            let t = spec.build().unwrap();
+            let t = spec.build(None).unwrap();
             let o = t.outline();
             // Arc 200° + two extensions.
             let expect = r * 200f64.to_radians() + 2.0 * a;
@@ -431,7 +529,7 @@ mod tests {
                 a: Length(a),
                 b: Length(b),
             }
-            .build()
+            .build(None)
             .unwrap_err()
         };
         assert!(bad(-1.0, 160.0, 11.0, 11.0).contains("positive"));
@@ -442,25 +540,76 @@ mod tests {
     }
 
     #[test]
+    fn the_measured_size_is_the_sizer_size_nearest_each_leaflets_commissures() {
+        assert_eq!(sizer_size_for(21.1), Ok(21));
+        assert_eq!(sizer_size_for(25.6), Ok(25));
+        assert_eq!(sizer_size_for(24.0), Ok(23), "a tie goes to the smaller");
+        assert_eq!(sizer_size_for(24.01), Ok(25));
+        assert_eq!(sizer_size_for(12.0), Ok(13));
+        assert_eq!(sizer_size_for(36.0), Ok(35));
+        for bad in [11.9, 36.1, f64::NAN] {
+            assert!(
+                sizer_size_for(bad)
+                    .unwrap_err()
+                    .contains("beyond the Ozaki sizer")
+            );
+        }
+        let text = "[template]\nkind = \"ozaki_size\"\nsize = \"measured\"\n[leaflet3]\nkind = \"ozaki_size\"\nsize = 19\n";
+        let t = parse_templates(text, Some([22.4, 25.6, 30.0])).unwrap();
+        let names: Vec<String> = t.iter().map(Template::name).collect();
+        assert_eq!(
+            names,
+            [
+                "ozaki_size 23 (measured: intercommissural 22.4 mm)",
+                "ozaki_size 25 (measured: intercommissural 25.6 mm)",
+                "ozaki_size 19",
+            ]
+        );
+        // The outline is the table's: the same as the size given by number.
+        let by_number = ArcTemplate::ozaki_size(25).unwrap().outline();
+        assert_eq!(
+            t[1].outline().length(Edge::Free),
+            by_number.length(Edge::Free)
+        );
+        let e = parse_templates(text, None).unwrap_err();
+        assert!(
+            e.contains("leaflet 1") && e.contains("needs the commissures"),
+            "{e}"
+        );
+        let e = parse_templates(text, Some([40.0, 25.0, 25.0])).unwrap_err();
+        assert!(e.contains("40.0 mm lies beyond"), "{e}");
+        let e = parse_templates("[template]\nkind = \"ozaki_size\"\nsize = \"big\"\n", None)
+            .unwrap_err();
+        assert!(e.contains("\"measured\""), "{e}");
+    }
+
+    #[test]
     fn toml_files_parse_with_units_and_refuse_bare_numbers() {
         let t = parse_templates(
             "[template]\nkind = \"ozaki\"\ndiameter = \"19 mm\"\nlug_height = \"11 mm\"\n\
              apex_rise = \"2 mm\"\nlug_chord = \"24 mm\"\n[leaflet2]\nkind = \"ozaki_size\"\nsize = 21\n",
+            None,
         )
         .unwrap();
         assert!(matches!(t[0], Template::Ozaki(_)));
         assert!(matches!(t[1], Template::Arc(_)));
         let e = parse_templates(
             "[template]\nkind = \"four_parameter\"\nr = 11\na = \"11 mm\"\nb = \"11 mm\"\n",
+            None,
         )
         .unwrap_err();
         assert!(e.contains("unit"), "{e}");
-        let e = parse_templates("[template]\nkind = \"ozaki_size\"\nsize = 14\n").unwrap_err();
+        let e =
+            parse_templates("[template]\nkind = \"ozaki_size\"\nsize = 14\n", None).unwrap_err();
         assert!(e.contains("sizer table"), "{e}");
-        let e = parse_templates("[leaflet1]\nkind = \"ozaki_size\"\nsize = 19\n").unwrap_err();
+        let e =
+            parse_templates("[leaflet1]\nkind = \"ozaki_size\"\nsize = 19\n", None).unwrap_err();
         assert!(e.contains("leaflet 2"), "{e}");
-        let e = parse_templates("[template]\nkind = \"ozaki_size\"\nsize = 19\nextra = 1\n")
-            .unwrap_err();
+        let e = parse_templates(
+            "[template]\nkind = \"ozaki_size\"\nsize = 19\nextra = 1\n",
+            None,
+        )
+        .unwrap_err();
         assert!(e.contains("extra"), "{e}");
     }
 }
@@ -483,7 +632,7 @@ pub fn reference_templates() -> Vec<Template> {
                 a: Length(a),
                 b: Length(b),
             }
-            .build()
+            .build(None)
             .expect("a valid four-parameter template"),
         );
     }

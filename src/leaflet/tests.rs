@@ -91,7 +91,7 @@ fn random_templates_mesh_or_are_refused() {
                 omega: Angle(rng.range(-1.2, 0.4)),
             },
         };
-        match spec.build() {
+        match spec.build(None) {
             Ok(t) => {
                 let o = t.outline();
                 // The mesher refuses pieces under h/4 (it does not grade).

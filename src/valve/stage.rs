@@ -119,10 +119,6 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let lm_path = io.input("landmarks").expect("required");
     let mesh = vtp::read_mesh(surf_path)?;
     let lm = markups::read(lm_path)?;
-    let templates = match io.input("template") {
-        Some(p) => Some(read_templates(p)?),
-        None => None,
-    };
     let wall = Wall::new(&mesh).map_err(|e| Error::bad_input(surf_path, e))?;
     let snap = |label: &str, p: Point3| -> Result<(Point3, f64)> {
         let (q, _) = wall.closest(&p);
@@ -148,6 +144,11 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             json!({"point_mm": [q.x, q.y, q.z], "moved_mm": d}),
         );
     }
+    let gaps: [f64; 3] = std::array::from_fn(|k| (c[k] - c[(k + 1) % 3]).norm());
+    let templates = match io.input("template") {
+        Some(p) => Some(read_templates(p, Some(gaps))?),
+        None => None,
+    };
     let have_n: Vec<bool> = (1..=3)
         .map(|k| lm.get(&format!("N{k}")).is_some())
         .collect();

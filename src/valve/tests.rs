@@ -89,7 +89,7 @@ fn depth_is_matched_to_the_attachment_edge() {
         apex_rise: Length(2.0),
         lug_chord: Length(24.0),
     };
-    let t: Template = spec.build().unwrap();
+    let t: Template = spec.build(None).unwrap();
     let ts = [t.clone(), t.clone(), t];
     let r = compute(&mesh, &wall, &c, None, Some(&ts), &params()).unwrap();
     for (k, p) in r.paths.iter().enumerate() {
