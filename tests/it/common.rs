@@ -158,6 +158,13 @@ pub fn dice(mask: &Volume<u8>, truth: &Volume<u8>) -> f64 {
 /// template and closure config, `inputs` added to `[inputs]` and `extra`
 /// appended (e.g. a `[phantom]` section); the run directory.
 pub fn run_default_chain(dir: &Path, inputs: &[(&str, &Path)], extra: &str) -> PathBuf {
+    let template = repo().join("pipelines/templates/ozaki_default.toml");
+    run_chain(dir, inputs, &template, extra)
+}
+
+/// `coapt run` of the whole chain with `template` and the default mechanics
+/// (`pipelines/close.toml`); `extra` is appended to the configuration.
+pub fn run_chain(dir: &Path, inputs: &[(&str, &Path)], template: &Path, extra: &str) -> PathBuf {
     let p = repo().join("pipelines");
     let mut text = format!(
         "[run]\ndir = \"{}\"\n\n[inputs]\n",
@@ -168,7 +175,7 @@ pub fn run_default_chain(dir: &Path, inputs: &[(&str, &Path)], extra: &str) -> P
     }
     text += &format!(
         "template = \"{}\"\nconfig = \"{}\"\n{extra}",
-        p.join("templates/ozaki_default.toml").display(),
+        template.display(),
         p.join("close.toml").display()
     );
     let cfg = dir.join("chain.toml");

@@ -420,3 +420,83 @@ fn real_ct_chain_runs_to_an_honest_report() {
     );
     assert_honest_verdict(&run);
 }
+
+/// What `coapt design` recommends on this root with the hanging placement
+/// (size 19, README "Against Ozaki's sizing rule") closes with a zone where
+/// all three leaflets meet and meets every criterion; Ozaki's own rule
+/// (`size = "measured"`: 21 / 25 / 25 from the intercommissural distances)
+/// closes too, failing only the central coaptation height. Both converge
+/// with no crossing leaflets.
+#[test]
+fn real_ct_closes_at_the_recommended_size_and_by_ozakis_rule() {
+    let Some(real) = real_dir() else { return };
+    let inputs = [
+        ("ct", real.join("ct.nii.gz")),
+        ("landmarks", real.join("landmarks.mrk.json")),
+    ];
+    let inputs: Vec<(&str, &Path)> = inputs.iter().map(|(k, p)| (*k, p.as_path())).collect();
+    for (name, size, all) in [
+        ("size-19", "19", true),
+        ("ozaki-rule", "\"measured\"", false),
+    ] {
+        let d = tmpdir(&format!("real-{name}"));
+        let template = d.join("template.toml");
+        std::fs::write(
+            &template,
+            format!("[template]\nkind = \"ozaki_size\"\nsize = {size}\n"),
+        )
+        .unwrap();
+        let run = crate::common::run_chain(
+            &d,
+            &inputs,
+            &template,
+            "[leaflets]\nplacement = \"hanging\"\n",
+        );
+        assert_honest_verdict(&run);
+        let report = json(&run.join("report.json"));
+        let log = json(&run.join("closure.json"));
+        let m = &report["metrics"];
+        assert_eq!(
+            m["closed"].as_bool(),
+            Some(true),
+            "{name}: {}",
+            report["verdict"]
+        );
+        assert!(
+            m["central_coaptation_height_mm"].as_f64().unwrap() > 0.0,
+            "{name}"
+        );
+        assert_eq!(
+            log["intersecting_triangle_pairs"].as_u64(),
+            Some(0),
+            "{name}"
+        );
+        assert_eq!(
+            report["verdict"]["meets_all_criteria"].as_bool(),
+            Some(all),
+            "{name}: {}",
+            report["verdict"]
+        );
+        if size == "19" {
+            continue;
+        }
+        // Leaflets of 25 meet in a triple zone about 1 mm tall: Ozaki's
+        // rule fails only the central coaptation height here.
+        assert_eq!(
+            report["verdict"]["failed_criteria"],
+            serde_json::json!(["central_coaptation"]),
+            "{}",
+            report["verdict"]
+        );
+        let sum = json(&run.join("leaflets.json"));
+        let names: Vec<&str> = (0..3)
+            .map(|k| sum["leaflets"][k]["template"].as_str().unwrap())
+            .collect();
+        for (k, size) in [21, 25, 25].iter().enumerate() {
+            assert!(
+                names[k].starts_with(&format!("ozaki_size {size} (measured: intercommissural ")),
+                "{names:?}"
+            );
+        }
+    }
+}
