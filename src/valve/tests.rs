@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
-use super::stage::{SPEC, compute};
+use super::stage::{SPEC, compute, path_findings};
 use super::wall::Wall;
 use super::{cylinder, suture};
 use crate::leaflet::template::{Template, TemplateSpec};
@@ -322,4 +322,38 @@ fn orientation_without_nadirs_ignores_far_vessel() {
     let (cyl, how) = super::frame::commissure_cylinder(&mesh, &root.c, None).unwrap();
     assert_eq!(how, super::frame::Orientation::WallNearRoot);
     assert!(cyl.axis.z > 0.999, "{:?}", cyl.axis);
+}
+
+/// A path longer than the edge stretches the leaflet (refused over 30 %);
+/// a shorter one gathers the edge, as Ozaki's running suture does (refused
+/// only past 3 : 1); over 10 % either way is a finding.
+#[test]
+fn a_path_may_gather_the_edge_but_not_stretch_it() {
+    let one = |path_mm: f64| {
+        let edge = 70.0;
+        vec![suture::LengthMatch {
+            path_mm,
+            on_cylinder_mm: path_mm,
+            target_mm: Some(edge),
+            relative_mismatch: Some((path_mm - edge) / edge),
+            depth_mm: 10.0,
+            adjusted: false,
+        }]
+    };
+    assert_eq!(path_findings(&one(72.0)).unwrap(), Vec::<String>::new());
+    let f = path_findings(&one(47.6)).unwrap();
+    assert_eq!(f.len(), 1);
+    assert!(f[0].contains("32 % shorter"), "{f:?}");
+    assert!(path_findings(&one(88.0)).unwrap()[0].contains("26 % longer"));
+    let e = path_findings(&one(91.5)).unwrap_err();
+    assert!(
+        e.contains("31 % longer") && e.contains("more than 30 %"),
+        "{e}"
+    );
+    assert!(path_findings(&one(23.5)).unwrap()[0].contains("66 % shorter"));
+    let e = path_findings(&one(23.0)).unwrap_err();
+    assert!(
+        e.contains("67 % shorter") && e.contains("more than 67 %"),
+        "{e}"
+    );
 }
