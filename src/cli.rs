@@ -370,6 +370,39 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
             if !log.quiet && !log.json && !report.stages.is_empty() {
                 eprintln!("run directory: {}", report.run_dir.display());
             }
+            for (stage, missing) in &report.left_out {
+                let after = report
+                    .stages
+                    .last()
+                    .map_or("nothing ran".to_string(), |(s, ..)| {
+                        format!("the chain stops after {s}")
+                    });
+                tracing::warn!(
+                    event = "stage_left_out",
+                    stage = stage.as_str(),
+                    "{}: {after}: stage {stage} needs {} (give {} under [inputs])",
+                    opts.config.display(),
+                    missing.join(", "),
+                    missing
+                        .iter()
+                        .map(|m| format!("`{m} = \"…\"`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+            }
+            // The run's answer, when it reached the report: the same words
+            // as report.json, on stdout like `design`'s table.
+            if report.stages.iter().any(|(s, ..)| s == "report") {
+                let path = report.run_dir.join("report.json");
+                let doc: serde_json::Value = serde_json::from_slice(
+                    &std::fs::read(&path).map_err(|e| Error::read(&path, e))?,
+                )
+                .map_err(|e| Error::bad_input(&path, e.to_string()))?;
+                print!(
+                    "{}",
+                    crate::report::terminal::summary(&doc, &report.run_dir.join("report.html"))
+                );
+            }
             Ok(())
         }
         "design" => {

@@ -27,6 +27,43 @@ pub struct RunOptions {
 pub struct RunReport {
     pub run_dir: PathBuf,
     pub stages: Vec<(String, Status, String)>,
+    /// Stages the config could not reach, with the inputs no stage makes
+    /// that it would need (a config without landmarks stops after the
+    /// surface; this says why).
+    pub left_out: Vec<(String, Vec<String>)>,
+}
+
+/// The stages the planned chain leaves out for want of an input that only
+/// the config can give (not made by any stage that runs on its inputs, a
+/// source such as `phantom` runs only when configured), with those inputs.
+fn left_out(
+    cfg: &RunConfig,
+    registry: &[&'static StageSpec],
+    chain: &[&'static StageSpec],
+) -> Vec<(String, Vec<String>)> {
+    let available = |name: &str| {
+        cfg.inputs.contains_key(name) || chain.iter().any(|s| s.output(name).is_some())
+    };
+    let made_downstream = |name: &str| {
+        registry
+            .iter()
+            .any(|s| !s.is_source() && s.output(name).is_some())
+    };
+    registry
+        .iter()
+        .filter(|s| !s.is_source() && !chain.iter().any(|c| c.name == s.name))
+        // A stage whose output the config gives is replaced, not missing.
+        .filter(|s| !s.outputs.iter().any(|o| cfg.inputs.contains_key(o.name)))
+        .filter_map(|s| {
+            let missing: Vec<String> = s
+                .inputs
+                .iter()
+                .filter(|p| p.required && !available(p.name) && !made_downstream(p.name))
+                .map(|p| p.name.to_string())
+                .collect();
+            (!missing.is_empty()).then(|| (s.name.to_string(), missing))
+        })
+        .collect()
 }
 
 /// The stages a config asks for, in chain order: a source stage (no inputs)
@@ -148,6 +185,7 @@ pub fn run(
         return Ok(RunReport {
             run_dir,
             stages: Vec::new(),
+            left_out: left_out(&cfg, registry, &chain),
         });
     }
     let first = match &opts.from {
@@ -220,6 +258,7 @@ pub fn run(
     let mut report = RunReport {
         run_dir: run_dir.clone(),
         stages: Vec::new(),
+        left_out: left_out(&cfg, registry, &chain),
     };
 
     for (spec, params) in chain[first..=last].iter().zip(resolved) {

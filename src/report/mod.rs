@@ -28,6 +28,7 @@ pub mod orifice;
 pub mod raster;
 pub mod stage;
 pub mod symmetry;
+pub mod terminal;
 pub mod valve;
 pub mod verdict;
 

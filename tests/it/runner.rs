@@ -47,6 +47,37 @@ fn second_run_skips_and_a_new_seed_reruns() {
         assert!(out.join(f).exists(), "{f} missing");
     }
     let ct_before = std::fs::read(out.join("ct.nii.gz")).unwrap();
+    // The run ends with its answer on stdout: report.json's verdict, each
+    // criterion as judged there, and where the report is.
+    let report = json(&out.join("report.json"));
+    let said = String::from_utf8_lossy(&first.stdout).into_owned();
+    let lines: Vec<&str> = said.lines().collect();
+    assert_eq!(
+        lines[0],
+        format!(
+            "verdict: {}",
+            report["verdict"]["summary"].as_str().unwrap()
+        ),
+        "{said}"
+    );
+    for c in report["criteria"].as_array().unwrap() {
+        let mark = match c["pass"].as_bool() {
+            Some(true) => "pass",
+            Some(false) => "FAIL",
+            None => "n/a ",
+        };
+        let name = c["name"].as_str().unwrap();
+        assert!(
+            lines
+                .iter()
+                .any(|l| l.starts_with(&format!("  {mark}  {name} "))),
+            "{name}: {said}"
+        );
+    }
+    assert_eq!(
+        *lines.last().unwrap(),
+        format!("report: {}", out.join("report.html").display())
+    );
 
     let second = run(&cfg, &out, &["--log-json"]);
     let rec2 = phantom_record(&out);
@@ -134,4 +165,34 @@ fn unknown_stage_and_sections_are_refused() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--from close"), "{}", stderr(&o));
+}
+
+/// A config that cannot reach the valve (no landmarks) runs what it can and
+/// says which stage stopped the chain and what it needs; exit 0, no verdict.
+#[test]
+fn a_chain_without_landmarks_says_why_it_stops() {
+    let d = tmpdir("no-landmarks");
+    let cfg = d.join("ct-only.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[inputs]\nct = {:?}\ntemplate = {:?}\n",
+            repo().join("sample_data/ct.nii.gz"),
+            repo().join("pipelines/templates/ozaki_default.toml")
+        ),
+    )
+    .unwrap();
+    let out = d.join("run");
+    let o = run(&cfg, &out, &["--quiet"]);
+    let err = stderr(&o);
+    assert!(
+        err.contains("the chain stops after surface: stage valve needs landmarks (give `landmarks = \"…\"` under [inputs])"),
+        "{err}"
+    );
+    assert!(out.join("aorta.vtp").exists() && !out.join("valve.json").exists());
+    assert!(
+        o.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
 }

@@ -1,0 +1,145 @@
+//! The verdict as `coapt run` ends with it on the terminal: the summary
+//! sentence, each criterion's value against its threshold, and where the
+//! report is. Read from `report.json`, so the terminal and the page say the
+//! same thing.
+
+use std::fmt::Write;
+use std::path::Path;
+
+use serde_json::Value as Json;
+
+/// Lines for a person reading the terminal after a run.
+pub fn summary(doc: &Json, report_html: &Path) -> String {
+    let mut out = String::new();
+    let v = &doc["verdict"];
+    let sentence = v["summary"].as_str().unwrap_or("no verdict in report.json");
+    let _ = writeln!(out, "verdict: {sentence}");
+    for r in v["not_assessable_reasons"].as_array().into_iter().flatten() {
+        if let Some(r) = r.as_str() {
+            let _ = writeln!(out, "  not assessable: {r}");
+        }
+    }
+    let criteria = doc["criteria"].as_array().map(Vec::as_slice).unwrap_or(&[]);
+    let width = criteria
+        .iter()
+        .filter_map(|c| c["name"].as_str())
+        .map(|n| n.chars().count())
+        .max()
+        .unwrap_or(0);
+    for c in criteria {
+        let mark = match c["pass"].as_bool() {
+            Some(true) => "pass",
+            Some(false) => "FAIL",
+            None => "n/a ",
+        };
+        let name = c["name"].as_str().unwrap_or("?");
+        let _ = writeln!(
+            out,
+            "  {mark}  {name:<width$}  {}",
+            value_against_threshold(c)
+        );
+    }
+    let m = &doc["metrics"];
+    if let Some(p) = m["effective_height_pressure_mmhg"].as_f64() {
+        let _ = writeln!(
+            out,
+            "  (effective height judged at {} mmHg; coaptation height {}, regurgitant orifice {})",
+            trim(p),
+            mm(m["coaptation_height_mm"].as_f64(), "mm"),
+            mm(m["regurgitant_orifice_area_mm2"].as_f64(), "mm²"),
+        );
+    }
+    let _ = writeln!(out, "report: {}", report_html.display());
+    out
+}
+
+fn value_against_threshold(c: &Json) -> String {
+    let unit = match c["unit"].as_str().unwrap_or("") {
+        "mm2" => "mm²",
+        u => u,
+    };
+    let cmp = c["comparison"].as_str().unwrap_or("");
+    match (&c["value"], &c["threshold"]) {
+        (Json::Bool(v), _) => (if *v { "yes" } else { "no" }).to_string(),
+        (Json::Number(v), t) => {
+            let need = match t.as_f64() {
+                Some(t) => format!(" (needs {cmp} {})", mm(Some(t), unit)),
+                None => String::new(),
+            };
+            format!("{}{need}", mm(v.as_f64(), unit))
+        }
+        _ => "not measurable".to_string(),
+    }
+}
+
+/// Two decimals with the unit; "—" when absent.
+fn mm(v: Option<f64>, unit: &str) -> String {
+    match v {
+        Some(v) if v.is_finite() => {
+            let sep = if unit.is_empty() { "" } else { " " };
+            format!("{v:.2}{sep}{unit}")
+        }
+        _ => "—".to_string(),
+    }
+}
+
+/// A pressure as given: "3", "80", "2.5".
+fn trim(v: f64) -> String {
+    let s = format!("{v:.2}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn the_terminal_says_what_the_report_says() {
+        let doc = json!({
+            "verdict": {
+                "summary": "Fails 1 of 3 criteria: Central coaptation height. The three leaflets meet.",
+                "not_assessable_reasons": [],
+            },
+            "criteria": [
+                {"name": "Central coaptation height", "value": 1.0497, "unit": "mm", "comparison": ">", "threshold": 4.0, "pass": false},
+                {"name": "No residual regurgitation", "value": 0.5994, "unit": "mm2", "comparison": "<=", "threshold": 1.0, "pass": true},
+                {"name": "Valve closed", "value": true, "unit": "", "comparison": "is", "threshold": true, "pass": true},
+                {"name": "Leaflets below the STJ", "value": null, "unit": "mm", "comparison": ">", "threshold": 0.0, "pass": null},
+            ],
+            "metrics": {
+                "effective_height_pressure_mmhg": 3.0,
+                "coaptation_height_mm": 13.974,
+                "regurgitant_orifice_area_mm2": 0.5994,
+            },
+        });
+        let text = summary(&doc, Path::new("/runs/a/report.html"));
+        assert_eq!(
+            text,
+            "verdict: Fails 1 of 3 criteria: Central coaptation height. The three leaflets meet.\n\
+             \x20 FAIL  Central coaptation height  1.05 mm (needs > 4.00 mm)\n\
+             \x20 pass  No residual regurgitation  0.60 mm² (needs <= 1.00 mm²)\n\
+             \x20 pass  Valve closed               yes\n\
+             \x20 n/a   Leaflets below the STJ     not measurable\n\
+             \x20 (effective height judged at 3 mmHg; coaptation height 13.97 mm, regurgitant orifice 0.60 mm²)\n\
+             report: /runs/a/report.html\n"
+        );
+    }
+
+    #[test]
+    fn reasons_a_closure_cannot_be_judged_come_first() {
+        let doc = json!({
+            "verdict": {
+                "summary": "Not assessable.",
+                "not_assessable_reasons": ["12 pairs of triangles of different leaflets cross"],
+            },
+            "criteria": [],
+            "metrics": {},
+        });
+        let text = summary(&doc, Path::new("r.html"));
+        assert_eq!(
+            text,
+            "verdict: Not assessable.\n  not assessable: 12 pairs of triangles of different leaflets cross\nreport: r.html\n"
+        );
+    }
+}
