@@ -138,6 +138,18 @@ fn command() -> Command {
             .arg(Arg::new("json").long("json").action(ArgAction::SetTrue).help("print JSON instead of text")),
     )
     .subcommand(
+        Command::new("cohort")
+            .about("Cohort tables: `coapt cohort summary RUN… --out cohort.csv`, one row per run directory")
+            .subcommand_required(true)
+            .arg_required_else_help(true)
+            .subcommand(
+                Command::new("summary")
+                    .about("One CSV row per run directory: verdict, criteria met and failed, key metrics, solver, templates, root, recommended size; a run without report.json is a row saying so")
+                    .arg(Arg::new("runs").required(true).num_args(1..).value_name("RUN_DIR").value_parser(clap::value_parser!(PathBuf)))
+                    .arg(Arg::new("out").long("out").required(true).value_name("FILE").value_parser(clap::value_parser!(PathBuf)).help("the CSV to write (atomically)")),
+            ),
+    )
+    .subcommand(
         Command::new("check")
             .about("Check input files as `coapt run` would before starting: readable, valid, complete (landmarks need C1–C3)")
             .arg_required_else_help(true)
@@ -426,6 +438,26 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                     "design report: {}",
                     summary.design_dir.join("report.html").display()
                 );
+            }
+            Ok(())
+        }
+        "cohort" => {
+            let (_, sub) = sub.subcommand().expect("a cohort subcommand is required");
+            let runs: Vec<PathBuf> = sub
+                .get_many::<PathBuf>("runs")
+                .expect("required")
+                .cloned()
+                .collect();
+            let out = sub.get_one::<PathBuf>("out").expect("required");
+            if runs.iter().any(|r| r == out) {
+                return Err(Error::usage(format!(
+                    "--out {} is one of the run directories",
+                    out.display()
+                )));
+            }
+            let n = crate::report::cohort_summary::write(&runs, out)?;
+            if !log.quiet && !log.json {
+                eprintln!("cohort summary: {n} runs → {}", out.display());
             }
             Ok(())
         }

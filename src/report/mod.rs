@@ -17,6 +17,7 @@
 
 pub mod clip;
 pub mod coaptation;
+pub mod cohort_summary;
 pub mod criteria;
 pub mod document;
 pub mod figure;

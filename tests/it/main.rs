@@ -5,6 +5,7 @@ mod bench_close_grid;
 mod bench_pipeline;
 mod bench_stress_close;
 mod close;
+mod cohort;
 mod common;
 mod design;
 mod dicom;
