@@ -71,8 +71,7 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
             .arg(r.join("pipelines/Snakefile"))
             .arg("--configfile")
             .arg(d.join("cohort.yaml"))
-            .arg("--directory")
-            .arg(&d)
+            .current_dir(&d)
             .args(["--cores", "2", extra])
             .output()
             .expect("snakemake starts")
@@ -92,6 +91,16 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
                 .is_file()
         );
     }
+    // The cohort's table: a header and a row per case, from its reports.
+    let table = std::fs::read_to_string(d.join("cohort/cohort.csv")).unwrap();
+    let lines: Vec<&str> = table.lines().collect();
+    assert_eq!(lines.len(), 3, "{table}");
+    assert_eq!(lines[0], coapt::report::cohort_summary::COLUMNS.join(","));
+    assert!(lines[1].starts_with("p1/default,") && lines[2].starts_with("p2/default,"));
+    // Snakemake's own metadata lives under `out` (its log where it was
+    // started), not in the clone.
+    assert!(d.join("cohort/.snakemake").is_dir());
+    assert!(!r.join(".snakemake").exists());
     // The same phantom through `coapt run`.
     std::fs::write(
         d.join("run.toml"),
