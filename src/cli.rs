@@ -299,18 +299,26 @@ fn stage_command(spec: &'static StageSpec) -> Command {
     for p in spec.params {
         let flag = param_flag(p);
         let arg = match p.kind {
+            // A switch that turns a default-on setting off says so, or its
+            // help reads as the opposite of what it does.
             ParamKind::Bool => Arg::new(p.name)
                 .long(flag)
                 .action(ArgAction::SetTrue)
-                .help(p.help.to_string()),
+                .help(match p.default {
+                    Some("true") => format!("turn off (on by default): {}", p.help),
+                    _ => p.help.to_string(),
+                }),
             kind => {
                 let default = p
                     .default
                     .map(|d| format!(" [default: {d}]"))
                     .unwrap_or_default();
+                // `--omega "-40 deg"`, as the README writes it: a negative
+                // quantity is a value, not a flag.
                 Arg::new(p.name)
                     .long(flag)
                     .value_name(value_name(kind))
+                    .allow_hyphen_values(!matches!(kind, ParamKind::Path | ParamKind::Choice(_)))
                     .help(format!("{}{default}", p.help))
             }
         };

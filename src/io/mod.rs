@@ -14,6 +14,7 @@ pub mod ply;
 pub mod png;
 pub mod raw_voxels;
 pub mod stl;
+pub mod toml_error;
 pub mod valve_json;
 pub mod volume_file;
 pub mod vtp;

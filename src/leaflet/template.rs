@@ -444,7 +444,8 @@ pub fn check_templates(path: &std::path::Path) -> crate::Result<()> {
 }
 
 fn parse_specs(text: &str) -> Result<[TemplateSpec; 3], String> {
-    let f: TemplateFile = toml::from_str(text).map_err(|e| e.to_string())?;
+    let f: TemplateFile =
+        toml::from_str(text).map_err(|e| crate::io::toml_error::describe(text, &e))?;
     let specs = [f.leaflet1, f.leaflet2, f.leaflet3];
     let mut out = Vec::with_capacity(3);
     for (i, s) in specs.into_iter().enumerate() {

@@ -281,7 +281,7 @@ fn need(v: Option<f64>, key: &str, model: &str) -> std::result::Result<f64, Stri
 }
 
 pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
-    let raw: Raw = toml::from_str(text).map_err(|e| e.message().to_string())?;
+    let raw: Raw = toml::from_str(text).map_err(|e| crate::io::toml_error::describe(text, &e))?;
     let positive = |v: f64, key: &str| {
         if v > 0.0 && v.is_finite() {
             Ok(v)

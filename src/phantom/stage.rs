@@ -95,7 +95,7 @@ pub static SPEC: StageSpec = StageSpec {
             name: "contrast",
             kind: ParamKind::Bool,
             default: Some("true"),
-            help: "contrast-filled blood; without it blood is ~40 HU, as in a non-contrast CT",
+            help: "contrast-filled blood (off: blood ~40 HU, as in a non-contrast CT)",
         },
         Param {
             name: "blood",
@@ -113,7 +113,7 @@ pub static SPEC: StageSpec = StageSpec {
             name: "coronaries",
             kind: ParamKind::Bool,
             default: Some("true"),
-            help: "draw the coronary arteries leaving the sinuses (--no-coronaries leaves them out of the CT and truth)",
+            help: "the coronary arteries leaving the sinuses, in the CT and the truth",
         },
         Param {
             name: "arch",

@@ -44,7 +44,13 @@ impl RunConfig {
 
     pub fn parse(path: &Path, text: &str, registry: &[&'static StageSpec]) -> Result<RunConfig> {
         let doc: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-            Error::bad_input(path, format!("not valid TOML: {}", e.message()))
+            Error::bad_input(
+                path,
+                format!(
+                    "not valid TOML: {}",
+                    crate::io::toml_error::describe(text, &e)
+                ),
+            )
         })?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let artifacts: BTreeSet<&str> = registry

@@ -525,3 +525,52 @@ fn temporaries_a_killed_run_left_are_removed_by_the_next() {
         "a file that is not a coapt temporary was removed"
     );
 }
+
+/// The README writes negative quantities with a space (`--omega "-40 deg"`):
+/// clap used to take "-40 deg" for a flag. And a bare number in a closure
+/// config names its line and key and says how to write it.
+#[test]
+fn negative_quantities_are_values_and_bare_numbers_say_how_to_write_them() {
+    let d = tmpdir("cli-words");
+    sample_valve_and_leaflets(
+        &d,
+        "pipelines/templates/ozaki_default.toml",
+        &["--omega", "-30 deg"],
+    );
+    let sum = json(&d.join("leaflets.json"));
+    // The lean is the one asked for (the placement adjusts it by a little
+    // to keep the leaflet inside the wall), not the default −40°.
+    let om = sum["leaflets"][0]["omega_used_deg"].as_f64().unwrap();
+    assert!((om + 30.0).abs() < 1.0, "{om}");
+
+    let text = std::fs::read_to_string(repo().join("pipelines/close.toml"))
+        .unwrap()
+        .replace("pressure = \"80 mmHg\"", "pressure = 80");
+    let line = 1 + text
+        .lines()
+        .position(|l| l.starts_with("pressure = 80"))
+        .expect("close.toml sets the pressure");
+    let cfg = d.join("close.toml");
+    std::fs::write(&cfg, text).unwrap();
+    let out = d.join("closed.vtp");
+    let o = coapt(&[
+        "close",
+        "--leaflets",
+        &s(&d.join("leaflets.vtp")),
+        "--surface",
+        &s(&repo().join("sample_data/truth_surface.vtp")),
+        "--config",
+        &s(&cfg),
+        "--out",
+        &s(&out),
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains(&format!(
+            "line {line}, `pressure`: invalid type: integer `80`"
+        )) && err.contains("pressure = \"80 mmHg\""),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
