@@ -13,6 +13,7 @@ pub mod nrrd;
 pub mod ply;
 pub mod png;
 pub mod raw_voxels;
+pub mod sha256;
 pub mod stl;
 pub mod toml_error;
 pub mod valve_json;

@@ -5,15 +5,17 @@
 //! timings and provenance. The page is built from `report.json` (as a
 //! `serde_json::Value`, so a missing key, a `null` or a wrong type shows as
 //! "—" or "not measured" instead of failing) and the figures' PNG bytes,
-//! embedded as `data:` URLs. No script, no external URL; a Content Security
-//! Policy forbids any load but inline styles and `data:` images. Same input,
-//! same bytes: no clock, no hash-map order.
+//! embedded as `data:` URLs, and the interactive 3-D view when there is
+//! one. No external URL; a Content Security Policy forbids any load but
+//! inline styles, `data:` images and the one viewer script (by its hash).
+//! Same input, same bytes: no clock, no hash-map order.
 
 use std::fmt::Write as _;
 
 use serde_json::{Map, Value};
 
 use super::Figure;
+use super::view3d::{self, Scene};
 use crate::io::base64;
 
 /// The stages in pipeline order, for the timing table.
@@ -75,10 +77,11 @@ footer { margin-top: 2em; color: #4a4f57; font-size: 0.85em; }
 }
 "#;
 
-/// The HTML page for `report` (the content of `report.json`) and `figures`.
+/// The HTML page for `report` (the content of `report.json`), `figures`
+/// and, when given, the interactive view of `scene` before the figures.
 /// Never panics: every value is looked up, and shown as "—" or "not
 /// measured" when missing, `null` or of another type.
-pub fn render(report: &Value, figures: &[Figure]) -> String {
+pub fn render(report: &Value, figures: &[Figure], scene: Option<&Scene>) -> String {
     let mut h = String::with_capacity(
         16 * 1024
             + figures
@@ -89,12 +92,20 @@ pub fn render(report: &Value, figures: &[Figure]) -> String {
     let version = text_or(report.get("coapt_version"), DASH);
     h.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
     h.push_str("<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n");
-    h.push_str(
-        "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; img-src data:; style-src 'unsafe-inline'\">\n",
+    let script = match scene {
+        Some(_) => format!("; script-src {}", view3d::script_source()),
+        None => String::new(),
+    };
+    let _ = writeln!(
+        h,
+        "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; img-src data:; style-src 'unsafe-inline'{script}\">",
     );
     h.push_str("<link rel=\"icon\" href=\"data:,\">\n");
     h.push_str("<title>Aortic valve closure — coaptation report</title>\n<style>");
     h.push_str(CSS);
+    if scene.is_some() {
+        h.push_str(view3d::CSS);
+    }
     h.push_str(
         "</style>\n</head>\n<body>\n<header>\n<h1>Aortic valve closure — coaptation report</h1>\n",
     );
@@ -136,7 +147,7 @@ pub fn render(report: &Value, figures: &[Figure]) -> String {
         .iter()
         .cloned()
         .partition(|f| f.id.starts_with("sizing"));
-    figures_section(&mut h, &others, sweep.len() + 1);
+    figures_section(&mut h, &others, sweep.len() + 1, scene);
     solver(&mut h, report.get("solver"));
     timing(&mut h, report.get("timing_s"));
     provenance(&mut h, report);
@@ -602,9 +613,12 @@ fn conventions(h: &mut String, c: Option<&Value>) {
     h.push_str("</div>\n</div>\n</section>\n");
 }
 
-fn figures_section(h: &mut String, figures: &[Figure], first_number: usize) {
+fn figures_section(h: &mut String, figures: &[Figure], first_number: usize, scene: Option<&Scene>) {
     h.push_str("<section id=\"figures\">\n<h2>Figures</h2>\n");
-    if figures.is_empty() {
+    if let Some(s) = scene {
+        h.push_str(&view3d::markup(s));
+    }
+    if figures.is_empty() && scene.is_none() {
         h.push_str("<p>No figures.</p>\n");
     }
     let mut used: Vec<String> = Vec::new();
@@ -1109,7 +1123,7 @@ mod tests {
 
     #[test]
     fn example_page_has_every_section_in_reading_order() {
-        let page = render(&example(), &[figure("top_view", 40, 30)]);
+        let page = render(&example(), &[figure("top_view", 40, 30)], None);
         assert_whole(&page);
         let ids = [
             "verdict",
@@ -1161,7 +1175,7 @@ mod tests {
     #[test]
     fn timing_in_pipeline_order_then_alphabetical() {
         let r = json!({"timing_s": {"zeta": 1.0, "report": 0.5, "alpha": 2.0, "segment": 3.0}});
-        let page = render(&r, &[]);
+        let page = render(&r, &[], None);
         let p: Vec<usize> = ["segment", "report", "alpha", "zeta"]
             .iter()
             .map(|s| page.find(&format!("<th scope=\"row\">{s}</th>")).unwrap())
@@ -1175,7 +1189,7 @@ mod tests {
         let f = figure("top view", 8, 4);
         let mut bad = figure("top view", 8, 4);
         bad.png = b"not a png".to_vec();
-        let page = render(&example(), &[f.clone(), f.clone(), bad]);
+        let page = render(&example(), &[f.clone(), f.clone(), bad], None);
         assert_whole(&page);
         let src = format!("src=\"data:image/png;base64,{}\"", base64::encode(&f.png));
         assert_eq!(page.matches(&src).count(), 2);
@@ -1189,7 +1203,7 @@ mod tests {
             "the non-PNG figure gets no <img>"
         );
         assert!(page.contains("Image missing"));
-        assert!(render(&example(), &[]).contains("<p>No figures.</p>"));
+        assert!(render(&example(), &[], None).contains("<p>No figures.</p>"));
     }
 
     /// Replace every string value by `s` (keys are kept).
@@ -1220,7 +1234,7 @@ mod tests {
         let mut f = figure(evil, 4, 4);
         f.title = evil.into();
         f.caption = evil.into();
-        let page = render(&r, &[f]);
+        let page = render(&r, &[f], None);
         assert_whole(&page);
         assert!(!page.contains("<script"), "raw markup from the JSON");
         assert!(!page.contains('\u{7}'));
@@ -1304,7 +1318,7 @@ mod tests {
         let mut n = 0;
         for p in &all {
             for w in std::iter::once(None).chain(replacements.iter().map(Some)) {
-                let page = render(&mutate(&ex, p, w), &[]);
+                let page = render(&mutate(&ex, p, w), &[], None);
                 assert_whole(&page);
                 assert!(!page.contains("<i>"), "{p:?} {w:?}");
                 n += 1;
@@ -1319,7 +1333,7 @@ mod tests {
             json!({}),
             json!({"metrics": [], "criteria": {}}),
         ] {
-            let page = render(&v, &[]);
+            let page = render(&v, &[], None);
             assert_whole(&page);
             assert!(page.contains("Closure could not be determined."));
             assert!(page.contains("not measured"));
@@ -1328,7 +1342,7 @@ mod tests {
 
     #[test]
     fn empty_report_says_what_is_missing() {
-        let page = render(&json!({}), &[]);
+        let page = render(&json!({}), &[], None);
         for needle in [
             "Closure could not be determined.",
             "Whether the criteria are met could not be determined.",
@@ -1353,7 +1367,7 @@ mod tests {
         r["verdict"]["assessable"] = json!(false);
         r["verdict"]["not_assessable_reasons"] =
             json!(["594 pairs of triangles of different leaflets cross each other"]);
-        let page = render(&r, &[]);
+        let page = render(&r, &[], None);
         assert!(page.contains("class=\"verdict na\""));
         let head = page.find("NOT ASSESSABLE").expect("headline");
         let reason = page.find("<li>594 pairs of triangles").expect("reason");
@@ -1378,7 +1392,7 @@ mod tests {
         r["metrics"]["closed"] = json!(false);
         r["metrics"]["coaptation_area_mm2"]["max"] = json!(0.0);
         r["verdict"] = json!({"closed": false, "meets_all_criteria": true, "summary": ""});
-        let page = render(&r, &[]);
+        let page = render(&r, &[], None);
         assert!(page.contains("<td class=\"num\">not measured</td>"));
         assert!(page.contains("? NOT MEASURABLE"));
         assert!(page.contains("Not measurable: Central coaptation height."));
@@ -1395,7 +1409,7 @@ mod tests {
         // A finding that already says it is not repeated.
         r["findings"] =
             json!([{"severity": "warning", "message": "Solver did not converge after 500 steps."}]);
-        let page = render(&r, &[]);
+        let page = render(&r, &[], None);
         assert_eq!(page.matches("converge").count(), 1);
     }
 
@@ -1423,7 +1437,11 @@ mod tests {
         let figs = [figure("a", 5, 5), figure("b", 6, 3)];
         let first_difference =
             |x: &str, y: &str| x.bytes().zip(y.bytes()).position(|(p, q)| p != q);
-        let (pa, pa2, pb) = (render(&a, &figs), render(&a, &figs), render(&b, &figs));
+        let (pa, pa2, pb) = (
+            render(&a, &figs, None),
+            render(&a, &figs, None),
+            render(&b, &figs, None),
+        );
         assert!(
             pa == pa2,
             "differs at byte {:?}",
@@ -1435,6 +1453,42 @@ mod tests {
             first_difference(&pa, &pb),
             first_difference(&pa, &pb).map(|i| &pa[i.saturating_sub(80)..i])
         );
+    }
+
+    /// With the interactive view: one script runs, the one the policy names
+    /// by hash; the view sits in the figures section, before Figure 1.
+    #[test]
+    fn the_view_is_the_one_script_the_policy_allows() {
+        use crate::report::figures::test_valve::synthetic_valve;
+        let (v, contact) = synthetic_valve(6);
+        let scene = view3d::build(&v, &contact, None).unwrap();
+        let figs = [figure("valve_top", 8, 4)];
+        let page = render(&example(), &figs, Some(&scene));
+        assert_whole(&page);
+        assert_eq!(page, render(&example(), &figs, Some(&scene)));
+        let csp = format!(
+            "content=\"default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src {}\">",
+            view3d::script_source()
+        );
+        assert!(page.contains(&csp), "{csp}");
+        let runs: Vec<&str> = page
+            .split("<script>")
+            .skip(1)
+            .map(|r| &r[..r.find("</script>").unwrap()])
+            .collect();
+        assert_eq!(runs, [view3d::SCRIPT]);
+        assert_eq!(
+            page.matches("<script").count(),
+            2,
+            "the viewer and its data"
+        );
+        let at = |s: &str| page.find(s).unwrap();
+        assert!(at("<section id=\"figures\">") < at("<figure id=\"view3d\""));
+        assert!(at("<figure id=\"view3d\"") < at("<figure id=\"fig-valve_top\">"));
+        assert!(page.contains("@media print { .view3d { display: none; } }"));
+        // Without a view the page has no script and the policy allows none.
+        let plain = render(&example(), &figs, None);
+        assert!(!plain.contains("<script") && !plain.contains("script-src"));
     }
 
     #[test]

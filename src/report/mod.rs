@@ -13,7 +13,8 @@
 //!   `verdict.rs` the answer (met, fails, not assessable and why);
 //!   `document.rs` report.json.
 //! - `raster.rs` and `figures/`: the software rasteriser and the figures;
-//!   `html.rs`: the page; `stage.rs`: the stage.
+//!   `html.rs`: the page; `view3d/`: its interactive 3-D view (WebGL);
+//!   `stage.rs`: the stage.
 
 pub mod clip;
 pub mod coaptation;
@@ -32,6 +33,7 @@ pub mod symmetry;
 pub mod terminal;
 pub mod valve;
 pub mod verdict;
+pub mod view3d;
 
 pub use figure::Figure;
 pub use valve::ClosedValve;

@@ -10,7 +10,7 @@ use super::coaptation::{self, Options as ZoneOptions};
 use super::criteria::{self, Anatomy, Pressures, Thresholds};
 use super::document::{self, Context, Finding, Severity};
 use super::metrics::{self, Metrics};
-use super::{ClosedValve, Figure, figures, html, load, symmetry, verdict};
+use super::{ClosedValve, Figure, figures, html, load, symmetry, verdict, view3d};
 use crate::geom::Point3;
 use crate::io::{Transaction, markups, nifti, volume_file, vtp};
 use crate::pipeline::manifest::{self, Manifest};
@@ -93,6 +93,12 @@ pub static SPEC: StageSpec = StageSpec {
             "paths.vtp",
             ArtifactKind::Polylines,
             "suture paths, drawn on the CT",
+        ),
+        optional(
+            "surface",
+            "aorta.vtp",
+            ArtifactKind::Mesh,
+            "lumen wall, drawn translucent around the valve in the interactive view (cropped to the root)",
         ),
         optional(
             "design",
@@ -554,6 +560,11 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             ),
         ));
     }
+    let wall = match optional_input(io, run_dir, "surface") {
+        Some(p) => Some(vtp::read_mesh(&p)?),
+        None => None,
+    };
+    let scene = view3d::build(v, &coapt.node_mask, wall.as_ref());
     progress.set(0.9);
 
     let mut inputs = serde_json::Map::new();
@@ -569,7 +580,15 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     record("closed", cpath)?;
     record("leaflets", lpath)?;
     record("valve", vpath)?;
-    for name in ["log", "ct", "mask", "landmarks", "paths", "design"] {
+    for name in [
+        "log",
+        "ct",
+        "mask",
+        "landmarks",
+        "paths",
+        "surface",
+        "design",
+    ] {
         if let Some(p) = optional_input(io, run_dir, name) {
             record(name, &p)?;
         }
@@ -610,7 +629,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     if let (Some(d), Json::Object(o)) = (design, &mut doc) {
         o.insert("design".into(), d);
     }
-    let page = html::render(&doc, &figs);
+    let page = html::render(&doc, &figs, scene.as_ref());
     let text = serde_json::to_string_pretty(&doc).expect("json") + "\n";
     let mut tx = Transaction::new();
     tx.write_bytes(io.output("report"), text.as_bytes())?;

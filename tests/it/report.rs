@@ -204,6 +204,14 @@ fn ct_to_report_in_one_command_and_an_edit_reruns_only_what_it_touches() {
             "figure {id} missing"
         );
     }
+    // The interactive view, with the run's aorta.vtp around the leaflets.
+    assert!(html.contains("<figure id=\"view3d\""));
+    assert!(html.contains(",\"wall\":{\"vertices\":"));
+    assert!(
+        rep["inputs"]["surface"]["path"]
+            .as_str()
+            .is_some_and(|p| p.ends_with("aorta.vtp"))
+    );
     if let Some(b) = browser() {
         let (v, code) = check(&b, &page);
         assert!(strings(&v["console_errors"]).is_empty(), "{v}");
@@ -449,6 +457,8 @@ fn report_numbers_do_not_depend_on_the_thread_count() {
             &s(&d.join("leaflets.vtp")),
             "--valve",
             &s(&d.join("valve.json")),
+            "--surface",
+            &s(&repo().join("sample_data/truth_surface.vtp")),
             "--out",
             &s(&out),
             "--threads",
@@ -456,10 +466,19 @@ fn report_numbers_do_not_depend_on_the_thread_count() {
             "--quiet",
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
-        json(&out.join("report.json"))
+        let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+        let at = page.find("<figure id=\"view3d\"").expect("the 3-D view");
+        let view = page[at..at + page[at..].find("</figure>").unwrap()].to_string();
+        (json(&out.join("report.json")), view)
     };
-    let (a, b) = (report("1"), report("2"));
+    let ((a, view_a), (b, view_b)) = (report("1"), report("2"));
     assert_eq!(measured(&a), measured(&b));
+    // The view's bytes too (the page as a whole holds timings).
+    assert!(
+        view_a == view_b,
+        "the 3-D view differs with the thread count"
+    );
+    assert!(view_a.contains(",\"wall\":{\"vertices\":"));
     assert_eq!(a["verdict"]["closed"], true);
     // Both effective heights are reported; the criterion judges the seeds'
     // (3 mmHg), which the unloaded leaflets hold higher than 80 mmHg does.

@@ -325,7 +325,11 @@ fn report_page_opens_clean_in_headless_chromium() {
     let Some(b) = browser() else { return };
     let dir = tmpdir("report-html");
     let page = dir.join("report.html");
-    std::fs::write(&page, coapt::report::html::render(&example(), &figures())).unwrap();
+    std::fs::write(
+        &page,
+        coapt::report::html::render(&example(), &figures(), None),
+    )
+    .unwrap();
     let (v, code) = check(&b, &page);
     eprintln!("page and screenshot in {}", dir.display());
     assert!(strings(&v["console_errors"]).is_empty(), "{v}");

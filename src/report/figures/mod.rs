@@ -28,7 +28,7 @@ pub mod xy_chart;
 #[cfg(test)]
 mod preview;
 #[cfg(test)]
-mod test_valve;
+pub(crate) mod test_valve;
 
 pub use coaptation_map::coaptation_maps;
 pub use convergence::convergence;
