@@ -27,6 +27,7 @@ pub mod root_fill;
 pub mod stage;
 pub mod track;
 pub mod vaj;
+pub mod vaj_floor;
 
 #[cfg(test)]
 mod tests;
@@ -610,7 +611,7 @@ pub fn segment(
         let points: Vec<Point3> = (0..n).filter(|&v| opened[v]).map(world).collect();
         let (pl, prof) = vaj::measure(points, roi_vol.voxel_volume(), start, dir, r0, rsp);
         vaj_report.method = match pl {
-            Some(_) => "where the sinus descent flattens into the LVOT, or the end of the region below it (area profile perpendicular to the marched centreline)".into(),
+            Some(_) => "where the sinus descent flattens into the LVOT, or the end of the region below it (area profile perpendicular to the marched centreline), then where the least sections below it stop narrowing (profile.floor)".into(),
             None => "none: no sinus descent was seen along the marched centreline, the region is kept as the IDT stopped it".into(),
         };
         vaj_report.profile = prof;

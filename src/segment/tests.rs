@@ -521,3 +521,89 @@ fn vaj_judge_takes_a_wide_slab_and_finds_the_knee() {
         assert!((400.0..=440.0).contains(&at), "slab {w} mm: area {at} mm²");
     }
 }
+
+/// A root whose axis leans 30° from the ascending aorta above it: the LVOT
+/// and sinus of [`root_tube`] along a tilted axis, the STJ joined by a
+/// straight tube along z. The plane lies on the annulus, square to the
+/// root's axis (the march's chord turns onto it, and the least sections
+/// below the knee keep it there).
+#[test]
+fn a_root_leaning_from_the_ascending_aorta_is_cut_at_its_annulus() {
+    use crate::geom::{Point3, Vector3};
+    let lean = 30f64.to_radians();
+    let axis = Vector3::new(lean.sin(), 0.0, lean.cos());
+    let radius = |z: f64| {
+        let (r0, r_stj) = (11.6, 12.5);
+        if z <= 0.0 {
+            r0
+        } else if z >= 20.0 {
+            r_stj
+        } else {
+            let s = (std::f64::consts::PI * z / 20.0).sin();
+            r0 + (r_stj - r0) * (1.0 - (std::f64::consts::PI * z / 20.0).cos()) / 2.0 + 2.5 * s * s
+        }
+    };
+    let stj = Point3::origin() + axis * 20.0;
+    let mut pts = Vec::new();
+    for k in -60..160 {
+        for j in -40..40 {
+            for i in -40..80 {
+                let q = Point3::new(
+                    i as f64 * 0.5 + 0.25,
+                    j as f64 * 0.5 + 0.25,
+                    k as f64 * 0.5 + 0.25,
+                );
+                let d = q.coords;
+                let h = d.dot(&axis);
+                let in_root = (-15.0..=20.0).contains(&h) && (d - axis * h).norm() <= radius(h);
+                let e = q - stj;
+                let in_aorta = e.z >= 0.0 && e.x.hypot(e.y) <= 12.5;
+                if in_root || in_aorta {
+                    pts.push(q);
+                }
+            }
+        }
+    }
+    let (plane, profile) = super::vaj::measure(
+        pts,
+        0.125,
+        Point3::new(stj.x, 0.0, stj.z + 40.0),
+        -Vector3::z(),
+        12.5,
+        [0.5; 3],
+    );
+    let plane = plane.expect("a VAJ plane");
+    let angle = Vector3::from(plane.normal).dot(&axis).acos().to_degrees();
+    let h = Point3::from(plane.point_mm).coords.dot(&axis);
+    assert!(profile.is_some_and(|p| p.floor.is_some()));
+    assert!(angle < 6.0, "plane {angle:.1}° off the root's axis");
+    assert!(
+        (-0.5..=1.5).contains(&h),
+        "plane {h:.2} mm above the annulus"
+    );
+}
+
+/// The real CT's fault in small: the knee found 5.6 mm above the annulus
+/// on a section 25° off the root's axis. From there the least sections
+/// turn onto the axis (1.1°) and stop at the annulus, not in the LVOT
+/// below.
+#[test]
+fn the_vaj_settles_from_a_slanted_knee_onto_the_annulus() {
+    use crate::geom::{Point3, Vector3};
+    let cells = super::vaj::Cells::new(root_tube(|_, _, _| true)).unwrap();
+    let off = 25f64.to_radians();
+    let t = Vector3::new(off.sin(), 0.0, -off.cos());
+    let knee = Point3::new(0.0, 0.0, 5.6);
+    let (n, _) = cells.section(&knee, &t, 1.0, 30.0);
+    let (plane, floor) = super::vaj_floor::settle(&cells, 0.125, 1.0, knee, t, n * 0.125, 30.0);
+    let plane = plane.unwrap_or_else(|| panic!("not settled: {floor:?}"));
+    let angle = plane.normal[2].acos().to_degrees();
+    assert!(angle < 5.0, "plane {angle:.1}° off the axis: {floor:?}");
+    // This sinus leaves the LVOT with zero slope: its first 2 mm add under
+    // 5 % to the section, and the descent reads flat there (2.2 mm).
+    let z = plane.point_mm[2];
+    assert!(
+        (0.0..=2.5).contains(&z),
+        "plane at z = {z:.2} mm: {floor:?}"
+    );
+}

@@ -9,7 +9,8 @@
 //! and the area of those sections is read: the sinuses are the widest
 //! sections, and below them the lumen narrows into the LVOT, whose area is
 //! about constant. The VAJ is where that descent flattens (see [`judge`]),
-//! and the plane is the section there.
+//! and the plane is the section there, settled onto the sinus floor by
+//! [`super::vaj_floor`] where the root leans away from the march.
 //!
 //! An earlier version cut sections along geodesic shells from the top
 //! slice. Past the bend of a tilted root those shells are slanted (the
@@ -101,6 +102,8 @@ pub struct Profile {
     pub plateau_mm2: f64,
     /// Station of the VAJ; None when no sinus rise above the LVOT was seen.
     pub vaj_mm: Option<f64>,
+    /// The least-section march from the knee down to the sinus floor.
+    pub floor: Option<super::vaj_floor::Floor>,
 }
 
 /// Step between stations (mm).
@@ -131,12 +134,12 @@ pub const PLATEAU_RISE: f64 = 0.05;
 /// (tilt 0°, 0.4/1 mm, calcium) the look-ahead reaches the end taper, no
 /// knee is seen and the plane falls to the region's end, 3.8 mm below
 /// (no leak; Dice 0.973–0.976 in the factorial).
-const KNEE_FLAT: f64 = 0.3;
-const KNEE_SPAN: usize = 2;
+pub(super) const KNEE_FLAT: f64 = 0.3;
+pub(super) const KNEE_SPAN: usize = 2;
 /// Fewest stations judged.
 const MIN_STATIONS: usize = 15;
 /// A sinus must rise at least this much above the plateau to be believed.
-const SINUS_RISE: f64 = 0.15;
+pub(super) const SINUS_RISE: f64 = 0.15;
 /// The march stops where a section falls below this share of the median so
 /// far (the end of the region) or after this length.
 const END_FRACTION: f64 = 0.5;
@@ -145,7 +148,7 @@ const MAX_LENGTH_MM: f64 = 400.0;
 const CELL_MM: f64 = 8.0;
 
 /// Region voxel centres (world mm) sorted into coarse cells.
-struct Cells {
+pub(super) struct Cells {
     lo: Point3,
     dims: [usize; 3],
     start: Vec<usize>,
@@ -153,7 +156,7 @@ struct Cells {
 }
 
 impl Cells {
-    fn new(points: Vec<Point3>) -> Option<Self> {
+    pub(super) fn new(points: Vec<Point3>) -> Option<Self> {
         let first = *points.first()?;
         let (mut lo, mut hi) = (first, first);
         for p in &points {
@@ -193,7 +196,7 @@ impl Cells {
     /// plane through `p` normal to `t`, within `reach` of `p`) and the
     /// weighted in-plane mean offset. The count divided by w is the section's
     /// voxel count per unit thickness.
-    fn section(&self, p: &Point3, t: &Vector3, w: f64, reach: f64) -> (f64, Vector3) {
+    pub(super) fn section(&self, p: &Point3, t: &Vector3, w: f64, reach: f64) -> (f64, Vector3) {
         let half_diag = 0.5 * CELL_MM * 3f64.sqrt();
         let lo =
             [0, 1, 2].map(|a| ((p[a] - reach - self.lo[a]) / CELL_MM).floor().max(0.0) as usize);
@@ -279,14 +282,29 @@ pub fn measure(
     let Some((vaj, plateau)) = vaj else {
         return (None, None);
     };
-    // Normal toward the aorta: against the march.
-    let plane = vaj.map(|b| Plane::new(centres[b], -tangents[b]));
+    // Normal toward the aorta: against the march; settled onto the sinus
+    // floor when the least sections below the knee still narrow.
+    let mut floor = None;
+    let plane = vaj.map(|b| {
+        let (settled, f) = super::vaj_floor::settle(
+            &cells,
+            voxel_mm3,
+            w,
+            centres[b],
+            tangents[b],
+            area[b],
+            REACH_MM,
+        );
+        floor = Some(f);
+        settled.unwrap_or_else(|| Plane::new(centres[b], -tangents[b]))
+    });
     let profile = Profile {
         vaj_mm: vaj.map(|b| stations[b]),
         station_mm: stations,
         area_mm2: area,
         centre_mm: centres.iter().map(|c| [c.x, c.y, c.z]).collect(),
         plateau_mm2: plateau,
+        floor,
     };
     (plane, Some(profile))
 }

@@ -101,6 +101,29 @@ fn dice_in_root(real: &Path, mask: &Volume<u8>, r: &Root) -> f64 {
     2.0 * both as f64 / (a + b) as f64
 }
 
+/// Mask voxels within 30 mm of the nadirs' centre and more than `tol_mm`
+/// (None: the mask's voxel diagonal) below their plane: the LVOT, which the
+/// root mask must not hold.
+fn below_nadir_plane(mask: &Volume<u8>, r: &Root, tol_mm: Option<f64>) -> usize {
+    let md = mask.dims();
+    let diag = tol_mm.unwrap_or_else(|| mask.spacing().iter().map(|x| x * x).sum::<f64>().sqrt());
+    let mut below = 0;
+    for k in 0..md[2] {
+        for j in 0..md[1] {
+            for i in 0..md[0] {
+                let p = mask.index_to_world([i as f64, j as f64, k as f64]);
+                if mask[[i, j, k]] > 0
+                    && (p - r.nadir_c).norm() < 30.0
+                    && (p - r.nadir_c).dot(&r.normal) < -diag
+                {
+                    below += 1;
+                }
+            }
+        }
+    }
+    below
+}
+
 fn segment(ct: &Path, lm: Option<&Path>, out: &Path, threads: &str) -> std::process::Output {
     let mut args = vec![
         "segment".to_string(),
@@ -143,22 +166,7 @@ fn real_ct_from_landmarks_is_the_root_with_its_cusps_and_a_closed_wall() {
         "the commissures' centre is not in the lumen"
     );
     // Cut at the nadir plane: nothing of the root lies below it.
-    let md = mask.dims();
-    let diag = mask.spacing().iter().map(|x| x * x).sum::<f64>().sqrt();
-    let mut below = 0;
-    for k in 0..md[2] {
-        for j in 0..md[1] {
-            for i in 0..md[0] {
-                let p = mask.index_to_world([i as f64, j as f64, k as f64]);
-                if mask[[i, j, k]] > 0
-                    && (p - r.nadir_c).norm() < 30.0
-                    && (p - r.nadir_c).dot(&r.normal) < -diag
-                {
-                    below += 1;
-                }
-            }
-        }
-    }
+    let below = below_nadir_plane(&mask, &r, None);
     assert_eq!(
         below, 0,
         "{below} voxels below the nadir plane near the annulus"
@@ -222,10 +230,34 @@ fn real_ct_without_landmarks_finds_the_ascending_aorta_below_the_arch() {
     );
     let dc = dice_in_root(&real, &mask, &r);
     assert!(
-        dc >= 0.92,
+        dc >= 0.95,
         "Dice {dc:.4} against TotalSegmentator in the root"
     );
+    // The measured VAJ plane settles onto the sinus floor (it lay 5.6 mm
+    // above the nadir plane and 25° off it: Dice 0.932, mean 0.85 mm, 95 %
+    // 3.35 mm in the scorer's region) and does not go on into the LVOT.
+    let sc = crate::real_ct::root_region_scores(&out);
+    assert!(
+        sc.dice >= 0.95 && sc.mean_mm <= 0.6 && sc.p95_mm <= 1.6,
+        "Dice {:.4}, mean {:.2} mm, 95 % {:.2} mm against TotalSegmentator",
+        sc.dice,
+        sc.mean_mm,
+        sc.p95_mm
+    );
+    let below = below_nadir_plane(&mask, &r, Some(FREE_BELOW_MM));
+    assert_eq!(
+        below, 0,
+        "{below} voxels more than {FREE_BELOW_MM} mm below the nadir plane near the annulus"
+    );
 }
+
+/// How far below the nadir plane a landmark-free mask may reach (mm): one
+/// voxel of the real CT, the resolution its plane is measured at (the
+/// nadirs themselves are placed to 1–2 mm). The plane settled onto the
+/// sinus floor lies 0.7 mm below the nadir plane at its centre and 3.7°
+/// from it; its deepest voxels on the original and the ten variants lie
+/// 1.1–1.3 mm below (the knee's plane before it: 1.5 mm).
+const FREE_BELOW_MM: f64 = 1.5;
 
 /// The real CT cut below the arch (the old `vaj.rs` panic at 1.5 mm) and
 /// cut at a height where the lumen leaked into the left atrium with exit 0.
@@ -271,7 +303,8 @@ fn real_ct_crops_segment_or_are_refused_as_leaks() {
 
 /// The real CT resampled to 0.5–2 mm, reoriented (RAS, permuted, flipped,
 /// oblique) and cropped with and without the arch: every variant segments
-/// without landmarks too (Dice ≥ 0.91 against TotalSegmentator), and
+/// without landmarks too (Dice ≥ 0.935 and mean surface distance ≤ 0.8 mm
+/// against TotalSegmentator, nothing below the nadir plane), and
 /// from its landmarks into the same root (Dice ≥ 0.95 with the original's
 /// mask there), against TotalSegmentator as the original does, and the
 /// chain runs on to placed leaflets.
@@ -282,6 +315,7 @@ fn real_ct_variants_segment_alike_and_the_chain_reaches_the_leaflets() {
     let variants = crate::real_ct_variants::write_variants(&real, &d.join("v"));
     let base = d.join("base.nii.gz");
     let lm = real.join("landmarks.mrk.json");
+    let r = root(&markups::read(&lm).unwrap());
     let o = segment(&real.join("ct.nii.gz"), Some(&lm), &base, "2");
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let template = repo().join("pipelines/templates/ozaki_default.toml");
@@ -323,9 +357,15 @@ fn real_ct_variants_segment_alike_and_the_chain_reaches_the_leaflets() {
             v.name, fs.dice, fs.mean_mm
         ));
         assert!(
-            fs.dice >= 0.91 && fs.mean_mm <= 1.1,
+            fs.dice >= 0.935 && fs.mean_mm <= 0.8,
             "{}",
             lines.last().unwrap()
+        );
+        let below = below_nadir_plane(&nifti::read_u8(&free).unwrap(), &r, Some(FREE_BELOW_MM));
+        assert_eq!(
+            below, 0,
+            "{} without landmarks: {below} voxels below the nadir plane",
+            v.name
         );
         let (surf, valve, paths) = (
             w.join("aorta.vtp"),
