@@ -99,6 +99,22 @@ impl TriMesh {
         }
     }
 
+    /// The lumen wall without its caps: the triangles of region 0 when the
+    /// surface labels its regions (cell data `region`, one per triangle),
+    /// else all of them.
+    pub fn wall_triangles(&self) -> Vec<[u32; 3]> {
+        match self.cell_data.get("region").and_then(|a| a.values.to_f64()) {
+            Some(r) if r.len() == self.triangles.len() => self
+                .triangles
+                .iter()
+                .zip(&r)
+                .filter(|(_, r)| **r == 0.0)
+                .map(|(t, _)| *t)
+                .collect(),
+            _ => self.triangles.clone(),
+        }
+    }
+
     #[inline]
     pub fn corners(&self, t: usize) -> [Point3; 3] {
         let [a, b, c] = self.triangles[t];

@@ -165,17 +165,7 @@ fn axis_from_valve(path: &std::path::Path) -> Result<Axis> {
 /// The wall the suture line is sewn to: its wall triangles (region 0) when
 /// the surface labels its caps, else all of it.
 fn wall_of(m: &TriMesh) -> Wall {
-    let region = m.cell_data.get("region").and_then(|a| a.values.to_f64());
-    let tris = match region {
-        Some(r) if r.len() == m.triangles.len() => m
-            .triangles
-            .iter()
-            .zip(&r)
-            .filter(|(_, r)| **r == 0.0)
-            .map(|(t, _)| *t)
-            .collect(),
-        _ => m.triangles.clone(),
-    };
+    let tris = m.wall_triangles();
     Wall::mesh(m.vertices.iter().map(v3).collect(), tris)
 }
 

@@ -145,21 +145,7 @@ fn crop_wall(f: &ValveFrame, leaflets: &Part, w: &TriMesh) -> Option<(Part, Crop
         height_max: hi + WALL_MARGIN_MM,
         radius_max: WALL_RADIUS_FACTOR * reach,
     };
-    let region = w
-        .cell_data
-        .get("region")
-        .and_then(|a| a.values.to_f64())
-        .filter(|r| r.len() == w.triangles.len());
-    let tris: Vec<[u32; 3]> = match region {
-        Some(r) => w
-            .triangles
-            .iter()
-            .zip(&r)
-            .filter(|(_, r)| **r == 0.0)
-            .map(|(t, _)| *t)
-            .collect(),
-        None => w.triangles.clone(),
-    };
+    let tris = w.wall_triangles();
     let local: Vec<Option<[f64; 3]>> = w.vertices.iter().map(|p| to_frame(f, p)).collect();
     let inside = |p: &[f64; 3]| {
         (crop.height_min..=crop.height_max).contains(&p[2]) && p[0].hypot(p[1]) <= crop.radius_max
