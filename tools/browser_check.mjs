@@ -29,7 +29,7 @@ const MIN_DISTINCT_COLOURS = 16;
 const MAX_DOMINANT_FRACTION = 0.985;
 const DEADLINE_MS = 90_000;
 
-function out(verdict, code) {
+export function out(verdict, code) {
   process.stdout.write(JSON.stringify(verdict) + '\n');
   process.exit(code);
 }
@@ -162,17 +162,11 @@ function loadPlaywright() {
   return { playwright: null, from: candidates.join(', ') };
 }
 
-async function main() {
-  const args = process.argv.slice(2);
-  const page_path = args.find((a, i) => !a.startsWith('--') && args[i - 1] !== '--screenshot');
-  const shotAt = args.indexOf('--screenshot');
-  const shot_path = shotAt >= 0 ? args[shotAt + 1] : null;
-  const verdict = {
-    ok: false, page: page_path || null, console_errors: [], page_errors: [], external_requests: [],
-    images: { total: 0, decoded: 0, broken: [] }, screenshot: null, text_chars: 0, error: null,
-  };
-  if (!page_path || !existsSync(page_path)) {
-    verdict.error = `page not found: ${page_path}`;
+// What every check needs before Chromium starts: the page, playwright-core
+// and Chromium, each missing one a verdict with exit 2; and a deadline.
+export function preflight(verdict, pagePath, deadlineMs) {
+  if (!pagePath || !existsSync(pagePath)) {
+    verdict.error = `page not found: ${pagePath}`;
     out(verdict, 2);
   }
   const { playwright, from } = loadPlaywright();
@@ -186,9 +180,22 @@ async function main() {
     out(verdict, 2);
   }
   const timer = setTimeout(() => {
-    verdict.error = `no answer within ${DEADLINE_MS / 1000} s`;
+    verdict.error = `no answer within ${deadlineMs / 1000} s`;
     out(verdict, 2);
-  }, DEADLINE_MS);
+  }, deadlineMs);
+  return { playwright, executablePath, timer };
+}
+
+async function main() {
+  const args = process.argv.slice(2);
+  const page_path = args.find((a, i) => !a.startsWith('--') && args[i - 1] !== '--screenshot');
+  const shotAt = args.indexOf('--screenshot');
+  const shot_path = shotAt >= 0 ? args[shotAt + 1] : null;
+  const verdict = {
+    ok: false, page: page_path || null, console_errors: [], page_errors: [], external_requests: [],
+    images: { total: 0, decoded: 0, broken: [] }, screenshot: null, text_chars: 0, error: null,
+  };
+  const { playwright, executablePath, timer } = preflight(verdict, page_path, DEADLINE_MS);
 
   const profile = mkdtempSync(join(tmpdir(), 'coapt-chromium-'));
   let context = null;

@@ -22,14 +22,12 @@
 // /usr/bin/chromium). Exit status: 0 all checks pass, 1 a check fails,
 // 2 the check could not run.
 
-import { createRequire } from 'node:module';
-import { existsSync, mkdirSync, mkdtempSync, rmSync, writeFileSync } from 'node:fs';
-import { tmpdir, homedir } from 'node:os';
-import { join, resolve, dirname } from 'node:path';
-import { fileURLToPath, pathToFileURL } from 'node:url';
-import { decodePng } from './browser_check.mjs';
+import { mkdirSync, mkdtempSync, rmSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join, resolve } from 'node:path';
+import { pathToFileURL } from 'node:url';
+import { decodePng, out, preflight } from './browser_check.mjs';
 
-const here = dirname(fileURLToPath(import.meta.url));
 // The valve must cover at least this share of the canvas, and a drag or a
 // zoom must change at least this share of its pixels.
 const MIN_DRAWN_FRACTION = 0.02;
@@ -39,23 +37,6 @@ const MAX_RESET_DIFFERENCE = 0.001;
 // A channel this far from the background (white) counts as drawn.
 const INK_THRESHOLD = 12;
 const DEADLINE_MS = 120_000;
-
-function out(verdict, code) {
-  process.stdout.write(JSON.stringify(verdict) + '\n');
-  process.exit(code);
-}
-
-function loadPlaywright() {
-  const candidates = [process.env.COAPT_NODE_MODULES, join(here, 'node_modules'), join(homedir(), '.cache', 'coapt-node', 'node_modules')]
-    .filter(Boolean);
-  for (const dir of candidates) {
-    if (existsSync(join(dir, 'playwright-core', 'package.json'))) {
-      const require = createRequire(join(resolve(dir), '_'));
-      return { playwright: require('playwright-core'), from: dir };
-    }
-  }
-  return { playwright: null, from: candidates.join(', ') };
-}
 
 function drawnFraction(img) {
   const { width, height, channels, pixels } = img;
@@ -96,24 +77,7 @@ async function main() {
     state: null, drawn_fraction: null, drag_changed_fraction: null, zoom_changed_fraction: null,
     reset_difference_fraction: null, frames: null, screenshots: [], error: null,
   };
-  if (!pagePath || !existsSync(pagePath)) {
-    verdict.error = `page not found: ${pagePath}`;
-    out(verdict, 2);
-  }
-  const { playwright, from } = loadPlaywright();
-  if (!playwright) {
-    verdict.error = `playwright-core not found in ${from}`;
-    out(verdict, 2);
-  }
-  const executablePath = process.env.COAPT_CHROMIUM || '/usr/bin/chromium';
-  if (!existsSync(executablePath)) {
-    verdict.error = `chromium not found at ${executablePath}`;
-    out(verdict, 2);
-  }
-  const timer = setTimeout(() => {
-    verdict.error = `no answer within ${DEADLINE_MS / 1000} s`;
-    out(verdict, 2);
-  }, DEADLINE_MS);
+  const { playwright, executablePath, timer } = preflight(verdict, pagePath, DEADLINE_MS);
 
   const profile = mkdtempSync(join(tmpdir(), 'coapt-chromium-'));
   let context = null;
