@@ -21,3 +21,16 @@ pub struct ClosedValve {
     /// Number of leaflets (max of `tri_leaflet` + 1).
     pub leaflets: usize,
 }
+
+impl ClosedValve {
+    /// Leaflets the triangles name, never fewer than `leaflets` says (a
+    /// hand-built valve may set one without the other).
+    pub fn leaflet_count(&self) -> usize {
+        self.tri_leaflet
+            .iter()
+            .map(|&l| l as usize + 1)
+            .max()
+            .unwrap_or(0)
+            .max(self.leaflets)
+    }
+}

@@ -79,13 +79,7 @@ pub fn valve_views(v: &ClosedValve, contact: &[u8]) -> Vec<Figure> {
     };
     let leaflet = node_leaflets(v.x.len(), &v.tris, &v.tri_leaflet);
     let classes = node_classes(contact, &leaflet);
-    let leaflets = v
-        .tri_leaflet
-        .iter()
-        .map(|&l| l as usize + 1)
-        .max()
-        .unwrap_or(0)
-        .max(v.leaflets);
+    let leaflets = v.leaflet_count();
     views
         .iter()
         .zip(fitted)

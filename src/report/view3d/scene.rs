@@ -60,14 +60,7 @@ pub fn build(v: &ClosedValve, contact: &[u8], wall: Option<&TriMesh>) -> Option<
             l * 4 + classes[i as usize] as u8
         })
         .collect();
-    let leaflet_count = v
-        .tri_leaflet
-        .iter()
-        .map(|&l| l as usize + 1)
-        .max()
-        .unwrap_or(1)
-        .max(v.leaflets)
-        .min(8);
+    let leaflet_count = v.leaflet_count().clamp(1, 8);
     let wall = wall.and_then(|w| crop_wall(f, &leaflets, w));
     Some(Scene {
         leaflets,
