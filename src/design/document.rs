@@ -7,21 +7,9 @@ use std::collections::BTreeMap;
 use serde_json::{Value as Json, json};
 
 use super::recommend::{Outcome, Recommendation};
-use crate::geom::ValveFrame;
 use crate::pipeline::params::Value;
 
 pub const SCHEMA: &str = "coapt-design/1";
-
-/// Distances C1–C2, C2–C3, C3–C1 (mm): what the surgeon's Ozaki sizer
-/// measures in the opened root, shown beside the simulated answer.
-pub fn intercommissural_mm(f: &ValveFrame) -> [f64; 3] {
-    let c = &f.commissures_mm;
-    [
-        (c[0] - c[1]).norm(),
-        (c[1] - c[2]).norm(),
-        (c[2] - c[0]).norm(),
-    ]
-}
 
 fn opt(x: Option<f64>) -> Json {
     x.filter(|v| v.is_finite()).map_or(Json::Null, |v| json!(v))

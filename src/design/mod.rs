@@ -153,7 +153,9 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
     let doc = document::build(
         &outcomes,
         &rec,
-        frame.as_ref().map(document::intercommissural_mm),
+        frame
+            .as_ref()
+            .map(crate::geom::ValveFrame::intercommissural_mm),
         &cfg.sections,
     );
     let design_json = design_dir.join("design.json");

@@ -46,6 +46,17 @@ impl ValveFrame {
         })
     }
 
+    /// Distances C1–C2, C2–C3, C3–C1 (mm): what the surgeon's Ozaki sizer
+    /// measures in the opened root.
+    pub fn intercommissural_mm(&self) -> [f64; 3] {
+        let c = &self.commissures_mm;
+        [
+            (c[0] - c[1]).norm(),
+            (c[1] - c[2]).norm(),
+            (c[2] - c[0]).norm(),
+        ]
+    }
+
     pub fn e2(&self) -> Vector3 {
         self.axis.cross(&self.e1)
     }

@@ -29,7 +29,8 @@
 //! when its exact correction moves no node farther than this and the
 //! residual is below 1e-4 of the pressure load; "0 mm": only the residual
 //! decides),
-//! `max_iterations`,
+//! `max_iterations`, `material_source` (free text: where the material's
+//! parameters come from, shown with them in the report's case header),
 //! `time_limit` (default "600 s"; it bounds the whole close, suturing
 //! included), `reference` ("sutured", the default of the membranes: the
 //! configuration after suturing is stress-free, as in seed 001; "placed":
@@ -106,6 +107,7 @@ struct Raw {
     bending: Option<bool>,
     wall_contact: Option<bool>,
     effective_height_pressure: Option<String>,
+    material_source: Option<String>,
     suture: Option<RawSuture>,
 }
 
@@ -141,6 +143,38 @@ pub enum Model {
         k2: f64,
         kappa: f64,
     },
+}
+
+impl Model {
+    /// The law and its parameters for `closure.json`, moduli in kPa (the
+    /// unit the seeds and close.toml give them in).
+    pub fn to_json(&self) -> serde_json::Value {
+        use serde_json::json;
+        let kpa = |mpa: f64| mpa * 1000.0;
+        let kpa3 = |e: &[f64; 3]| e.map(kpa);
+        match self {
+            Model::Msm(msm::Law::Linear { young }) => {
+                json!({"law": "msm", "young_kpa": kpa(*young)})
+            }
+            Model::Msm(msm::Law::ThreeStep { e, eps }) => {
+                json!({"law": "msm", "tangent_moduli_kpa": kpa3(e), "breakpoint_strains": eps})
+            }
+            Model::Msm(msm::Law::Anisotropic { fibre, cross, eps }) => json!({
+                "law": "msm",
+                "fibre_tangent_moduli_kpa": kpa3(fibre),
+                "cross_tangent_moduli_kpa": kpa3(cross),
+                "breakpoint_strains": eps,
+            }),
+            Model::Svk { young, poisson } => {
+                json!({"law": "svk", "young_kpa": kpa(*young), "poisson": poisson})
+            }
+            Model::NeoHookean { mu } => json!({"law": "neo-hookean", "mu_kpa": kpa(*mu)}),
+            Model::Gent { mu, jm } => json!({"law": "gent", "mu_kpa": kpa(*mu), "jm": jm}),
+            Model::Goh { mu, k1, k2, kappa } => json!({
+                "law": "goh", "mu_kpa": kpa(*mu), "k1_kpa": kpa(*k1), "k2": k2, "kappa": kappa,
+            }),
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -192,6 +226,9 @@ pub struct CloseConfig {
     /// Also close at this (low) pressure, MPa, for the effective height
     /// (the seeds measure h_E at 3 mmHg); `None`: only the closing pressure.
     pub effective_height_pressure: Option<f64>,
+    /// Where the material parameters come from, as the user states it
+    /// (`material_source` in close.toml); the report's case header shows it.
+    pub material_source: Option<String>,
     pub suture: suture::Settings,
 }
 
@@ -234,7 +271,8 @@ impl CloseConfig {
     /// Canonical record for `closure.json`.
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::json!({
-            "model": format!("{:?}", self.model),
+            "model": self.model.to_json(),
+            "material_source": self.material_source,
             "thickness_mm": self.thickness,
             "pressure_mpa": self.pressure,
             "pressure_mmhg": self.pressure / units::MMHG_IN_MPA,
@@ -436,6 +474,10 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
         reference,
         bending: raw.bending.unwrap_or(false),
         wall_contact: raw.wall_contact.unwrap_or(false),
+        material_source: raw
+            .material_source
+            .map(|s| s.trim().to_string())
+            .filter(|s| !s.is_empty()),
         effective_height_pressure: match q(
             Kind::Pressure,
             &raw.effective_height_pressure,

@@ -115,7 +115,7 @@ fn row(run: &Path, case: &str) -> Result<Vec<String>> {
             num(&v["sections"]["annulus"]["equivalent_diameter_mm"]),
         );
         if let Ok(f) = crate::io::valve_json::read_frame(&run.join("valve.json")) {
-            let d = crate::design::document::intercommissural_mm(&f);
+            let d = f.intercommissural_mm();
             put(
                 &mut r,
                 "intercommissural_mm",
