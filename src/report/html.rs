@@ -14,8 +14,8 @@ use std::fmt::Write as _;
 
 use serde_json::{Map, Value};
 
-use super::Figure;
 use super::view3d::{self, Scene};
+use super::{Figure, references};
 use crate::io::base64;
 
 /// The stages in pipeline order, for the timing table.
@@ -64,6 +64,11 @@ figure img { display: block; max-width: 100%; height: auto; border: 1px solid va
 figcaption { margin-top: 0.3em; font-size: 0.92em; }
 tr.recommended { background: var(--ok-bg); font-weight: 600; }
 .missing { padding: 2em; border: 2px dashed var(--bad); color: var(--bad); }
+dl.case { display: grid; grid-template-columns: max-content 1fr; gap: 2px 14px; margin: 0.4em 0 0.6em; font-size: 0.93em; }
+dl.case dt { font-weight: 600; color: #4a4f57; }
+dl.case dd { margin: 0; }
+ol.references { padding-left: 0; list-style: none; font-size: 0.92em; }
+ol.references li { margin: 0.25em 0; }
 footer { margin-top: 2em; color: #4a4f57; font-size: 0.85em; }
 @media (max-width: 760px) { .conventions { grid-template-columns: 1fr; } }
 @media print {
@@ -120,7 +125,8 @@ pub fn render(report: &Value, figures: &[Figure], scene: Option<&Scene>) -> Stri
         h,
         "<nav><a href=\"#criteria\">Criteria</a><a href=\"#findings\">Findings</a>{}<a href=\"#metrics\">Metrics</a>\
          <a href=\"#leaflets\">Leaflets</a><a href=\"#conventions\">Conventions</a><a href=\"#figures\">Figures</a>\
-         <a href=\"#solver\">Solver</a><a href=\"#timing\">Timing</a><a href=\"#provenance\">Provenance</a></nav>\n</header>\n",
+         <a href=\"#solver\">Solver</a><a href=\"#timing\">Timing</a><a href=\"#provenance\">Provenance</a>\
+         <a href=\"#references\">References</a></nav>\n</header>\n",
         if report.get("design").is_some() {
             "<a href=\"#sizing\">Sizing</a>"
         } else {
@@ -128,6 +134,7 @@ pub fn render(report: &Value, figures: &[Figure], scene: Option<&Scene>) -> Stri
         }
     );
     let criteria = array(report.get("criteria"));
+    case_header(&mut h, report.get("case"));
     verdict(&mut h, report, criteria);
     criteria_table(&mut h, criteria);
     findings(&mut h, report, criteria);
@@ -151,6 +158,7 @@ pub fn render(report: &Value, figures: &[Figure], scene: Option<&Scene>) -> Stri
     solver(&mut h, report.get("solver"));
     timing(&mut h, report.get("timing_s"));
     provenance(&mut h, report);
+    references::section(&mut h);
     let _ = writeln!(
         h,
         "<footer>coapt {} — a model prediction from CT, to be read with the clinical picture; not a measurement on the patient.</footer>",
@@ -161,6 +169,147 @@ pub fn render(report: &Value, figures: &[Figure], scene: Option<&Scene>) -> Stri
 }
 
 // ---------------------------------------------------------------- sections
+
+/// Who and what: the case, the root the CT gave, the leaflets, the material
+/// and load, in a few lines above the verdict.
+fn case_header(h: &mut String, c: Option<&Value>) {
+    let Some(c) = c.filter(|c| c.is_object()) else {
+        return;
+    };
+    h.push_str("<section id=\"case\">\n<dl class=\"case\">\n");
+    let mut row = |k: &str, v: String| {
+        if !v.is_empty() {
+            let _ = writeln!(h, "<dt>{}</dt><dd>{}</dd>", esc(k), v);
+        }
+    };
+    let mut first = vec![esc(&text_or(c.get("name"), "unnamed case"))];
+    if let Some(t) = c.get("computed_utc").and_then(Value::as_str) {
+        // "2026-11-27T19:29:54Z" → "2026-11-27 19:29 UTC"
+        let shown = match (t.get(..10), t.get(11..16)) {
+            (Some(d), Some(hm)) => format!("{d} {hm} UTC"),
+            _ => t.to_string(),
+        };
+        first.push(format!("predicted {}", esc(&shown)));
+    }
+    first.push(format!(
+        "coapt {}",
+        esc(&text_or(c.get("coapt_version"), DASH))
+    ));
+    row("Case", first.join(" · "));
+
+    let a = c.get("anatomy");
+    let d = |k: &str| {
+        num(a.and_then(|a| a.get(k))).map_or(NOT_MEASURED.to_string(), |x| {
+            with_unit(&fixed(Some(x), 1), "mm")
+        })
+    };
+    let ic: Vec<String> = array(a.and_then(|a| a.get("intercommissural_mm")))
+        .iter()
+        .map(|v| fixed(v.as_f64(), 1))
+        .collect();
+    let mut root = format!(
+        "annulus {}, sinus {}, STJ {} (area-equivalent diameters)",
+        d("annulus_diameter_mm"),
+        d("sinus_diameter_mm"),
+        d("stj_diameter_mm")
+    );
+    if ic.len() == 3 {
+        let _ = write!(
+            root,
+            "; intercommissural distances C1–C2 / C2–C3 / C3–C1 {} mm",
+            ic.join(" / ")
+        );
+    }
+    if let Some(t) = num(a.and_then(|a| a.get("annulus_plane_tilt_deg"))) {
+        let _ = write!(
+            root,
+            "; annulus plane tilted {}° to the commissures' axis",
+            fixed(Some(t), 1)
+        );
+    }
+    row("Root (from the CT)", root);
+
+    let ls = array(c.get("leaflets"));
+    if !ls.is_empty() {
+        let names: Vec<String> = ls
+            .iter()
+            .map(|l| text_or(l.get("template"), DASH))
+            .collect();
+        let mut text = if names.iter().all(|n| *n == names[0]) {
+            format!("{} (all three)", esc(&names[0]))
+        } else {
+            names
+                .iter()
+                .enumerate()
+                .map(|(i, n)| format!("{}: {}", i + 1, esc(n)))
+                .collect::<Vec<_>>()
+                .join("; ")
+        };
+        let per = |k: &str| {
+            ls.iter()
+                .map(|l| fixed(num(l.get(k)), 1))
+                .collect::<Vec<_>>()
+                .join(" / ")
+        };
+        let _ = write!(
+            text,
+            "; free edge {} mm, sutured edge {} mm",
+            per("free_edge_mm"),
+            per("attachment_mm")
+        );
+        if let Some(p) = ls[0].get("placement").and_then(Value::as_str) {
+            let _ = write!(text, "; placed {}", esc(p));
+        }
+        if let Some(hm) = num(c.get("mesh_h_mm")) {
+            let _ = write!(text, "; mesh size {} mm", shortest(Some(hm)));
+        }
+        row("Leaflets", text);
+    }
+
+    if let Some(m) = c.get("material").and_then(super::case::material_text) {
+        let mut text = esc(&m);
+        if let Some(t) = num(c.get("thickness_mm")) {
+            let _ = write!(text, "; thickness {} mm", shortest(Some(t)));
+        }
+        let source = c
+            .get("material_source")
+            .and_then(Value::as_str)
+            .unwrap_or("not stated (close.toml: material_source)");
+        let _ = write!(text, "; source: {}", esc(source));
+        row("Material", text);
+    }
+    if let Some(p) = num(c.get("pressure_mmhg")) {
+        let mut text = format!("{} mmHg", shortest(Some(p)));
+        if let Some(lp) = num(c.get("effective_height_pressure_mmhg")) {
+            let _ = write!(
+                text,
+                " (and {} mmHg for the effective height)",
+                shortest(Some(lp))
+            );
+        }
+        let contact = match c.get("contact").and_then(Value::as_str) {
+            Some("leaflets") => "true contact between the leaflets",
+            Some("planes") => "contact planes through the axis (seed 001)",
+            Some("none") => "no contact",
+            _ => "",
+        };
+        if !contact.is_empty() {
+            let _ = write!(text, "; {contact}");
+        }
+        if let Some(b) = c.get("bending").and_then(Value::as_bool) {
+            text.push_str(if b {
+                "; bending stiffness on"
+            } else {
+                "; membrane (no bending)"
+            });
+        }
+        if let Some(r) = c.get("reference").and_then(Value::as_str) {
+            let _ = write!(text, "; stress-free state: {}", esc(r));
+        }
+        row("Load and model", text);
+    }
+    h.push_str("</dl>\n</section>\n");
+}
 
 fn verdict(h: &mut String, report: &Value, criteria: &[Value]) {
     let v = report.get("verdict");
@@ -195,62 +344,59 @@ fn verdict(h: &mut String, report: &Value, criteria: &[Value]) {
         _ => "na",
     };
     let _ = writeln!(h, "<section id=\"verdict\" class=\"verdict {class}\">");
-    // Whether the closed state can be judged at all comes first: a green
-    // headline above a broken closure would be read and the rest skipped.
-    if status == Some("not_assessable") {
-        let _ = writeln!(
-            h,
-            "<p class=\"headline\">NOT ASSESSABLE: this closure cannot be judged against the criteria.</p>"
-        );
+    // The verdict on the criteria leads, in one line: whether the closure
+    // can be judged at all comes first (a green headline above a broken
+    // closure would be read and the rest skipped), then what it fails.
+    let names = |list: &[String]| esc(&list.join(", "));
+    let headline = match (status, meets_all) {
+        (Some("not_assessable"), _) => {
+            "NOT ASSESSABLE: this closure cannot be judged against the criteria.".to_string()
+        }
+        (_, Some(true)) => format!("Meets all {} criteria.", criteria.len()),
+        (_, Some(false)) if failed.is_empty() => "Not all criteria are met.".to_string(),
+        (_, Some(false)) => format!(
+            "Fails {} of {} criteria: {}.",
+            failed.len(),
+            criteria.len(),
+            names(&failed)
+        ),
+        (_, None) => "Whether the criteria are met could not be determined.".to_string(),
+    };
+    let _ = writeln!(h, "<p class=\"headline\">{headline}</p>");
+    if !reasons.is_empty() {
         h.push_str("<ul class=\"reasons\">\n");
         for r in &reasons {
             let _ = writeln!(h, "<li>{}</li>", esc(r));
         }
         h.push_str("</ul>\n");
     }
-    let headline = match closed {
+    if status == Some("not_assessable") {
+        let _ = writeln!(
+            h,
+            "<p>{}</p>",
+            if failed.is_empty() {
+                "<strong>No criterion is judged met while the closure is not assessable.</strong>"
+                    .to_string()
+            } else {
+                format!(
+                    "<strong>As computed, these criteria would fail ({} of {}):</strong> {}.",
+                    failed.len(),
+                    criteria.len(),
+                    names(&failed)
+                )
+            }
+        );
+    }
+    let closure = match closed {
         Some(true) => "The valve closes: the three leaflets meet in a central coaptation zone.",
         Some(false) => "The valve does NOT close: there is no zone where all three leaflets meet.",
         None => "Closure could not be determined.",
     };
-    let _ = writeln!(h, "<p class=\"headline\">{headline}</p>");
-    let crit = match (status, meets_all) {
-        (Some("not_assessable"), _) if !failed.is_empty() => format!(
-            "<strong>As computed, these criteria would fail ({} of {}):</strong> {}.",
-            failed.len(),
-            criteria.len(),
-            esc(&failed.join(", "))
-        ),
-        (Some("not_assessable"), _) => {
-            "<strong>No criterion is judged met while the closure is not assessable.</strong>"
-                .to_string()
-        }
-        (_, Some(true)) => format!("<strong>All {} criteria are met.</strong>", criteria.len()),
-        (_, Some(false)) if failed.is_empty() => {
-            "<strong>Not all criteria are met.</strong>".to_string()
-        }
-        (_, Some(false)) => format!(
-            "<strong>Criteria NOT met ({} of {}):</strong> {}.",
-            failed.len(),
-            criteria.len(),
-            esc(&failed.join(", "))
-        ),
-        (_, None) => {
-            "<strong>Whether the criteria are met could not be determined.</strong>".to_string()
-        }
-    };
-    let _ = write!(h, "<p>{crit}");
+    let _ = write!(h, "<p>{closure}");
     if !unmeasured.is_empty() {
-        let _ = write!(h, " Not measurable: {}.", esc(&unmeasured.join(", ")));
+        let _ = write!(h, " Not measurable: {}.", names(&unmeasured));
     }
     h.push_str("</p>\n");
-    if let Some(s) = v
-        .and_then(|v| v.get("summary"))
-        .and_then(Value::as_str)
-        .filter(|s| !s.trim().is_empty())
-    {
-        let _ = writeln!(h, "<p>{}</p>", esc(s));
-    }
     h.push_str("</section>\n");
 }
 
@@ -1107,8 +1253,11 @@ mod tests {
     fn assert_whole(page: &str) {
         assert!(page.starts_with("<!DOCTYPE html>\n<html lang=\"en\">"));
         assert!(page.ends_with("</body>\n</html>\n"));
-        assert_eq!(page.matches("<section").count(), 10);
-        assert_eq!(page.matches("</section>").count(), 10);
+        // verdict … provenance and references; the case header when the
+        // report has one, sizing for a design.
+        let sections = page.matches("<section").count();
+        assert!(sections >= 11, "{sections} sections");
+        assert_eq!(page.matches("</section>").count(), sections);
         assert_eq!(
             page.matches("<table").count(),
             page.matches("</table>").count()
@@ -1126,6 +1275,7 @@ mod tests {
         let page = render(&example(), &[figure("top_view", 40, 30)], None);
         assert_whole(&page);
         let ids = [
+            "case",
             "verdict",
             "criteria",
             "findings",
@@ -1136,6 +1286,7 @@ mod tests {
             "solver",
             "timing",
             "provenance",
+            "references",
         ];
         let pos: Vec<usize> = ids
             .iter()
@@ -1143,8 +1294,14 @@ mod tests {
             .collect();
         assert!(pos.windows(2).all(|w| w[0] < w[1]), "{pos:?}");
         for needle in [
+            "<dt>Case</dt><dd>sample · predicted 2026-11-27 19:29 UTC · coapt 0.1.0</dd>",
+            "annulus 21.9 mm, sinus 30.3 mm, STJ 27.1 mm (area-equivalent diameters); intercommissural distances C1–C2 / C2–C3 / C3–C1 22.4 / 23.8 / 23.1 mm",
+            "ozaki_size 23 (all three); free edge 31.6 / 31.6 / 31.6 mm, sutured edge 68.2 / 68.2 / 68.2 mm; placed hanging; mesh size 0.5 mm",
+            "GOH (Gasser–Ogden–Holzapfel): μ 900 kPa, k₁ 1100 kPa, k₂ 1000, κ 0.29; thickness 0.5 mm; source: seed 001 §3",
+            "80 mmHg (and 3 mmHg for the effective height); true contact between the leaflets; bending stiffness on; stress-free state: sutured",
+            "<li><strong>[25]</strong> Schäfers HJ, Bierbach B, Aicher D.",
             "The valve closes",
-            "Criteria NOT met (2 of 9):</strong> Effective height, No billowing.",
+            "<p class=\"headline\">Fails 2 of 9 criteria: Effective height, No billowing.</p>",
             "<td class=\"num\">8.62 mm</td><td class=\"num\">&gt; 9 mm</td><td><span class=\"tag fail\">&#10008; FAIL</span>",
             "<td class=\"num\">4.60 mm</td><td class=\"num\">&gt; 4 mm</td><td><span class=\"tag pass\">&#10004; PASS</span>",
             "<td class=\"num\">yes</td><td class=\"num\">yes</td>",
@@ -1379,7 +1536,7 @@ mod tests {
         assert!(page.contains(
             "As computed, these criteria would fail (2 of 9):</strong> Effective height, No billowing."
         ));
-        assert!(!page.contains("Criteria NOT met"));
+        assert!(!page.contains("Fails 2 of 9"));
     }
 
     #[test]

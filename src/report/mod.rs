@@ -16,6 +16,7 @@
 //!   `html.rs`: the page; `view3d/`: its interactive 3-D view (WebGL);
 //!   `stage.rs`: the stage.
 
+pub mod case;
 pub mod clip;
 pub mod coaptation;
 pub mod cohort_summary;
@@ -28,6 +29,7 @@ pub mod load;
 pub mod metrics;
 pub mod orifice;
 pub mod raster;
+pub mod references;
 pub mod stage;
 pub mod symmetry;
 pub mod terminal;

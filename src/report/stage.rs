@@ -10,7 +10,7 @@ use super::coaptation::{self, Options as ZoneOptions};
 use super::criteria::{self, Anatomy, Pressures, Thresholds};
 use super::document::{self, Context, Finding, Severity};
 use super::metrics::{self, Metrics};
-use super::{ClosedValve, Figure, figures, html, load, symmetry, verdict, view3d};
+use super::{ClosedValve, Figure, case, figures, html, load, symmetry, verdict, view3d};
 use crate::geom::Point3;
 use crate::io::{Transaction, markups, nifti, volume_file, vtp};
 use crate::pipeline::manifest::{self, Manifest};
@@ -70,6 +70,14 @@ pub static SPEC: StageSpec = StageSpec {
             ArtifactKind::Json,
             "closure log: thickness (margin), solver record",
         ),
+        Port {
+            name: "summary",
+            flag: "placement",
+            file: "leaflets.json",
+            kind: ArtifactKind::Json,
+            required: false,
+            help: "leaflets.json from `coapt leaflets`: templates, mesh size and placement, for the case header",
+        },
         optional(
             "ct",
             "ct.nii.gz",
@@ -582,6 +590,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     record("valve", vpath)?;
     for name in [
         "log",
+        "summary",
         "ct",
         "mask",
         "landmarks",
@@ -626,6 +635,20 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         parameters: Json::Object(parameters),
     };
     let mut doc = document::build(&m, &crit, &verdict, &finds, &ctx);
+    let placement = match optional_input(io, run_dir, "summary") {
+        Some(p) => Some(read_json(&p)?),
+        None => None,
+    };
+    let case = case::build(&case::Sources {
+        run_dir,
+        valve: &read_json(vpath)?,
+        frame: &v.frame,
+        placement: placement.as_ref(),
+        log: log.as_ref(),
+    });
+    if let Json::Object(o) = &mut doc {
+        o.insert("case".into(), case);
+    }
     if let (Some(d), Json::Object(o)) = (design, &mut doc) {
         o.insert("design".into(), d);
     }

@@ -813,3 +813,59 @@ fn slit_valve(w: f64) -> ClosedValve {
         leaflets: 2,
     }
 }
+
+/// "refs [21–25]", "[18, 19]", "[21]" → every number in them.
+fn cited_numbers(text: &str) -> Vec<u32> {
+    let mut out = Vec::new();
+    for part in text.split('[').skip(1) {
+        let Some(inside) = part.split(']').next() else {
+            continue;
+        };
+        for item in inside.split(',') {
+            let bounds: Vec<u32> = item
+                .split(['–', '-'])
+                .filter_map(|x| x.trim().parse().ok())
+                .collect();
+            match bounds.as_slice() {
+                [a] => out.push(*a),
+                [a, b] if a <= b => out.extend(*a..=*b),
+                _ => {}
+            }
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// A researcher can trace every criterion to a full reference: each
+/// bracketed number and named source the criteria cite is in the page's
+/// References section.
+#[test]
+fn every_cited_source_is_in_the_references() {
+    use crate::report::references::REFERENCES;
+    let labels: Vec<&str> = REFERENCES.iter().map(|r| r.label).collect();
+    let v = cups(Z_FLOOR, Z_EDGE, Z_COMM, 0.0);
+    let (c, _) = judged(&v, Ok(Z_STJ));
+    let cited: String = c.iter().map(|c| c.source).collect::<Vec<_>>().join(" ");
+    let numbers = cited_numbers(&cited);
+    assert_eq!(numbers, vec![18, 19, 21, 22, 23, 24, 25], "{cited}");
+    for n in numbers {
+        let label = format!("[{n}]");
+        assert!(
+            labels.contains(&label.as_str()),
+            "{label} is cited, not listed"
+        );
+    }
+    for (named, label) in [
+        ("seed 001", "seed 001"),
+        ("seeds 000/002", "seed 000"),
+        ("seeds 000/002", "seed 002"),
+        ("Marom", "Marom et al."),
+        ("ASE/EACVI", "ASE/EACVI"),
+        ("membrane_model", "membrane_model"),
+    ] {
+        assert!(cited.contains(named), "{named} no longer cited: {cited}");
+        assert!(labels.contains(&label), "{label} is cited, not listed");
+    }
+}
