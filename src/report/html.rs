@@ -918,7 +918,7 @@ fn solver(h: &mut String, s: Option<&Value>) {
     let residual = num(get("residual_n")).map_or(DASH.to_string(), |r| format!("{r:.3e} N"));
     let _ = writeln!(
         h,
-        "<tr><th scope=\"row\">Final residual (largest nodal force)</th><td>{}</td></tr>",
+        "<tr><th scope=\"row\">Final residual ‖R‖₂ (all free-node forces)</th><td>{}</td></tr>",
         esc(&residual)
     );
     let _ = writeln!(

@@ -556,6 +556,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
                 log["solver"]["residual_n"]
                     .as_f64()
                     .zip(log["solver"]["converged"].as_bool()),
+                log["solver"]["reason"].as_str(),
             ));
         }
     }

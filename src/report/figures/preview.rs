@@ -135,6 +135,7 @@ fn render_sample_run() {
             closure["solver"]["residual_n"]
                 .as_f64()
                 .zip(closure["solver"]["converged"].as_bool()),
+            closure["solver"]["reason"].as_str(),
         )
     });
     println!("convergence: {ms}");
