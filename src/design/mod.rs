@@ -19,6 +19,8 @@ pub mod sweep;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
 
 use rayon::prelude::*;
 
@@ -28,6 +30,7 @@ pub use settings::Settings;
 use crate::io::write_atomic;
 use crate::pipeline::config::RunConfig;
 use crate::pipeline::execute::Invocation;
+use crate::pipeline::progress::Progress;
 use crate::pipeline::runner::{self, RunOptions};
 use crate::pipeline::{Params, StageIo, StageSpec};
 use crate::{Error, Result};
@@ -137,14 +140,35 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
     let mut sub = inv.clone();
     sub.log.quiet = true; // no progress bars racing each other
     tracing::info!(event = "design", sizes = ?sizes, "design: closing {} sizes ({})", sizes.len(), sizes.iter().map(u32::to_string).collect::<Vec<_>>().join(", "));
+    // One bar for the sweep (the sizes' own are silenced), with the time
+    // left estimated from the sizes done, and a line as each size ends.
+    let bar = Progress::new("design", inv.log);
+    let done = AtomicUsize::new(0);
     let outcomes = sizes
         .par_iter()
         .map(|&size| {
             let _span = tracing::info_span!("size", message = %format!("size {size}")).entered();
+            let t0 = Instant::now();
             let text = sweep::size_config(size, &for_sizes, &cfg.sections);
-            sweep::run_size(size, &design_dir, &text, registry, &sub, opts.force)
+            let o = sweep::run_size(size, &design_dir, &text, registry, &sub, opts.force)?;
+            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+            bar.suspend(|| {
+                tracing::info!(
+                    event = "size_done",
+                    size,
+                    done = k,
+                    of = sizes.len(),
+                    "{} ({:.1} s; {k} of {} sizes done)",
+                    recommend::fails(&o),
+                    t0.elapsed().as_secs_f64(),
+                    sizes.len()
+                )
+            });
+            bar.set(k as f64 / sizes.len() as f64);
+            Ok(o)
         })
         .collect::<Result<Vec<_>>>()?;
+    bar.finish();
     let rec = recommend::recommend(&outcomes);
 
     let frame = upstream

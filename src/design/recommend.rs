@@ -41,7 +41,8 @@ pub struct Recommendation {
     pub reason: String,
 }
 
-fn fails(o: &Outcome) -> String {
+/// What became of one size, in words ("meets every criterion", "fails …").
+pub fn fails(o: &Outcome) -> String {
     match &o.result {
         Ok(m) if m.failures.is_empty() => "meets every criterion".to_string(),
         Ok(m) => format!("fails {}", m.failures.join("; ")),

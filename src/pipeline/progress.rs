@@ -98,9 +98,9 @@ impl Progress {
                 ProgressDrawTarget::hidden()
             },
         );
-        if let Ok(style) =
-            ProgressStyle::with_template("{prefix:>10} [{bar:30}] {percent:>3}% {elapsed}")
-        {
+        if let Ok(style) = ProgressStyle::with_template(
+            "{prefix:>10} [{bar:30}] {percent:>3}% {elapsed}, about {eta} left",
+        ) {
             bar.set_style(style.progress_chars("=> "));
         }
         bar.set_prefix(label.to_string());
@@ -117,6 +117,12 @@ impl Progress {
     pub fn set(&self, fraction: f64) {
         self.bar
             .set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
+    }
+
+    /// Run `f` (a log line) with the bar cleared, so the line does not land
+    /// on the bar's row.
+    pub fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
+        self.bar.suspend(f)
     }
 
     pub fn finish(&self) {

@@ -104,6 +104,20 @@ fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_ha
         }
     }
     assert_eq!(best, first_meeting, "{}", d["reason"]);
+    // Without --quiet, each size says how it ended as it ends (here from
+    // the sweep just run: every stage is reused).
+    let o = coapt(&["design", cfg.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let log = stderr(&o);
+    for e in sizes {
+        let size = e["size"].as_u64().unwrap();
+        let line = log
+            .lines()
+            .find(|l| l.starts_with(&format!("size {size}: ")) && l.ends_with(" of 3 sizes done)"))
+            .unwrap_or_else(|| panic!("no end-of-size line for size {size}:\n{log}"));
+        let meets = e["meets_all_criteria"].as_bool() == Some(true);
+        assert_eq!(line.contains(": meets every criterion ("), meets, "{line}");
+    }
     let reason = d["reason"].as_str().unwrap();
     match best {
         Some(best) => {
