@@ -535,12 +535,8 @@ fn key_metrics(h: &mut String, m: Option<&Value>) {
     h.push_str("<table>\n<thead><tr><th>Quantity</th><th>Value</th><th>Definition</th></tr></thead>\n<tbody>\n");
     let get = |k: &str| m.and_then(|m| m.get(k));
     let area = get("coaptation_area_mm2");
-    let rows: [(&str, String, &str); 19] = [
-        (
-            "Valve closed",
-            boolean(get("closed")),
-            "a zone exists where all three leaflets touch",
-        ),
+    // "Valve closed" is a criterion, judged above; it is not repeated here.
+    let rows: [(&str, String, &str); 18] = [
         (
             "Coaptation height",
             mm(get("coaptation_height_mm")),
@@ -589,12 +585,12 @@ fn key_metrics(h: &mut String, m: Option<&Value>) {
         (
             "Coaptation area, largest leaflet",
             mm2(area.and_then(|a| a.get("max"))),
-            "area of a leaflet in contact with another",
+            "the largest of the three leaflets' coaptation areas (a leaflet's area in contact with another leaflet)",
         ),
         (
             "Coaptation area, smallest leaflet",
             mm2(area.and_then(|a| a.get("min"))),
-            "area of a leaflet in contact with another",
+            "the smallest of the three leaflets' coaptation areas",
         ),
         (
             "Regurgitant orifice area",
@@ -651,10 +647,13 @@ fn leaflets(h: &mut String, report: &Value) {
         h.push_str("<p>No per-leaflet values in the report.</p>\n</section>\n");
         return;
     }
-    h.push_str(
-        "<table>\n<thead><tr><th>Leaflet</th><th>Coaptation area (mm²)</th><th>Free-edge length (mm)</th>\
-         <th>Leaflet area (mm²)</th><th>Cusp area, closed (mm²)</th><th>Billowing (mm)</th><th>h<sub>avr</sub> (mm)</th><th>NCCA</th></tr></thead>\n<tbody>\n",
-    );
+    // Each column's definition is one hover away (title) and in the
+    // footnote below the table.
+    h.push_str("<table>\n<thead><tr><th>Leaflet</th>");
+    for (head, _) in LEAFLET_COLUMNS {
+        let _ = write!(h, "<th title=\"{}\">{}</th>", esc(&plain(head)), head);
+    }
+    h.push_str("</tr></thead>\n<tbody>\n");
     for (i, l) in list.iter().enumerate() {
         let index = l
             .get("index")
@@ -679,7 +678,57 @@ fn leaflets(h: &mut String, report: &Value) {
         }
         h.push_str("</tr>\n");
     }
-    h.push_str("</tbody>\n</table>\n</section>\n");
+    h.push_str("</tbody>\n</table>\n<p class=\"meta\">");
+    let notes: Vec<String> = LEAFLET_COLUMNS
+        .iter()
+        .map(|(head, def)| format!("<strong>{head}</strong>: {}", esc(def)))
+        .collect();
+    h.push_str(&notes.join("; "));
+    h.push_str(".</p>\n</section>\n");
+}
+
+/// The per-leaflet table's columns (HTML heading, definition).
+const LEAFLET_COLUMNS: [(&str, &str); 7] = [
+    (
+        "Coaptation area (mm²)",
+        "area of the closed leaflet in contact with another leaflet (within the contact margin)",
+    ),
+    (
+        "Free-edge length (mm)",
+        "length of the closed leaflet's free edge",
+    ),
+    ("Leaflet area (mm²)", "area of the flat template, as cut"),
+    (
+        "Cusp area, closed (mm²)",
+        "area of the whole leaflet in its closed state (less than the template's where placing gathered it, more where the load stretched it)",
+    ),
+    (
+        "Billowing (mm)",
+        "depth of the leaflet's lowest point below the plane through the three leaflets' lowest sutured points (the annular plane at the nadirs); 0 when it stays above",
+    ),
+    (
+        "h<sub>avr</sub> (mm)",
+        "coaptation area / free-edge length (seed 000)",
+    ),
+    (
+        "NCCA",
+        "normalised cusp coaptation area: coaptation area / closed cusp area (seed 000)",
+    ),
+];
+
+/// Text of an HTML fragment without its tags, for a title attribute.
+fn plain(html: &str) -> String {
+    let mut out = String::with_capacity(html.len());
+    let mut in_tag = false;
+    for ch in html.chars() {
+        match ch {
+            '<' => in_tag = true,
+            '>' => in_tag = false,
+            c if !in_tag => out.push(c),
+            _ => {}
+        }
+    }
+    out
 }
 
 fn conventions(h: &mut String, c: Option<&Value>) {
@@ -1002,15 +1051,13 @@ fn provenance(h: &mut String, report: &Value) {
             h.push_str(
                 "<table>\n<thead><tr><th>Parameter</th><th>Value</th></tr></thead>\n<tbody>\n",
             );
-            for (k, v) in sorted(map) {
-                let shown = match v {
-                    Value::String(s) => s.clone(),
-                    other => canonical(other),
-                };
+            let mut rows = Vec::new();
+            flatten("", &Value::Object(map.clone()), &mut rows);
+            for (k, shown) in rows {
                 let _ = writeln!(
                     h,
                     "<tr><th scope=\"row\">{}</th><td class=\"mono\">{}</td></tr>",
-                    esc(k),
+                    esc(&k),
                     esc(&shown)
                 );
             }
@@ -1022,6 +1069,49 @@ fn provenance(h: &mut String, report: &Value) {
 }
 
 // ---------------------------------------------------------------- helpers
+
+/// Parameters as rows "closure.model.mu: 900 kPa": nested objects by dotted
+/// key, the unit a key ends in (`_mm`, `_kpa`, …) moved to its value, and
+/// parameters left unset (their value is derived and shown under its own
+/// key, e.g. margin → margin 0.9 mm) left out.
+fn flatten(prefix: &str, v: &Value, out: &mut Vec<(String, String)>) {
+    const UNITS: [(&str, &str); 9] = [
+        ("_n_per_mm", "N/mm"),
+        ("_mmhg", "mmHg"),
+        ("_mm2", "mm²"),
+        ("_mm", "mm"),
+        ("_kpa", "kPa"),
+        ("_mpa", "MPa"),
+        ("_deg", "°"),
+        ("_s", "s"),
+        ("_n", "N"),
+    ];
+    match v {
+        Value::Object(map) => {
+            for (k, v) in sorted(map) {
+                let key = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                flatten(&key, v, out);
+            }
+        }
+        Value::String(s) if s == "unset" => {}
+        Value::String(s) => out.push((prefix.to_string(), s.clone())),
+        Value::Number(n) => {
+            let unit = UNITS.iter().find(|(suffix, _)| prefix.ends_with(suffix));
+            match unit {
+                Some((suffix, unit)) => out.push((
+                    prefix[..prefix.len() - suffix.len()].to_string(),
+                    with_unit(&shortest(n.as_f64()), unit),
+                )),
+                None => out.push((prefix.to_string(), shortest(n.as_f64()))),
+            }
+        }
+        other => out.push((prefix.to_string(), canonical(other))),
+    }
+}
 
 /// Escape text for HTML element content and quoted attribute values; C0
 /// control characters other than tab and newlines become U+FFFD.
@@ -1317,7 +1407,8 @@ mod tests {
             "CONVERGED",
             "3f2a9c4e1b7d8a0c6e5f4d3c2b1a09f8e7d6c5b4a39281706f5e4d3c2b1a0918",
             "80 mmHg",
-            "{&quot;kind&quot;:&quot;ozaki&quot;,&quot;size&quot;:23}",
+            "<th scope=\"row\">template.kind</th><td class=\"mono\">ozaki</td>",
+            "<th scope=\"row\">template.size</th><td class=\"mono\">23</td>",
             "<strong>9.80</strong>",
             "coapt 0.1.0",
         ] {
@@ -1327,6 +1418,30 @@ mod tests {
         assert!(page.find("WARNING").unwrap() < page.find("INFO</span>").unwrap());
         // Not measured per-leaflet NCCA and SlicerHeart heights say so.
         assert!(page.contains("<td class=\"num\">not measured</td></tr>"));
+    }
+
+    /// Parameters read with their units and without placeholders: nested
+    /// records by dotted key, a key's unit suffix moved to its value, unset
+    /// parameters (derived, shown under their own key) left out.
+    #[test]
+    fn parameters_read_with_units() {
+        let mut rows = Vec::new();
+        flatten(
+            "",
+            &json!({"margin": "unset", "margin_mm": 0.9, "closure": {"model": {"mu_kpa": 900.0, "law": "goh"}, "time_limit_s": 600.0, "suture": {"k0_n_per_mm": 64.0}}}),
+            &mut rows,
+        );
+        let rows: Vec<(&str, &str)> = rows.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+        assert_eq!(
+            rows,
+            [
+                ("closure.model.law", "goh"),
+                ("closure.model.mu", "900 kPa"),
+                ("closure.suture.k0", "64 N/mm"),
+                ("closure.time_limit", "600 s"),
+                ("margin", "0.9 mm"),
+            ]
+        );
     }
 
     #[test]
