@@ -66,9 +66,15 @@ pub const OMEGA_DEG: f64 = -40.0;
 
 /// The flat cusp (the same for the three leaflets).
 pub fn cusp() -> OzakiTemplate {
+    cusp_with(COMMISSURE_HEIGHT).expect("valid native cusp")
+}
+
+/// The flat cusp with its lug corners `lug_height` (mm) above the belly's
+/// lowest point (the benchmark's cusp: the commissure height), for the
+/// sensitivity of the closure to the cusp's geometric height.
+pub fn cusp_with(lug_height: f64) -> Result<OzakiTemplate, String> {
     let lf = 2.0 * ((FREE_EDGE / 2.0).powi(2) - HF * HF).sqrt();
-    let h = COMMISSURE_HEIGHT - BELLY_D / 2.0;
-    OzakiTemplate::new(BELLY_D, h, HF, lf).expect("valid native cusp")
+    OzakiTemplate::new(BELLY_D, lug_height - BELLY_D / 2.0, HF, lf)
 }
 
 /// Angles (rad) of leaflet k's two commissures.
@@ -113,10 +119,15 @@ pub fn frame() -> ValveFrame {
 /// The three placed leaflets at mesh size `h` (mm): nodes numbered leaflet
 /// by leaflet, boundary 1 attached / 2 free, `ref_uv` the flat cusp.
 pub fn valve(h: f64) -> Result<(Leaflets, Axis), String> {
+    valve_with(h, COMMISSURE_HEIGHT)
+}
+
+/// [`valve`] with the cusp of [`cusp_with`]`(lug_height)`.
+pub fn valve_with(h: f64, lug_height: f64) -> Result<(Leaflets, Axis), String> {
     if !(h > 0.0 && h.is_finite()) {
         return Err(format!("mesh size h = {h} mm must be positive"));
     }
-    let t = Template::Ozaki(cusp());
+    let t = Template::Ozaki(cusp_with(lug_height)?);
     let m = aft::mesh(&t.outline(), h)?;
     let (s, w) = place::column_coords(&t, &m);
     let mut l = Leaflets {
