@@ -112,6 +112,24 @@ pub fn run_one(h: f64, law: &str, bending: bool) -> Result<Row> {
 
 /// [`run_one`] on the cusp of [`geo::cusp_with`]`(lug_height)`.
 pub fn run_with(h: f64, law: &str, bending: bool, lug_height: f64) -> Result<Row> {
+    run_measured(
+        h,
+        law,
+        bending,
+        lug_height,
+        MARGIN_PER_THICKNESS * THICKNESS,
+    )
+}
+
+/// [`run_with`] with the coaptation zone cut at `margin_mm` from the other
+/// leaflets (the report's default: 1.8 × thickness).
+pub fn run_measured(
+    h: f64,
+    law: &str,
+    bending: bool,
+    lug_height: f64,
+    margin_mm: f64,
+) -> Result<Row> {
     let fail = |e: String| Error::failed("bench marom", e);
     let (l, axis) = geo::valve_with(h, lug_height).map_err(fail)?;
     let mut row = Row {
@@ -153,7 +171,7 @@ pub fn run_with(h: f64, law: &str, bending: bool, lug_height: f64) -> Result<Row
     let zone = coaptation::find(
         &v,
         &ZoneOptions {
-            margin_mm: MARGIN_PER_THICKNESS * THICKNESS,
+            margin_mm,
             refine: 4,
         },
     );
@@ -237,6 +255,13 @@ pub fn command() -> Command {
                 .help("sensitivity only: the flat cusp's lug corners this far above its lowest point (default: the commissure height, 17.8 mm); a lower cusp hangs lower"),
         )
         .arg(
+            Arg::new("margin")
+                .long("margin")
+                .value_name("MM")
+                .value_parser(clap::value_parser!(f64))
+                .help("coaptation margin: a point coapts within this distance of another leaflet (default 1.8 × thickness = 0.54 mm, the report's)"),
+        )
+        .arg(
             Arg::new("csv")
                 .long("csv")
                 .value_name("FILE")
@@ -266,6 +291,13 @@ pub fn dispatch(m: &ArgMatches) -> Result<()> {
         .get_one::<f64>("lug-height")
         .copied()
         .unwrap_or(geo::COMMISSURE_HEIGHT);
+    let margin = m
+        .get_one::<f64>("margin")
+        .copied()
+        .unwrap_or(MARGIN_PER_THICKNESS * THICKNESS);
+    if !(margin > 0.0 && margin.is_finite()) {
+        return Err(Error::usage(format!("--margin {margin}: must be positive")));
+    }
     let laws: Vec<String> = m
         .get_one::<String>("laws")
         .expect("default")
@@ -285,7 +317,7 @@ pub fn dispatch(m: &ArgMatches) -> Result<()> {
         .map(|w| (w[1] - w[0]).norm())
         .sum();
     println!(
-        "seed 000 closure benchmark (stand-in for Marom et al. 2013's template): d_AA {} mm, commissures {} mm above the annulus, cusp D {} H {:.2} H_f {} L_f {:.2} mm (free edge {:.1} mm, attached edge {:.1} mm on a {:.1} mm attachment line), t {THICKNESS} mm, E 1 MPa, true contact, {}, h {h} mm",
+        "seed 000 closure benchmark (stand-in for Marom et al. 2013's template): d_AA {} mm, commissures {} mm above the annulus, cusp D {} H {:.2} H_f {} L_f {:.2} mm (free edge {:.1} mm, attached edge {:.1} mm on a {:.1} mm attachment line), t {THICKNESS} mm, E 1 MPa, true contact, {}, h {h} mm, coaptation margin {margin} mm",
         geo::D_AA,
         geo::COMMISSURE_HEIGHT,
         c.d,
@@ -323,7 +355,7 @@ pub fn dispatch(m: &ArgMatches) -> Result<()> {
     let mut csv = String::from(CSV_HEADER);
     csv.push('\n');
     for law in &laws {
-        let r = run_with(h, law, bending, lug)?;
+        let r = run_measured(h, law, bending, lug, margin)?;
         csv += &csv_line(&r);
         csv.push('\n');
         let s = seed_row(law);
