@@ -81,6 +81,8 @@ pub struct Row {
     pub crossings: [usize; 2],
     pub h_e_mm: Option<f64>,
     pub h_e_80_mm: Option<f64>,
+    /// The same height on the placed (stress-free) leaflets.
+    pub h_e_placed_mm: Option<f64>,
     pub h_cc_mm: Option<f64>,
     pub h_avr_mm: Option<f64>,
     pub ncca: Option<f64>,
@@ -143,6 +145,7 @@ pub fn run_measured(
         crossings: [0; 2],
         h_e_mm: None,
         h_e_80_mm: None,
+        h_e_placed_mm: None,
         h_cc_mm: None,
         h_avr_mm: None,
         ncca: None,
@@ -186,6 +189,7 @@ pub fn run_measured(
     let low: Vec<Point3> = closed[1].x.iter().map(|q| Point3::from(*q)).collect();
     row.h_e_mm = metrics::effective_height_at(&v, &low, 3);
     row.h_e_80_mm = m.effective_height_mm;
+    row.h_e_placed_mm = metrics::effective_height_at(&v, &v.x0, 3);
     row.h_cc_mm = m.h_cc_mm;
     row.h_avr_mm = m.h_avr_mm;
     row.ncca = m.ncca;
@@ -197,14 +201,14 @@ pub fn run_measured(
     Ok(row)
 }
 
-const CSV_HEADER: &str = "law,h_mm,nodes,converged,iterations_80,iterations_3,wall_s_80,wall_s_3,crossings_80,crossings_3,h_e_3mmhg_mm,h_e_80mmhg_mm,h_cc_mm,h_avr_mm,ncca,coaptation_height_mm,central_coaptation_height_mm,coaptation_area_mm2,free_edge_mm,cusp_area_mm2,reason";
+const CSV_HEADER: &str = "law,h_mm,nodes,converged,iterations_80,iterations_3,wall_s_80,wall_s_3,crossings_80,crossings_3,h_e_3mmhg_mm,h_e_80mmhg_mm,h_e_placed_mm,h_cc_mm,h_avr_mm,ncca,coaptation_height_mm,central_coaptation_height_mm,coaptation_area_mm2,free_edge_mm,cusp_area_mm2,reason";
 
 /// One CSV line; numbers in Rust's shortest round-trip form, so equal
 /// lines mean bit-identical results.
 fn csv_line(r: &Row) -> String {
     let o = |v: Option<f64>| v.map(|x| format!("{x:?}")).unwrap_or_default();
     format!(
-        "{},{:?},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{:?},{:?},{:?},\"{}\"",
+        "{},{:?},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{:?},{:?},{:?},\"{}\"",
         r.law,
         r.h,
         r.nodes,
@@ -217,6 +221,7 @@ fn csv_line(r: &Row) -> String {
         r.crossings[1],
         o(r.h_e_mm),
         o(r.h_e_80_mm),
+        o(r.h_e_placed_mm),
         o(r.h_cc_mm),
         o(r.h_avr_mm),
         o(r.ncca),
@@ -377,12 +382,13 @@ pub fn dispatch(m: &ArgMatches) -> Result<()> {
         );
         if r.converged {
             println!(
-                "             coaptation area {:.1} mm², free edge {:.1} mm, cusp area {:.1} mm² (three leaflets); coaptation height {} mm, central {} mm",
+                "             coaptation area {:.1} mm², free edge {:.1} mm, cusp area {:.1} mm² (three leaflets); coaptation height {} mm, central {} mm; h_E placed (unloaded) {} mm",
                 r.coaptation_area_mm2,
                 r.free_edge_mm,
                 r.cusp_area_mm2,
                 opt(r.coaptation_height_mm, 1.0, 2),
-                opt(r.central_coaptation_height_mm, 1.0, 2)
+                opt(r.central_coaptation_height_mm, 1.0, 2),
+                opt(r.h_e_placed_mm, 1.0, 2)
             );
         } else {
             println!("             not converged: {}", r.reason);
