@@ -201,6 +201,7 @@ fn command() -> Command {
             .subcommand(bench::close::command())
             .subcommand(bench::pipeline::command())
             .subcommand(bench::seed001::command())
+            .subcommand(bench::marom::command())
             .subcommand(
                 Command::new("stress-close")
                     .about("The closure solver on randomised hostile variants of the peer case: counts converged / failed with a diagnosis / non-finite / hang")
@@ -583,6 +584,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
             }
             Some(("pipeline", b)) => bench::pipeline::dispatch(b, threads),
             Some(("seed001", b)) => bench::seed001::dispatch(b),
+            Some(("marom", b)) => bench::marom::dispatch(b),
             Some(("segment", b)) => {
                 let set = b.get_one::<String>("cases").expect("has default");
                 let baseline = b.get_one::<String>("baseline").map(String::as_str);
@@ -591,7 +593,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 Ok(())
             }
             _ => Err(Error::usage(
-                "coapt bench: name a benchmark (phantom, segment, surface, close, seed001, stress-close, pipeline)",
+                "coapt bench: name a benchmark (phantom, segment, surface, close, seed001, marom, stress-close, pipeline)",
             )),
         },
         stage => {

@@ -7,6 +7,8 @@ pub mod close_grid;
 pub mod close_grid_plot;
 pub mod cpu_time;
 pub mod displacement_error;
+pub mod marom;
+pub mod marom_geometry;
 pub mod phantom;
 pub mod pipeline;
 pub mod seed001;
