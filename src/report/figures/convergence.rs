@@ -38,7 +38,7 @@ pub fn convergence(
     }
     let tol = tolerance_n.filter(|t| t.is_finite() && *t > 0.0);
     if let Some(t) = tol {
-        c.hlines.push((format!("tolerance {t:.3e} N"), t));
+        c.hlines.push((format!("tolerance {t:.3e} N"), t, None));
     }
     let all = running(history);
     let last = all

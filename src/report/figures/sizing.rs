@@ -42,17 +42,20 @@ pub fn sizing(design: &Json, thresholds: (f64, f64)) -> Vec<Figure> {
         h.series
             .push(Series::new(name, series(design, key)).with_markers());
     }
+    // Each threshold in the colour of the height it judges (series 1, 2).
     h.hlines.push((
         format!("central coaptation > {} mm", thresholds.0),
         thresholds.0,
+        Some(1),
     ));
     h.hlines.push((
         format!("effective height > {} mm", thresholds.1),
         thresholds.1,
+        Some(2),
     ));
     h.caption = format!(
         "Each point is one closure of the patient's root with three leaflets of that sizer size, sutured on the same paths. \
-         Dashed red lines: the criteria's thresholds. A size without a point could not be closed or has no such zone. {}",
+         Dashed lines: the criteria's thresholds, each in the colour of the height it judges. A size without a point could not be closed or has no such zone. {}",
         recommended(design)
     );
     let mut a = XyChart::new(
@@ -110,10 +113,12 @@ mod tests {
             f[0].caption
         );
         let img = decode(&f[0].png);
-        // Three series colours and the thresholds' red.
-        for c in [[0, 114, 178], [213, 94, 0], [0, 158, 115], [200, 30, 40]] {
+        // Three series colours; the thresholds are dashed in their
+        // heights' colours, none in the old shared red.
+        for c in [[0, 114, 178], [213, 94, 0], [0, 158, 115]] {
             assert!(count(&img, c) > 50, "colour {c:?}");
         }
+        assert_eq!(count(&img, [200, 30, 40]), 0);
         let none = sizing(&json!({"recommended_size": null, "sizes": []}), (4.0, 9.0));
         assert!(
             none[0].caption.contains("no finite data"),

@@ -45,8 +45,9 @@ pub struct XyChart {
     pub x_label: String,
     pub y_label: String,
     pub series: Vec<Series>,
-    /// Named horizontal reference lines (thresholds, tolerances), dashed.
-    pub hlines: Vec<(String, f64)>,
+    /// Named horizontal reference lines (thresholds, tolerances), dashed:
+    /// in the colour of the series they judge (its index), else red.
+    pub hlines: Vec<(String, f64, Option<usize>)>,
     pub log_y: bool,
     /// Ticks on whole x values only (sizes, counts): no "13.2".
     pub x_integer: bool,
@@ -116,11 +117,11 @@ pub fn xy_chart(chart: &XyChart) -> Figure {
             out
         })
         .collect();
-    let hlines: Vec<(&str, f64)> = chart
+    let hlines: Vec<(&str, f64, Option<usize>)> = chart
         .hlines
         .iter()
-        .map(|(n, y)| (n.as_str(), ty(*y)))
-        .filter(|(_, y)| y.is_finite())
+        .map(|(n, y, k)| (n.as_str(), ty(*y), *k))
+        .filter(|(_, y, _)| y.is_finite())
         .collect();
     let all = runs.iter().flatten().flatten();
     let (mut x0, mut x1, mut y0, mut y1) = (
@@ -142,7 +143,7 @@ pub fn xy_chart(chart: &XyChart) -> Figure {
             &format!("{}: no finite data to plot", chart.title),
         );
     }
-    for &(_, y) in &hlines {
+    for &(_, y, _) in &hlines {
         y0 = y0.min(y);
         y1 = y1.max(y);
     }
@@ -214,7 +215,7 @@ type Ranges = (f64, f64, f64, f64);
 fn draw(
     chart: &XyChart,
     runs: &[Vec<Vec<(f64, f64)>>],
-    hlines: &[(&str, f64)],
+    hlines: &[(&str, f64, Option<usize>)],
     (x0, x1, y0, y1): Ranges,
     buf: &mut [u8],
     size: (u32, u32),
@@ -271,20 +272,79 @@ fn draw(
             }
         }
     }
-    for &(name, y) in hlines {
-        let style = ShapeStyle::from(&rgb(HLINE)).stroke_width(2);
+    for &(name, y, of) in hlines {
+        let colour = of.map_or(HLINE, |k| COLOURS[k % COLOURS.len()]);
+        let style = ShapeStyle::from(&rgb(colour)).stroke_width(2);
         cc.draw_series(DashedLineSeries::new(vec![(x0, y), (x1, y)], 8, 5, style))?
             .label(name)
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], style));
     }
     cc.configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
+        .position(legend_corner(runs, hlines, (x0, x1, y0, y1)).position())
         .label_font((FAMILY, 13).into_font())
         .background_style(WHITE.mix(0.9))
         .border_style(RGBColor(160, 160, 160))
         .draw()?;
     root.present()?;
     Ok(())
+}
+
+/// A corner of the plot for the legend.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Corner {
+    UpperRight,
+    UpperLeft,
+    LowerRight,
+    LowerLeft,
+}
+
+impl Corner {
+    fn position(self) -> SeriesLabelPosition {
+        match self {
+            Corner::UpperRight => SeriesLabelPosition::UpperRight,
+            Corner::UpperLeft => SeriesLabelPosition::UpperLeft,
+            Corner::LowerRight => SeriesLabelPosition::LowerRight,
+            Corner::LowerLeft => SeriesLabelPosition::LowerLeft,
+        }
+    }
+}
+
+/// The corner whose box (the outer 40 % of each axis) holds the least of the
+/// plot, so the legend does not cover a line or a threshold: each data
+/// point counts one, each reference line through the box five (a line is
+/// read along its whole length). Ties keep the usual upper right.
+fn legend_corner(
+    runs: &[Vec<Vec<(f64, f64)>>],
+    hlines: &[(&str, f64, Option<usize>)],
+    (x0, x1, y0, y1): Ranges,
+) -> Corner {
+    let (wx, wy) = (0.4 * (x1 - x0), 0.4 * (y1 - y0));
+    let cost = |c: Corner| {
+        let (right, upper) = match c {
+            Corner::UpperRight => (true, true),
+            Corner::UpperLeft => (false, true),
+            Corner::LowerRight => (true, false),
+            Corner::LowerLeft => (false, false),
+        };
+        let in_x = |x: f64| if right { x >= x1 - wx } else { x <= x0 + wx };
+        let in_y = |y: f64| if upper { y >= y1 - wy } else { y <= y0 + wy };
+        let points = runs
+            .iter()
+            .flatten()
+            .flatten()
+            .filter(|&&(x, y)| in_x(x) && in_y(y))
+            .count();
+        points + 5 * hlines.iter().filter(|&&(_, y, _)| in_y(y)).count()
+    };
+    [
+        Corner::UpperRight,
+        Corner::UpperLeft,
+        Corner::LowerRight,
+        Corner::LowerLeft,
+    ]
+    .into_iter()
+    .min_by_key(|&c| cost(c))
+    .expect("four corners")
 }
 
 #[cfg(test)]
@@ -314,7 +374,8 @@ mod tests {
                 .map(|k| (21.0 + k as f64, 8.0 + 0.4 * k as f64))
                 .collect(),
         ));
-        c.hlines.push(("effective height 9 mm".into(), 9.0));
+        c.hlines
+            .push(("effective height 9 mm".into(), 9.0, Some(1)));
         c
     }
 
@@ -325,7 +386,8 @@ mod tests {
         assert_eq!((img.w, img.h), (720, 420));
         assert!(count(&img, COLOURS[0]) > 200, "{}", count(&img, COLOURS[0]));
         assert!(count(&img, COLOURS[1]) > 200);
-        assert!(count(&img, HLINE) > 100);
+        // The threshold is dashed in the colour of the height it judges.
+        assert_eq!(count(&img, HLINE), 0);
         // Text went through the embedded font: dark anti-aliased pixels exist.
         assert!(
             img.px
@@ -334,6 +396,22 @@ mod tests {
                 .count()
                 > 300
         );
+    }
+
+    #[test]
+    fn the_legend_goes_where_the_plot_is_empty() {
+        let rising: Vec<Vec<(f64, f64)>> = vec![(0..10).map(|k| (k as f64, k as f64)).collect()];
+        let r = (0.0, 9.0, 0.0, 9.0);
+        // A line from lower left to upper right leaves the other corners.
+        let c = legend_corner(&[rising.clone()], &[], r);
+        assert!(matches!(c, Corner::UpperLeft | Corner::LowerRight), "{c:?}");
+        // A threshold near the top rules out both upper corners.
+        assert_eq!(
+            legend_corner(&[rising], &[("t", 8.5, None)], r),
+            Corner::LowerRight
+        );
+        // Nothing to avoid: the usual corner.
+        assert_eq!(legend_corner(&[], &[], r), Corner::UpperRight);
     }
 
     #[test]
