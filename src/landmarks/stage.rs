@@ -215,3 +215,51 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         "snapped_mm": moved,
     }))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::landmarks::detect::{AnnulusPlane, Found};
+
+    fn detection(conf: [f64; 2], stj_is_minimum: bool) -> Detection {
+        let found = |label: &str, confidence: f64| Found {
+            label: label.into(),
+            point_mm: Point3::origin(),
+            confidence,
+            evidence: json!({"pillar_depth_mm": 0.2}),
+        };
+        Detection {
+            annulus_plane: AnnulusPlane {
+                point_mm: Point3::origin(),
+                normal: Vector3::z(),
+            },
+            origin_mm: Point3::origin(),
+            axis: Vector3::z(),
+            axis_turns_deg: Vec::new(),
+            annulus_tilt_deg: 0.0,
+            sinus_height_mm: 9.0,
+            stj_height_mm: 18.0,
+            sinus_mean_radius_mm: 14.0,
+            stj_mean_radius_mm: 13.0,
+            stj_is_minimum,
+            commissure_height_mm: 17.0,
+            axial_profile_mm: Vec::new(),
+            angular_profile_mm: Vec::new(),
+            e1: Vector3::x(),
+            points: vec![found("C1", conf[0]), found("N1", conf[1])],
+        }
+    }
+
+    /// A point under the threshold, and an STJ that is no minimum, are
+    /// findings naming what is uncertain; confident points are not.
+    #[test]
+    fn low_confidence_is_a_finding() {
+        let f = findings(&detection([0.9, 0.3], true), 0.5);
+        assert_eq!(f.len(), 1, "{f:?}");
+        assert!(f[0].contains("N1") && f[0].contains("0.30"), "{f:?}");
+        let f = findings(&detection([0.9, 0.8], false), 0.5);
+        assert_eq!(f.len(), 1, "{f:?}");
+        assert!(f[0].contains("no clear STJ"), "{f:?}");
+        assert!(findings(&detection([0.9, 0.8], true), 0.5).is_empty());
+    }
+}
