@@ -117,7 +117,7 @@ fn sample_truth_mask_within_1_5_mm() {
 
 /// The standard phantom, seed 2, from its CT: segment, surface, landmarks
 /// (with segment's VAJ plane). Every point within 1.5 mm of the truth
-/// (measured 0.34–0.84 mm).
+/// (measured 0.53–0.84 mm).
 #[test]
 fn standard_phantom_from_its_ct_within_1_5_mm() {
     let d = tmpdir("lm-standard");
@@ -169,7 +169,7 @@ fn standard_phantom_from_its_ct_within_1_5_mm() {
 /// landmarks stage runs after the surface and feeds `valve`, the chain
 /// reaches `report.json`, segment ran without landmarks, and the found
 /// points lie near the truth: commissures within 1.5 mm (measured
-/// 0.59–0.75), nadirs within 2 mm (measured 1.15–1.73: segment's VAJ plane
+/// 0.62–0.75), nadirs within 2 mm (measured 1.15–1.73: segment's VAJ plane
 /// lies 0.6–1.2 mm above the true nadir plane on this phantom and its mask
 /// is about 0.5 mm wider there; on the truth mask the nadirs are within
 /// 0.6 mm, see above).
