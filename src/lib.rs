@@ -14,6 +14,7 @@ pub mod error;
 pub mod geom;
 pub mod inspect;
 pub mod io;
+pub mod landmarks;
 pub mod leaflet;
 pub mod mech;
 pub mod phantom;

@@ -29,6 +29,7 @@ pub fn registry() -> &'static [&'static StageSpec] {
         &crate::phantom::stage::SPEC,
         &crate::segment::stage::SPEC,
         &crate::surface::stage::SPEC,
+        &crate::landmarks::stage::SPEC,
         &crate::valve::stage::SPEC,
         &crate::leaflet::stage::SPEC,
         &crate::mech::stage::SPEC,

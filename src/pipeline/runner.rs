@@ -98,8 +98,15 @@ pub fn plan(cfg: &RunConfig, registry: &[&'static StageSpec]) -> Result<Vec<&'st
             continue;
         }
         // A stage the config does not name is left out when the config
-        // already gives what it would make (e.g. a mask segmented elsewhere).
-        if !configured && spec.outputs.iter().any(|o| cfg.inputs.contains_key(o.name)) {
+        // already gives what it would make (e.g. a mask segmented elsewhere),
+        // or an earlier stage makes it (the phantom's true landmarks are not
+        // detected again).
+        if !configured
+            && spec
+                .outputs
+                .iter()
+                .any(|o| cfg.inputs.contains_key(o.name) || available.contains(&o.name))
+        {
             continue;
         }
         for out in spec.outputs {
@@ -223,9 +230,9 @@ pub fn run(
             validate::input(kind, path)?;
         }
     }
-    for spec in &chain[first..=last] {
+    for (at, spec) in chain.iter().enumerate().take(last + 1).skip(first) {
         for port in spec.inputs {
-            let Some(path) = artifact.get(port.name) else {
+            let Some(path) = wired(&artifact, &chain, at, port.name) else {
                 continue;
             };
             let made_upstream = chain[..first].iter().any(|s| s.output(port.name).is_some());
@@ -261,12 +268,18 @@ pub fn run(
         left_out: left_out(&cfg, registry, &chain),
     };
 
-    for (spec, params) in chain[first..=last].iter().zip(resolved) {
+    for ((at, spec), params) in chain
+        .iter()
+        .enumerate()
+        .take(last + 1)
+        .skip(first)
+        .zip(resolved)
+    {
         let io = StageIo {
             inputs: spec
                 .inputs
                 .iter()
-                .filter_map(|p| artifact.get(p.name).map(|path| (p.name, path.clone())))
+                .filter_map(|p| wired(&artifact, &chain, at, p.name).map(|path| (p.name, path)))
                 .collect(),
             outputs: spec
                 .outputs
@@ -306,6 +319,22 @@ pub fn run(
         manifest.save(&run_dir)?;
     }
     Ok(report)
+}
+
+/// Where the stage at `at` in `chain` reads its input `name`: a file the
+/// config gives, or one an earlier stage writes. An artifact only a later
+/// stage makes is not an input (segment's optional landmarks are not the
+/// ones the landmarks stage detects from segment's own mask).
+fn wired(
+    artifact: &BTreeMap<&str, PathBuf>,
+    chain: &[&'static StageSpec],
+    at: usize,
+    name: &str,
+) -> Option<PathBuf> {
+    let path = artifact.get(name)?;
+    let made_later = chain[at..].iter().any(|s| s.output(name).is_some());
+    let made_earlier = chain[..at].iter().any(|s| s.output(name).is_some());
+    (made_earlier || !made_later).then(|| path.clone())
 }
 
 /// Run a single stage by hand (`coapt <stage> …`): always runs. When the

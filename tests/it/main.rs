@@ -12,6 +12,7 @@ mod dicom;
 mod end_to_end;
 mod formats;
 mod hanging;
+mod landmarks;
 mod leaflets;
 mod phantom;
 mod real_ct;

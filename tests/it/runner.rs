@@ -167,10 +167,12 @@ fn unknown_stage_and_sections_are_refused() {
     assert!(stderr(&o).contains("--from close"), "{}", stderr(&o));
 }
 
-/// A config that cannot reach the valve (no landmarks) runs what it can and
-/// says which stage stopped the chain and what it needs; exit 0, no verdict.
+/// A config that cannot reach the report (no closure settings) runs what it
+/// can and says which stage stopped the chain and what it needs; exit 0, no
+/// verdict. Without landmarks the chain no longer stops after the surface:
+/// the landmarks stage finds them and the valve and leaflets follow.
 #[test]
-fn a_chain_without_landmarks_says_why_it_stops() {
+fn a_chain_without_close_settings_says_why_it_stops() {
     let d = tmpdir("no-landmarks");
     let cfg = d.join("ct-only.toml");
     std::fs::write(
@@ -186,10 +188,11 @@ fn a_chain_without_landmarks_says_why_it_stops() {
     let o = run(&cfg, &out, &["--quiet"]);
     let err = stderr(&o);
     assert!(
-        err.contains("the chain stops after surface: stage valve needs landmarks (give `landmarks = \"…\"` under [inputs])"),
+        err.contains("the chain stops after leaflets: stage close needs config (give `config = \"…\"` under [inputs])"),
         "{err}"
     );
-    assert!(out.join("aorta.vtp").exists() && !out.join("valve.json").exists());
+    assert!(out.join("landmarks.mrk.json").exists() && out.join("leaflets.vtp").exists());
+    assert!(!out.join("closed.vtp").exists());
     assert!(
         o.stdout.is_empty(),
         "{}",

@@ -1,0 +1,486 @@
+//! Commissures and nadirs from the segmented root, the way a user places
+//! them by hand (`../shared/real/README.md`):
+//!
+//! 1. **Axis.** Start on the annulus plane's normal through the annulus
+//!    centre (the centroid of the lumen 1–3 mm above the plane, put back
+//!    onto it). Along it, the mean lumen radius against height: its largest
+//!    value between 3 and 25 mm is mid-sinus, the first local minimum above
+//!    is the STJ (the narrowing above the sinuses). The axis is turned onto
+//!    the line from the annulus centre to the STJ section's centroid, and
+//!    the profile is read again, until the turn is under 0.2°: the annulus
+//!    plane of a real root is tilted 15–26° to the commissure plane, so its
+//!    normal is not the root's axis (on `../shared/real/` the first turn is
+//!    7.5°).
+//! 2. **Pillars and sinuses.** At mid-sinus, the radius against angle
+//!    (averaged over ±2 mm of height, smoothed over 9°): its three deepest
+//!    minima at least 75° apart are the commissural pillars; in each
+//!    sector the maximum of the profile smoothed over 21° is the sinus.
+//! 3. **Points.** Commissures on the wall at the pillar angles
+//!    [`COMMISSURE_BELOW_STJ_MM`] below the STJ; nadirs on the wall in the
+//!    annulus plane, halfway between each sinus maximum's angle and the
+//!    middle of its sector.
+//!
+//! Everything is in world LPS millimetres; one thread, so the result does
+//! not depend on the thread count.
+
+use std::f64::consts::TAU;
+
+use serde::Serialize;
+
+use super::angular::{self, SAMPLES};
+use super::lumen_rays::LumenProbe;
+use crate::geom::{Point3, Vector3, Volume};
+
+/// Height of the commissures below the STJ (mm). The mean-radius minimum
+/// lies about 1 mm below the end of the sinus lobes on the phantoms (whose
+/// commissures stand 1–2 mm below it), and 0–3 mm above the hand-placed
+/// commissures of `../shared/real/`; 1 mm suits both.
+pub const COMMISSURE_BELOW_STJ_MM: f64 = 1.0;
+/// Heights read along the axis (mm above the annulus centre) and their step.
+const H_MIN_MM: f64 = 1.0;
+const H_MAX_MM: f64 = 45.0;
+const H_STEP_MM: f64 = 0.5;
+/// Mid-sinus is sought between these heights (mm): the first local
+/// maximum of the mean radius above the lower bound.
+const SINUS_SEARCH_MM: (f64, f64) = (3.0, 25.0);
+/// The STJ is sought at most this far above mid-sinus (mm).
+const STJ_SEARCH_MM: f64 = 20.0;
+/// Rays per turn for the axial profile (every 2°).
+const AXIAL_RAYS: usize = 180;
+/// Longest ray (mm): twice the largest adult sinus radius.
+const REACH_MM: f64 = 40.0;
+/// Height band about mid-sinus averaged into the angular profile (mm).
+const BAND_MM: f64 = 2.0;
+/// Smoothing widths of the angular profile (degrees): pillars, sinuses.
+const PILLAR_SMOOTH: usize = 9;
+const SINUS_SMOOTH: usize = 21;
+/// Stop turning the axis below this turn (degrees) or after this many turns.
+const AXIS_TOL_DEG: f64 = 0.2;
+const AXIS_ITERS: usize = 8;
+/// Nadir rays run this far above the annulus plane (mm), and the point is
+/// put back into the plane: a mask cut at the plane is ragged within a
+/// voxel of it (≤ 1 mm on segment's work grid), and rays 0.5 mm above it
+/// left the real CT's mask through that staircase 4–10 mm short of the
+/// wall.
+const NADIR_LIFT_MM: f64 = 1.0;
+/// The annulus centre is the centroid of the lumen between these heights
+/// above the annulus plane (mm), put back onto the plane: the first
+/// millimetre alone, cut in steps by a tilted plane, put the real CT's
+/// centre 5.7 mm off the circle through its nadirs.
+const CENTRE_SLAB_MM: (f64, f64) = (1.0, 3.0);
+/// Each nadir's angle lies this far from its sinus maximum toward the
+/// middle of its sector (0: the maximum, 1: the middle). A coronary ostium
+/// left by the opening skews a lobe's maximum by up to 14° on the
+/// phantoms, whose nadirs lie at the middle; the hand-placed nadirs of
+/// the real CT lie at the maxima. Halfway is within 1.2 mm of both on the
+/// phantoms.
+const SECTOR_MIDDLE_WEIGHT: f64 = 0.5;
+/// Passes of the annulus centre onto its section's area centroid.
+const ANNULUS_CENTRE_ITERS: usize = 3;
+
+/// The annulus (VAJ) plane: a point on it and its unit normal toward the
+/// aorta.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct AnnulusPlane {
+    pub point_mm: Point3,
+    pub normal: Vector3,
+}
+
+/// One detected point with how sure the detector is and why.
+#[derive(Debug, Clone, Serialize)]
+pub struct Found {
+    pub label: String,
+    pub point_mm: Point3,
+    /// 0–1: the product of the evidence factors below.
+    pub confidence: f64,
+    pub evidence: serde_json::Value,
+}
+
+/// What the detector found, for `landmarks.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Detection {
+    pub annulus_plane: AnnulusPlane,
+    /// Annulus centre and root axis (annulus → STJ).
+    pub origin_mm: Point3,
+    pub axis: Vector3,
+    pub axis_turns_deg: Vec<f64>,
+    /// Angle between the root axis and the annulus plane's normal.
+    pub annulus_tilt_deg: f64,
+    pub sinus_height_mm: f64,
+    pub stj_height_mm: f64,
+    /// Mean radius at mid-sinus and at the STJ (mm).
+    pub sinus_mean_radius_mm: f64,
+    pub stj_mean_radius_mm: f64,
+    /// Whether the STJ is a local minimum of the mean radius (else the
+    /// search ended at its limit or at the mask's end).
+    pub stj_is_minimum: bool,
+    pub commissure_height_mm: f64,
+    /// Mean radius against height along the final axis (mm; heights from
+    /// [`H_MIN_MM`] every [`H_STEP_MM`]; null where the rays leave the mask).
+    pub axial_profile_mm: Vec<Option<f64>>,
+    /// Radius against angle at mid-sinus (mm, one per degree from `e1`).
+    pub angular_profile_mm: Vec<f64>,
+    /// The profile's zero angle: a unit vector ⟂ the axis.
+    pub e1: Vector3,
+    pub points: Vec<Found>,
+}
+
+/// Unit vectors (u, v) completing the unit `n` to a right-handed frame.
+fn basis(n: &Vector3) -> (Vector3, Vector3) {
+    let a = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let u = n.cross(&a).normalize();
+    (u, n.cross(&u))
+}
+
+/// Mean lumen radius against height along (origin, axis); NaN where fewer
+/// than half the rays find the wall.
+fn axial_profile(probe: &LumenProbe, o: &Point3, n: &Vector3, hs: &[f64]) -> Vec<f64> {
+    let (u, v) = basis(n);
+    hs.iter()
+        .map(|&h| {
+            let c = o + n * h;
+            let (mut sum, mut cnt) = (0.0, 0usize);
+            for i in 0..AXIAL_RAYS {
+                let t = TAU * i as f64 / AXIAL_RAYS as f64;
+                if let Some(r) = probe.exit(&c, &(u * t.cos() + v * t.sin()), REACH_MM) {
+                    sum += r;
+                    cnt += 1;
+                }
+            }
+            if cnt * 2 >= AXIAL_RAYS {
+                sum / cnt as f64
+            } else {
+                f64::NAN
+            }
+        })
+        .collect()
+}
+
+/// Five-point moving average that keeps NaN where any sample is NaN.
+fn smooth5(r: &[f64]) -> Vec<f64> {
+    (0..r.len())
+        .map(|i| {
+            let lo = i.saturating_sub(2);
+            let hi = (i + 2).min(r.len() - 1);
+            r[lo..=hi].iter().sum::<f64>() / (hi - lo + 1) as f64
+        })
+        .collect()
+}
+
+/// Centroid of the lumen voxels in the slab |height − h| < half, within
+/// `radius` of the axis.
+fn slab_centroid(
+    voxels: &[Point3],
+    o: &Point3,
+    n: &Vector3,
+    h: f64,
+    half: f64,
+    radius: f64,
+) -> Option<Point3> {
+    let (mut s, mut k) = (Vector3::zeros(), 0usize);
+    for p in voxels {
+        let d = p - o;
+        let z = d.dot(n);
+        if (z - h).abs() < half && (d - n * z).norm() < radius {
+            s += p.coords;
+            k += 1;
+        }
+    }
+    (k > 0).then(|| Point3::from(s / k as f64))
+}
+
+/// Area centroid of the lumen's section through `c` normal to `n`, by
+/// [`AXIAL_RAYS`] rays from `c` (a star-shaped polygon about it); `None`
+/// when a ray finds no wall.
+fn section_centroid(probe: &LumenProbe, c: &Point3, n: &Vector3) -> Option<Point3> {
+    let (u, v) = basis(n);
+    let pts: Vec<(f64, f64)> = (0..AXIAL_RAYS)
+        .map(|i| {
+            let t = TAU * i as f64 / AXIAL_RAYS as f64;
+            probe
+                .exit(c, &(u * t.cos() + v * t.sin()), REACH_MM)
+                .map(|r| (r * t.cos(), r * t.sin()))
+        })
+        .collect::<Option<_>>()?;
+    let (mut a, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for i in 0..pts.len() {
+        let (x0, y0) = pts[i];
+        let (x1, y1) = pts[(i + 1) % pts.len()];
+        let w = x0 * y1 - x1 * y0;
+        a += w;
+        cx += (x0 + x1) * w;
+        cy += (y0 + y1) * w;
+    }
+    (a > 0.0).then(|| c + u * (cx / (3.0 * a)) + v * (cy / (3.0 * a)))
+}
+
+/// Why detection could not proceed (the stage turns it into an error that
+/// names the mask).
+pub type Failure = String;
+
+struct Levels {
+    sinus: usize,
+    stj: usize,
+    is_min: bool,
+}
+
+fn levels(hs: &[f64], r: &[f64]) -> Option<Levels> {
+    // Mid-sinus: walking up from the bottom of the search, the first level
+    // past which the mean radius falls (not the widest level of the
+    // search: a wide ascending aorta can exceed the sinuses, as on sample
+    // seed 5 at 25 mm).
+    let mut sinus = (0..hs.len()).find(|&i| hs[i] >= SINUS_SEARCH_MM.0 && r[i].is_finite())?;
+    while sinus + 1 < hs.len() && hs[sinus + 1] <= SINUS_SEARCH_MM.1 && r[sinus + 1] >= r[sinus] {
+        sinus += 1;
+    }
+    let mut k = sinus;
+    let mut is_min = false;
+    while k + 1 < hs.len() && hs[k + 1] - hs[sinus] <= STJ_SEARCH_MM {
+        if !r[k + 1].is_finite() {
+            break;
+        }
+        if r[k + 1] > r[k] {
+            is_min = true;
+            break;
+        }
+        k += 1;
+    }
+    Some(Levels {
+        sinus,
+        stj: k,
+        is_min,
+    })
+}
+
+/// Detect C1–C3 and N1–N3 in `mask` above `plane`.
+pub fn detect(mask: &Volume<u8>, plane: &AnnulusPlane) -> Result<Detection, Failure> {
+    let probe = LumenProbe::new(mask);
+    let n0 = plane
+        .normal
+        .try_normalize(1e-12)
+        .ok_or("annulus plane normal is zero")?;
+    let voxels: Vec<Point3> = mask
+        .data()
+        .indexed_iter()
+        .filter(|(_, v)| **v > 0)
+        .map(|((i, j, k), _)| mask.index_to_world([i as f64, j as f64, k as f64]))
+        .collect();
+    // Annulus centre: the lumen's centroid in the first millimetre above
+    // the plane, put back on the plane.
+    let (mut s, mut k) = (Vector3::zeros(), 0usize);
+    for p in &voxels {
+        let z = (p - plane.point_mm).dot(&n0);
+        if z > CENTRE_SLAB_MM.0 && z < CENTRE_SLAB_MM.1 {
+            s += p.coords;
+            k += 1;
+        }
+    }
+    if k == 0 {
+        return Err("the mask has no lumen in the first millimetre above the annulus plane".into());
+    }
+    let c = Point3::from(s / k as f64);
+    let mut o = c - n0 * (c - plane.point_mm).dot(&n0);
+    // Then onto the area centroid of the section just above the plane: a
+    // slab of voxels under a tilted plane holds more of the sinus on the
+    // high side (the clinical phantom's axis was 7.5° off its own).
+    for _ in 0..ANNULUS_CENTRE_ITERS {
+        match section_centroid(&probe, &(o + n0 * NADIR_LIFT_MM), &n0) {
+            Some(q) => o = q - n0 * NADIR_LIFT_MM,
+            None => break,
+        }
+    }
+
+    let hs: Vec<f64> = (0..)
+        .map(|i| H_MIN_MM + i as f64 * H_STEP_MM)
+        .take_while(|&h| h <= H_MAX_MM + 1e-9)
+        .collect();
+    let mut n = n0;
+    let mut turns = Vec::new();
+    let mut lv;
+    let mut r;
+    let mut iter = 0;
+    loop {
+        r = smooth5(&axial_profile(&probe, &o, &n, &hs));
+        lv = levels(&hs, &r).ok_or(
+            "no lumen section 3–25 mm above the annulus plane: the mask does not hold the sinuses",
+        )?;
+        let h_stj = hs[lv.stj];
+        let cs = slab_centroid(&voxels, &o, &n, h_stj, 0.75, 1.5 * r[lv.stj])
+            .ok_or("no lumen at the STJ level")?;
+        let next = (cs - o)
+            .try_normalize(1e-9)
+            .ok_or("the STJ centroid lies on the annulus centre")?;
+        let turn = next.dot(&n).clamp(-1.0, 1.0).acos().to_degrees();
+        iter += 1;
+        if turn < AXIS_TOL_DEG || iter > AXIS_ITERS {
+            break;
+        }
+        turns.push(turn);
+        n = next;
+    }
+    let h_sinus = hs[lv.sinus];
+    let h_stj = hs[lv.stj];
+    if h_stj - h_sinus < 2.0 {
+        return Err(format!(
+            "no narrowing above the sinuses: the mean radius falls no further than {:.1} mm above its widest level",
+            h_stj - h_sinus
+        ));
+    }
+
+    // Radius against angle at mid-sinus.
+    let (u, v) = basis(&n);
+    let dir = |deg: f64| {
+        let t = deg.to_radians();
+        u * t.cos() + v * t.sin()
+    };
+    let band: Vec<f64> = (0..)
+        .map(|i| h_sinus - BAND_MM + i as f64 * H_STEP_MM)
+        .take_while(|&h| h <= h_sinus + BAND_MM + 1e-9)
+        .collect();
+    let mut profile = vec![0.0; SAMPLES];
+    for (i, pr) in profile.iter_mut().enumerate() {
+        let d = dir(i as f64);
+        let hits: Vec<f64> = band
+            .iter()
+            .filter_map(|&h| probe.exit(&(o + n * h), &d, REACH_MM))
+            .collect();
+        if hits.is_empty() {
+            return Err(format!(
+                "at mid-sinus ({h_sinus:.1} mm above the annulus) a ray at {i}° never meets the wall"
+            ));
+        }
+        *pr = hits.iter().sum::<f64>() / hits.len() as f64;
+    }
+    let rp = angular::smooth(&profile, PILLAR_SMOOTH);
+    let rs = angular::smooth(&profile, SINUS_SMOOTH);
+    let p = angular::pillars(&rp).ok_or(
+        "the radius at mid-sinus has no three minima 75° apart: no sinus lobes to find the commissures by",
+    )?;
+
+    // Sector k runs from pillar k to pillar k+1 (increasing angle, i.e.
+    // counter-clockwise about the axis); its sinus maximum.
+    let mut sinus_deg = [0.0; 3];
+    let mut sinus_r = [0.0; 3];
+    let mut lobe_mm = [0.0; 3];
+    for k in 0..3 {
+        let (a, b) = (p[k], p[(k + 1) % 3]);
+        let m = angular::sector_max(&rs, a, b, 3).ok_or("a sinus sector is empty")?;
+        sinus_deg[k] = angular::refine(&rs, m);
+        sinus_r[k] = rs[m];
+        lobe_mm[k] = rs[m] - rs[a].max(rs[b]);
+    }
+    // Which sector is the right-coronary sinus: the one facing anterior
+    // (−y in LPS) starts at C1 (the phantom's and the hand-placed
+    // landmarks' convention: sinus k lies between C_k and C_k+1).
+    let first = (0..3)
+        .min_by(|&a, &b| {
+            dir(sinus_deg[a])
+                .y
+                .partial_cmp(&dir(sinus_deg[b]).y)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .unwrap_or(0);
+
+    let h_c = h_stj - COMMISSURE_BELOW_STJ_MM;
+    let stj_narrowing = r[lv.sinus] - r[lv.stj];
+    let stj_factor = if lv.is_min {
+        (stj_narrowing / 0.5).clamp(0.0, 1.0)
+    } else {
+        0.5 * (stj_narrowing / 0.5).clamp(0.0, 1.0)
+    };
+    let mut points = Vec::new();
+    for j in 0..3 {
+        let k = (first + j) % 3;
+        let ang = angular::refine(&rp, p[k]);
+        let d = dir(ang);
+        let from = o + n * h_c;
+        let rr = probe.exit(&from, &d, REACH_MM).ok_or(format!(
+            "no wall at the pillar angle {ang:.1}° at the commissure height"
+        ))?;
+        // How clearly the pillar stands out: the shallower of its two
+        // neighbouring lobes over it (mm); 1.5 mm and more is a clear pillar.
+        let prev = (k + 2) % 3;
+        let depth = (sinus_r[k].min(sinus_r[prev]) - rp[p[k]]).max(0.0);
+        let gaps = [
+            angular::forward(p[prev], p[k], SAMPLES),
+            angular::forward(p[k], p[(k + 1) % 3], SAMPLES),
+        ];
+        let gap_factor = if gaps.iter().all(|&g| (80..=160).contains(&g)) {
+            1.0
+        } else {
+            0.6
+        };
+        let conf = (depth / 1.5).clamp(0.0, 1.0) * stj_factor * gap_factor;
+        points.push(Found {
+            label: format!("C{}", j + 1),
+            point_mm: from + d * rr,
+            confidence: conf,
+            evidence: serde_json::json!({
+                "angle_deg": ang.rem_euclid(360.0),
+                "height_mm": h_c,
+                "radius_mm": rr,
+                "pillar_depth_mm": depth,
+                "sectors_deg": gaps,
+                "stj_narrowing_mm": stj_narrowing,
+                "stj_is_minimum": lv.is_min,
+            }),
+        });
+    }
+    // Nadirs: in the annulus plane, at each sinus maximum's angle.
+    for j in 0..3 {
+        let k = (first + j) % 3;
+        let (a, b) = (p[k] as f64, p[(k + 1) % 3] as f64);
+        let mid = a + 0.5 * ((b - a).rem_euclid(360.0));
+        let dd = sinus_deg[k]
+            + SECTOR_MIDDLE_WEIGHT * ((mid - sinus_deg[k] + 540.0).rem_euclid(360.0) - 180.0);
+        let d = dir(dd);
+        let dp = (d - n0 * d.dot(&n0))
+            .try_normalize(1e-9)
+            .ok_or("the root axis is perpendicular to the annulus plane's normal")?;
+        let from = o + n0 * NADIR_LIFT_MM;
+        let rr = probe.exit(&from, &dp, REACH_MM).ok_or(format!(
+            "no wall in the annulus plane at the sinus angle {:.1}°",
+            sinus_deg[k]
+        ))?;
+        let off_mid = ((sinus_deg[k] - mid + 540.0).rem_euclid(360.0) - 180.0).abs();
+        // A clear lobe (≥ 1.5 mm over its pillars) whose maximum lies near
+        // the middle of its sector is a sure sinus; a lopsided one less so.
+        let conf = (lobe_mm[k] / 1.5).clamp(0.0, 1.0) * (1.0 - off_mid / 45.0).clamp(0.0, 1.0);
+        points.push(Found {
+            label: format!("N{}", j + 1),
+            point_mm: o + dp * rr,
+            confidence: conf,
+            evidence: serde_json::json!({
+                "sinus_angle_deg": sinus_deg[k].rem_euclid(360.0),
+                "sector_middle_deg": mid.rem_euclid(360.0),
+                "off_middle_deg": off_mid,
+                "lobe_mm": lobe_mm[k],
+                "radius_mm": rr,
+            }),
+        });
+    }
+    Ok(Detection {
+        annulus_plane: AnnulusPlane {
+            point_mm: plane.point_mm,
+            normal: n0,
+        },
+        origin_mm: o,
+        axis: n,
+        axis_turns_deg: turns,
+        annulus_tilt_deg: n.dot(&n0).clamp(-1.0, 1.0).acos().to_degrees(),
+        sinus_height_mm: h_sinus,
+        stj_height_mm: h_stj,
+        sinus_mean_radius_mm: r[lv.sinus],
+        stj_mean_radius_mm: r[lv.stj],
+        stj_is_minimum: lv.is_min,
+        commissure_height_mm: h_c,
+        axial_profile_mm: r.iter().map(|x| x.is_finite().then_some(*x)).collect(),
+        angular_profile_mm: profile,
+        e1: u,
+        points,
+    })
+}

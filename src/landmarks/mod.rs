@@ -1,0 +1,11 @@
+//! The `landmarks` stage: the commissures C1–C3 and nadirs N1–N3 found in
+//! the segmented root, so that a CT alone reaches a report. See
+//! [`detect`] for the method, [`stage`] for the files.
+
+pub mod angular;
+pub mod annulus;
+pub mod detect;
+pub mod lumen_rays;
+pub mod stage;
+
+pub use detect::{AnnulusPlane, Detection, detect};

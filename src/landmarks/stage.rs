@@ -1,0 +1,265 @@
+//! The `landmarks` stage: commissures C1–C3 and nadirs N1–N3 found in the
+//! segmented root, written as 3D Slicer markups (LPS) a user can open, move
+//! and save, with their confidence and evidence in `landmarks.json`.
+
+use serde_json::{Value as Json, json};
+
+use super::annulus;
+use super::detect::{self, Detection};
+use crate::geom::bvh::Bvh;
+use crate::geom::closest_point::closest_point;
+use crate::geom::{Frame, Landmarks, Point3, TriMesh, Vector3};
+use crate::io::{Transaction, markups, nifti, vtp};
+use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
+use crate::{Error, Result};
+
+pub static SPEC: StageSpec = StageSpec {
+    name: "landmarks",
+    about: "Find the commissures C1–C3 and nadirs N1–N3 in the segmented root (sinus lobes, STJ, annulus plane)",
+    inputs: &[
+        Port {
+            name: "mask",
+            flag: "mask",
+            file: "mask.nii.gz",
+            kind: ArtifactKind::Mask,
+            required: true,
+            help: "aortic lumen from the VAJ up (as `segment` writes it)",
+        },
+        Port {
+            name: "surface",
+            flag: "surface",
+            file: "aorta.vtp",
+            kind: ArtifactKind::Mesh,
+            required: true,
+            help: "lumen wall: the points are put on it; its lowest cut cap is the annulus plane when no segment report is given",
+        },
+        Port {
+            name: "segment_report",
+            flag: "segment-report",
+            file: "segment.json",
+            kind: ArtifactKind::Json,
+            required: false,
+            help: "segment.json: its VAJ plane (vaj.plane) is the annulus plane",
+        },
+    ],
+    outputs: &[
+        Port {
+            name: "landmarks",
+            flag: "out",
+            file: "landmarks.mrk.json",
+            kind: ArtifactKind::Landmarks,
+            required: true,
+            help: "C1–C3 and N1–N3, 3D Slicer markups in LPS",
+        },
+        Port {
+            name: "landmarks_report",
+            flag: "report",
+            file: "landmarks.json",
+            kind: ArtifactKind::Json,
+            required: true,
+            help: "per point: confidence and evidence; axis, sinus and STJ heights, radius against angle; findings",
+        },
+    ],
+    out_dir: None,
+    params: &[Param {
+        name: "min_confidence",
+        kind: ParamKind::Float { min: 0.0, max: 1.0 },
+        default: Some("0.5"),
+        help: "a point found with less confidence than this is listed as a finding (warning)",
+    }],
+    check: |_| Ok(()),
+    run,
+};
+
+/// A detected point is put on the wall mesh; more than this from it means
+/// the mask and the surface disagree (mm).
+const MAX_SNAP_MM: f64 = 2.0;
+
+/// Closest point of the wall (region 0 triangles) to `p`.
+fn snap(mesh: &TriMesh, bvh: &Bvh, tris: &[[u32; 3]], p: &Point3) -> Option<Point3> {
+    let x: Vector3 = p.coords;
+    let mut best: Option<(f64, Vector3)> = None;
+    bvh.query_sphere(&x, MAX_SNAP_MM, |t| {
+        let [a, b, c] = tris[t as usize].map(|i| mesh.vertices[i as usize].coords);
+        let q = closest_point(&x, &a, &b, &c).point;
+        let d = (q - x).norm();
+        if best.is_none_or(|(bd, _)| d < bd) {
+            best = Some((d, q));
+        }
+    });
+    best.map(|(_, q)| Point3::from(q))
+}
+
+/// Findings for points below `min_confidence`, and for a STJ that is not
+/// a clear narrowing.
+fn findings(det: &Detection, min_confidence: f64) -> Vec<String> {
+    let mut out = Vec::new();
+    if !det.stj_is_minimum {
+        out.push(format!(
+            "no clear STJ: the mean radius does not narrow to a minimum within 20 mm above mid-sinus (taken at {:.1} mm above the annulus); the commissure heights are uncertain",
+            det.stj_height_mm
+        ));
+    }
+    for p in &det.points {
+        if p.confidence < min_confidence {
+            out.push(format!(
+                "{} detected with low confidence {:.2} (< {min_confidence}): check it in 3D Slicer ({})",
+                p.label, p.confidence, p.evidence
+            ));
+        }
+    }
+    out
+}
+
+fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
+    let t0 = std::time::Instant::now();
+    let mask_path = io.input("mask").expect("required input");
+    let surf_path = io.input("surface").expect("required input");
+    let mask = nifti::read_u8(mask_path)?;
+    let mesh = vtp::read_mesh(surf_path)?;
+    let (plane, plane_source) = match io.input("segment_report") {
+        Some(p) => match annulus::from_segment_report(p)? {
+            Some(pl) => (Some(pl), "segment.json vaj.plane"),
+            None => (
+                annulus::from_surface_caps(&mesh),
+                "lowest cut cap of the surface",
+            ),
+        },
+        None => (
+            annulus::from_surface_caps(&mesh),
+            "lowest cut cap of the surface",
+        ),
+    };
+    let plane = plane.ok_or_else(|| {
+        Error::bad_input(
+            surf_path,
+            "no annulus plane: the surface has no cut cap (cell data region 1) and no segment report with vaj.plane was given",
+        )
+    })?;
+    let read_s = t0.elapsed().as_secs_f64();
+    progress.set(0.2);
+    let t1 = std::time::Instant::now();
+    let mut det = detect::detect(&mask, &plane).map_err(|e| Error::failed("landmarks", e))?;
+    let tris = mesh.wall_triangles();
+    let x: Vec<Vector3> = mesh.vertices.iter().map(|p| p.coords).collect();
+    let bvh = Bvh::build(&x, &tris);
+    let mut moved = serde_json::Map::new();
+    for p in &mut det.points {
+        let q = snap(&mesh, &bvh, &tris, &p.point_mm).ok_or_else(|| {
+            Error::failed(
+                "landmarks",
+                format!(
+                    "{} found on the mask's wall lies more than {MAX_SNAP_MM} mm from the surface {}: were they made from the same mask?",
+                    p.label,
+                    surf_path.display()
+                ),
+            )
+        })?;
+        let d = (q - p.point_mm).norm();
+        moved.insert(p.label.clone(), json!(d));
+        p.evidence["wall_distance_mm"] = json!(d);
+        // A commissure goes onto the wall mesh. A nadir stays in the
+        // annulus plane: the wall nearest to it lies above the cap's rim,
+        // and moving it there lifted the phantoms' nadirs by 0.6–0.9 mm
+        // (`valve` snaps it again when it builds the frame).
+        if p.label.starts_with('C') {
+            p.point_mm = q;
+        }
+    }
+    let detect_s = t1.elapsed().as_secs_f64();
+    progress.set(0.9);
+    let min_conf = params.float("min_confidence");
+    let found = findings(&det, min_conf);
+    for f in &found {
+        tracing::warn!(stage = "landmarks", event = "finding", "landmarks: {f}");
+    }
+    let mut lm = Landmarks::new(Frame::Lps);
+    for p in &det.points {
+        lm.push(p.label.clone(), p.point_mm);
+    }
+    lm.sanity_check()
+        .map_err(|e| Error::failed("landmarks", e.to_string()))?;
+    let mut report = serde_json::to_value(&det).expect("detection serialises");
+    if let Json::Object(m) = &mut report {
+        m.insert("frame".into(), json!(Frame::Lps.name()));
+        m.insert("annulus_plane_source".into(), json!(plane_source));
+        m.insert(
+            "commissure_below_stj_mm".into(),
+            json!(detect::COMMISSURE_BELOW_STJ_MM),
+        );
+        m.insert("min_confidence".into(), json!(min_conf));
+        m.insert("findings".into(), json!(found));
+        m.insert(
+            "timings_s".into(),
+            json!({"read": read_s, "detect": detect_s}),
+        );
+    }
+    let text = serde_json::to_string_pretty(&report).expect("report serialises") + "\n";
+    let mrk = markups::encode_mrk_json(&lm, Frame::Lps);
+    let mut tx = Transaction::new();
+    tx.write_bytes(io.output("landmarks"), mrk.as_bytes())?;
+    tx.write_bytes(io.output("landmarks_report"), text.as_bytes())?;
+    tx.commit()?;
+    progress.set(1.0);
+    let conf: serde_json::Map<String, Json> = det
+        .points
+        .iter()
+        .map(|p| (p.label.clone(), json!(p.confidence)))
+        .collect();
+    Ok(json!({
+        "read_s": read_s,
+        "detect_s": detect_s,
+        "confidence": conf,
+        "findings": found.len(),
+        "annulus_plane_source": plane_source,
+        "snapped_mm": moved,
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::landmarks::detect::{AnnulusPlane, Found};
+
+    fn detection(conf: [f64; 2], stj_is_minimum: bool) -> Detection {
+        let found = |label: &str, confidence: f64| Found {
+            label: label.into(),
+            point_mm: Point3::origin(),
+            confidence,
+            evidence: json!({"pillar_depth_mm": 0.2}),
+        };
+        Detection {
+            annulus_plane: AnnulusPlane {
+                point_mm: Point3::origin(),
+                normal: Vector3::z(),
+            },
+            origin_mm: Point3::origin(),
+            axis: Vector3::z(),
+            axis_turns_deg: Vec::new(),
+            annulus_tilt_deg: 0.0,
+            sinus_height_mm: 9.0,
+            stj_height_mm: 18.0,
+            sinus_mean_radius_mm: 14.0,
+            stj_mean_radius_mm: 13.0,
+            stj_is_minimum,
+            commissure_height_mm: 17.0,
+            axial_profile_mm: Vec::new(),
+            angular_profile_mm: Vec::new(),
+            e1: Vector3::x(),
+            points: vec![found("C1", conf[0]), found("N1", conf[1])],
+        }
+    }
+
+    /// A point under the threshold, and an STJ that is no minimum, are
+    /// findings naming what is uncertain; confident points are not.
+    #[test]
+    fn low_confidence_is_a_finding() {
+        let f = findings(&detection([0.9, 0.3], true), 0.5);
+        assert_eq!(f.len(), 1, "{f:?}");
+        assert!(f[0].contains("N1") && f[0].contains("0.30"), "{f:?}");
+        let f = findings(&detection([0.9, 0.8], false), 0.5);
+        assert_eq!(f.len(), 1, "{f:?}");
+        assert!(f[0].contains("no clear STJ"), "{f:?}");
+        assert!(findings(&detection([0.9, 0.8], true), 0.5).is_empty());
+    }
+}

@@ -1,0 +1,299 @@
+//! `coapt landmarks`: the commissures and nadirs found in the segmented root
+//! against the truth of the phantoms and the hand-placed points of the real
+//! CT, and `coapt run` on a CT alone reaching a report through them.
+
+use std::path::Path;
+
+use coapt::geom::{Landmarks, Point3};
+use coapt::io::markups;
+
+use crate::common::*;
+use crate::real_segment::real_dir;
+
+const LABELS: [&str; 6] = ["C1", "C2", "C3", "N1", "N2", "N3"];
+
+/// Distance of each found point to the truth, labels taken as they are.
+fn distances(truth: &Landmarks, found: &Landmarks) -> Vec<(String, f64)> {
+    LABELS
+        .iter()
+        .map(|l| {
+            let t = truth.get(l).unwrap_or_else(|| panic!("truth has no {l}"));
+            let f = found.get(l).unwrap_or_else(|| panic!("found no {l}"));
+            (l.to_string(), (t - f).norm())
+        })
+        .collect()
+}
+
+/// The found points renamed by the cyclic shift of labels (C_k → C_k+s,
+/// N_k → N_k+s: the same order around the axis) that brings them nearest
+/// the truth: a user's file may start its numbering at any sinus.
+fn cyclic_match(truth: &Landmarks, found: &Landmarks) -> (usize, Vec<(String, f64)>) {
+    (0..3)
+        .map(|s| {
+            let mut renamed = Landmarks::new(found.frame);
+            for pre in ["C", "N"] {
+                for k in 0..3 {
+                    let p: Point3 = found.get(&format!("{pre}{}", (k + s) % 3 + 1)).unwrap();
+                    renamed.push(format!("{pre}{}", k + 1), p);
+                }
+            }
+            (s, distances(truth, &renamed))
+        })
+        .min_by(|a, b| worst(&a.1).total_cmp(&worst(&b.1)))
+        .unwrap()
+}
+
+fn worst(d: &[(String, f64)]) -> f64 {
+    d.iter().map(|x| x.1).fold(0.0, f64::max)
+}
+
+fn detect(d: &Path, mask: &Path, surface: &Path, report: Option<&Path>) -> Landmarks {
+    let out = d.join("found.mrk.json");
+    let mut args = vec![
+        "landmarks".to_string(),
+        "--mask".into(),
+        s(mask),
+        "--surface".into(),
+        s(surface),
+        "--out".into(),
+        s(&out),
+        "--quiet".into(),
+    ];
+    if let Some(r) = report {
+        args.push("--segment-report".into());
+        args.push(s(r));
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = coapt(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // Every point carries a confidence in 0–1 and its evidence.
+    let rep = json(&d.join("landmarks.json"));
+    let pts = rep["points"].as_array().unwrap();
+    assert_eq!(pts.len(), 6, "{rep}");
+    for p in pts {
+        let c = p["confidence"].as_f64().unwrap();
+        assert!((0.0..=1.0).contains(&c), "{p}");
+        assert!(p["evidence"].is_object(), "{p}");
+    }
+    markups::read(&out).unwrap()
+}
+
+/// The committed sample's truth mask and analytic surface (its VAJ cap is
+/// region 1): the detector alone, without segmentation error, is within
+/// 1.5 mm of every true point (measured 0.08–0.77 mm), labels as the
+/// phantom names them; and the same bytes on one and two threads.
+#[test]
+fn sample_truth_mask_within_1_5_mm() {
+    let d = tmpdir("lm-truth");
+    let sd = repo().join("sample_data");
+    let found = detect(
+        &d,
+        &sd.join("truth_mask.nii.gz"),
+        &sd.join("truth_surface.vtp"),
+        None,
+    );
+    let truth = markups::read(&sd.join("landmarks.mrk.json")).unwrap();
+    let dist = distances(&truth, &found);
+    eprintln!("sample truth mask: {dist:?}");
+    assert!(worst(&dist) <= 1.5, "{dist:?}");
+    let one = std::fs::read(d.join("found.mrk.json")).unwrap();
+    let o = coapt(&[
+        "--threads",
+        "1",
+        "landmarks",
+        "--mask",
+        &s(&sd.join("truth_mask.nii.gz")),
+        "--surface",
+        &s(&sd.join("truth_surface.vtp")),
+        "--out",
+        &s(&d.join("one.mrk.json")),
+        "--report",
+        &s(&d.join("one.json")),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(one, std::fs::read(d.join("one.mrk.json")).unwrap());
+}
+
+/// The standard phantom, seed 2, from its CT: segment, surface, landmarks
+/// (with segment's VAJ plane). Every point within 1.5 mm of the truth
+/// (measured 0.53–0.84 mm).
+#[test]
+fn standard_phantom_from_its_ct_within_1_5_mm() {
+    let d = tmpdir("lm-standard");
+    let ph = d.join("ph");
+    let o = coapt(&[
+        "phantom",
+        "--preset",
+        "standard",
+        "--seed",
+        "2",
+        "--out",
+        &s(&ph),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (mask, seg, surf) = (
+        d.join("mask.nii.gz"),
+        d.join("segment.json"),
+        d.join("aorta.vtp"),
+    );
+    let o = coapt(&[
+        "segment",
+        "--ct",
+        &s(&ph.join("ct.nii.gz")),
+        "--out",
+        &s(&mask),
+        "--report",
+        &s(&seg),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = coapt(&[
+        "surface",
+        "--mask",
+        &s(&mask),
+        "--out",
+        &s(&surf),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let found = detect(&d, &mask, &surf, Some(&seg));
+    let truth = markups::read(&ph.join("landmarks.mrk.json")).unwrap();
+    let dist = distances(&truth, &found);
+    eprintln!("standard seed 2 from its CT: {dist:?}");
+    assert!(worst(&dist) <= 1.5, "{dist:?}");
+}
+
+/// `coapt run` on the sample CT alone (no landmarks under [inputs]): the
+/// landmarks stage runs after the surface and feeds `valve`, the chain
+/// reaches `report.json`, segment ran without landmarks, and the found
+/// points lie near the truth: commissures within 1.5 mm (measured
+/// 0.62–0.75), nadirs within 2 mm (measured 1.15–1.73: segment's VAJ plane
+/// lies 0.6–1.2 mm above the true nadir plane on this phantom and its mask
+/// is about 0.5 mm wider there; on the truth mask the nadirs are within
+/// 0.6 mm, see above).
+#[test]
+fn run_on_a_ct_alone_reaches_a_report() {
+    let d = tmpdir("lm-run");
+    let sd = repo().join("sample_data");
+    let run = run_default_chain(&d, &[("ct", &sd.join("ct.nii.gz"))], "");
+    assert!(run.join("report.json").is_file());
+    assert_honest_verdict(&run);
+    let manifest = json(&run.join("manifest.json"));
+    let stages: Vec<&str> = manifest["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["stage"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        stages,
+        [
+            "segment",
+            "surface",
+            "landmarks",
+            "valve",
+            "leaflets",
+            "close",
+            "report"
+        ],
+        "{manifest}"
+    );
+    let seg = manifest["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["stage"] == "segment")
+        .unwrap();
+    assert!(seg["inputs"].get("landmarks").is_none(), "{seg}");
+    let found = markups::read(&run.join("landmarks.mrk.json")).unwrap();
+    let truth = markups::read(&sd.join("landmarks.mrk.json")).unwrap();
+    let dist = distances(&truth, &found);
+    eprintln!("sample CT alone: {dist:?}");
+    for (l, e) in &dist {
+        let bound = if l.starts_with('C') { 1.5 } else { 2.0 };
+        assert!(*e <= bound, "{l}: {e:.2} mm > {bound} mm ({dist:?})");
+    }
+    // The valve frame is built from the detected points.
+    let valve = json(&run.join("valve.json"));
+    let c1 = &valve["landmarks_snapped"]["C1"]["moved_mm"];
+    assert!(c1.as_f64().unwrap() < 0.5, "{valve}");
+}
+
+/// With landmarks given, the chain uses them and does not detect any.
+#[test]
+fn given_landmarks_are_used_as_before() {
+    let d = tmpdir("lm-given");
+    let sd = repo().join("sample_data");
+    let cfg = d.join("c.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[run]\ndir = \"{}\"\n[inputs]\nct = \"{}\"\nlandmarks = \"{}\"\n",
+            d.join("run").display(),
+            sd.join("ct.nii.gz").display(),
+            sd.join("landmarks.mrk.json").display()
+        ),
+    )
+    .unwrap();
+    let o = coapt(&["run", &s(&cfg), "--until", "valve", "--quiet"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let manifest = json(&d.join("run/manifest.json"));
+    let stages: Vec<&str> = manifest["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["stage"].as_str().unwrap())
+        .collect();
+    assert_eq!(stages, ["segment", "surface", "valve"], "{manifest}");
+    assert!(!d.join("run/landmarks.mrk.json").exists());
+}
+
+/// The real CT, segmented without landmarks: the found points against the
+/// hand-placed ones of `../shared/real/`, matched by their order around the
+/// axis (that file numbers the sinuses from another one than the
+/// phantom's anterior right-coronary sinus). The commissures and two
+/// nadirs lie within 3 mm (measured 1.27–2.45 and 1.24–1.59 mm). The
+/// third hand-placed nadir (N3) lies inside the lumen: 1.7 mm from
+/// TotalSegmentator's wall (the folder's README) and 8.4 mm from our
+/// annulus centre where the wall is 13 mm away; ours, on the wall, is
+/// 6.1 mm from it, and the test holds it to 7 mm.
+#[test]
+fn real_ct_within_3_mm_of_the_hand_placed_points() {
+    let Some(real) = real_dir() else { return };
+    let d = tmpdir("lm-real");
+    let (mask, seg, surf) = (
+        d.join("mask.nii.gz"),
+        d.join("segment.json"),
+        d.join("aorta.vtp"),
+    );
+    let o = coapt(&[
+        "segment",
+        "--ct",
+        &s(&real.join("ct.nii.gz")),
+        "--out",
+        &s(&mask),
+        "--report",
+        &s(&seg),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = coapt(&[
+        "surface",
+        "--mask",
+        &s(&mask),
+        "--out",
+        &s(&surf),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let found = detect(&d, &mask, &surf, Some(&seg));
+    let truth = markups::read(&real.join("landmarks.mrk.json")).unwrap();
+    let (shift, dist) = cyclic_match(&truth, &found);
+    eprintln!("real CT (labels shifted by {shift}): {dist:?}");
+    for (l, e) in &dist {
+        let bound = if l == "N3" { 7.0 } else { 3.0 };
+        assert!(*e <= bound, "{l}: {e:.2} mm > {bound} mm ({dist:?})");
+    }
+}
