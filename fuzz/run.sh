@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# A bounded fuzz run of every target (libFuzzer via cargo-fuzz, nightly):
+#   fuzz/run.sh [SECONDS per target, default 60] [TARGET…]
+# Needs: rustup toolchain nightly, `cargo install cargo-fuzz`, a C++ compiler.
+# The build goes to $HOME/.cache/coapt-fuzz-target and the growing corpus to
+# $HOME/.cache/coapt-fuzz-corpus/<target> (outside the clone: thousands of
+# files); the committed seeds, small valid files of each format, are in
+# fuzz/seeds/<target>. A crash is saved in fuzz/artifacts/<target>/ and must
+# become a regression test in tests/it/bad_input.rs.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+secs=${1:-60}
+shift || true
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || targets=(volume vtp markups configs valve_json)
+dir=${COAPT_FUZZ_TARGET_DIR:-$HOME/.cache/coapt-fuzz-target}
+cargo +nightly fuzz build -O --target-dir "$dir"
+corpus=${COAPT_FUZZ_CORPUS:-$HOME/.cache/coapt-fuzz-corpus}
+for t in "${targets[@]}"; do
+  mkdir -p "$corpus/$t"
+  echo "== $t: ${secs} s"
+  cargo +nightly fuzz run -O --target-dir "$dir" "$t" "$corpus/$t" "fuzz/seeds/$t" -- \
+    -max_total_time="$secs" -rss_limit_mb=2048 -malloc_limit_mb=1024 -timeout=10 -print_final_stats=1 2>&1 |
+    grep -E "^(stat::|#[0-9]+ *DONE|==|SUMMARY|ERROR|artifact_prefix|Test unit written)" || true
+done
+if compgen -G "fuzz/artifacts/*/*" >/dev/null; then
+  echo "crashes saved (each must become a regression test):" fuzz/artifacts/*/*
+  exit 1
+fi
