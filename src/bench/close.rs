@@ -51,13 +51,7 @@ pub fn suture_path() -> Vec<Point3> {
         nadir_angle: (a + b) / 2.0,
         nadir_height: -HC - HB,
     };
-    let per = 4000;
-    (0..=4 * per)
-        .map(|k| {
-            let (ang, z) = spec.at(k as f64 / per as f64);
-            Point3::new(R * ang.cos(), R * ang.sin(), z)
-        })
-        .collect()
+    spec.on_cylinder(R)
 }
 
 /// The template of the peer case.

@@ -96,13 +96,7 @@ pub fn attachment(k: usize) -> Vec<Point3> {
         nadir_angle: (a + b) / 2.0,
         nadir_height: 0.0,
     };
-    let per = 4000;
-    (0..=4 * per)
-        .map(|i| {
-            let (ang, z) = spec.at(i as f64 / per as f64);
-            Point3::new(R * ang.cos(), R * ang.sin(), z)
-        })
-        .collect()
+    spec.on_cylinder(R)
 }
 
 /// The valve frame: origin at the annulus centre, axis +z.

@@ -45,6 +45,19 @@ impl PathSpec {
         }
     }
 
+    /// The path on the cylinder of radius `r` about +z, 4000 points per
+    /// unit of t (≈ 0.003 mm apart on a root's radius), commissure to
+    /// commissure: the benchmarks' exact suture lines.
+    pub fn on_cylinder(&self, r: f64) -> Vec<crate::geom::Point3> {
+        const PER: usize = 4000;
+        (0..=4 * PER)
+            .map(|i| {
+                let (ang, z) = self.at(i as f64 / PER as f64);
+                crate::geom::Point3::new(r * ang.cos(), r * ang.sin(), z)
+            })
+            .collect()
+    }
+
     /// Point of the planar curve at t ∈ [0, 4] (eq. 1 parametrisation):
     /// (angle, height).
     pub fn at(&self, t: f64) -> (f64, f64) {

@@ -2,7 +2,7 @@
 //! against the truth of the phantoms and the hand-placed points of the real
 //! CT, and `coapt run` on a CT alone reaching a report through them.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use coapt::geom::{Landmarks, Point3};
 use coapt::io::markups;
@@ -45,6 +45,36 @@ fn cyclic_match(truth: &Landmarks, found: &Landmarks) -> (usize, Vec<(String, f6
 
 fn worst(d: &[(String, f64)]) -> f64 {
     d.iter().map(|x| x.1).fold(0.0, f64::max)
+}
+
+/// `coapt segment` and `coapt surface` of `ct` into `d`: (mask, segment.json, wall).
+fn segment_and_surface(d: &Path, ct: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let (mask, seg, surf) = (
+        d.join("mask.nii.gz"),
+        d.join("segment.json"),
+        d.join("aorta.vtp"),
+    );
+    let o = coapt(&[
+        "segment",
+        "--ct",
+        &s(ct),
+        "--out",
+        &s(&mask),
+        "--report",
+        &s(&seg),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = coapt(&[
+        "surface",
+        "--mask",
+        &s(&mask),
+        "--out",
+        &s(&surf),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    (mask, seg, surf)
 }
 
 fn detect(d: &Path, mask: &Path, surface: &Path, report: Option<&Path>) -> Landmarks {
@@ -133,31 +163,7 @@ fn standard_phantom_from_its_ct_within_1_5_mm() {
         "--quiet",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let (mask, seg, surf) = (
-        d.join("mask.nii.gz"),
-        d.join("segment.json"),
-        d.join("aorta.vtp"),
-    );
-    let o = coapt(&[
-        "segment",
-        "--ct",
-        &s(&ph.join("ct.nii.gz")),
-        "--out",
-        &s(&mask),
-        "--report",
-        &s(&seg),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let o = coapt(&[
-        "surface",
-        "--mask",
-        &s(&mask),
-        "--out",
-        &s(&surf),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (mask, seg, surf) = segment_and_surface(&d, &ph.join("ct.nii.gz"));
     let found = detect(&d, &mask, &surf, Some(&seg));
     let truth = markups::read(&ph.join("landmarks.mrk.json")).unwrap();
     let dist = distances(&truth, &found);
@@ -263,31 +269,7 @@ fn given_landmarks_are_used_as_before() {
 fn real_ct_within_3_mm_of_the_hand_placed_points() {
     let Some(real) = real_dir() else { return };
     let d = tmpdir("lm-real");
-    let (mask, seg, surf) = (
-        d.join("mask.nii.gz"),
-        d.join("segment.json"),
-        d.join("aorta.vtp"),
-    );
-    let o = coapt(&[
-        "segment",
-        "--ct",
-        &s(&real.join("ct.nii.gz")),
-        "--out",
-        &s(&mask),
-        "--report",
-        &s(&seg),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let o = coapt(&[
-        "surface",
-        "--mask",
-        &s(&mask),
-        "--out",
-        &s(&surf),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (mask, seg, surf) = segment_and_surface(&d, &real.join("ct.nii.gz"));
     let found = detect(&d, &mask, &surf, Some(&seg));
     let truth = markups::read(&real.join("landmarks.mrk.json")).unwrap();
     let (shift, dist) = cyclic_match(&truth, &found);
