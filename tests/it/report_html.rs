@@ -17,7 +17,7 @@ use coapt::io::png::{Rgb, encode};
 use coapt::report::Figure;
 use serde_json::{Value, json};
 
-use crate::common::{repo, tmpdir};
+use crate::common::{repo, s, tmpdir};
 
 fn load(rel: &str) -> Value {
     let p = repo().join(rel);
@@ -412,4 +412,66 @@ fn browser_check_flags_a_blank_page() {
     assert_eq!(v["screenshot"]["distinct_colours"], 1, "{v}");
     assert_eq!(v["screenshot"]["decoder_mismatches"], 0, "{v}");
     assert!(strings(&v["console_errors"]).is_empty(), "{v}");
+}
+
+/// The interactive 3-D view of a real run's report (the sample's chain at a
+/// coarse mesh) draws the valve, turns under a drag, zooms under the wheel,
+/// comes back with Reset, is left out of print, and the page stays clean
+/// (tools/view3d_check.mjs, WebGL on Chromium's CPU renderer). Without
+/// WebGL the view says so in words.
+#[test]
+fn the_3d_view_draws_turns_zooms_and_resets_in_headless_chromium() {
+    let Some(b) = browser() else { return };
+    let dir = tmpdir("view3d");
+    let data = repo().join("sample_data");
+    let run = crate::common::run_chain(
+        &dir,
+        &[
+            ("ct", &data.join("ct.nii.gz")),
+            ("landmarks", &data.join("landmarks.mrk.json")),
+        ],
+        &repo().join("pipelines/templates/ozaki_default.toml"),
+        "\n[leaflets]\nh = \"1.5 mm\"\n",
+    );
+    let page = run.join("report.html");
+    let view = |extra: &[&str]| -> (Value, i32) {
+        let out = Command::new("node")
+            .arg(repo().join("tools/view3d_check.mjs"))
+            .arg(&page)
+            .args(extra)
+            .env("COAPT_NODE_MODULES", &b.node_modules)
+            .env("COAPT_CHROMIUM", &b.chromium)
+            .output()
+            .expect("node starts");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let line = stdout.lines().last().unwrap_or("");
+        let v: Value = serde_json::from_str(line).unwrap_or_else(|e| {
+            panic!(
+                "no JSON verdict ({e}); stdout: {stdout}; stderr: {}",
+                String::from_utf8_lossy(&out.stderr)
+            )
+        });
+        (v, out.status.code().unwrap_or(-1))
+    };
+    let (v, code) = view(&["--out", &s(&dir.join("shots"))]);
+    assert_eq!(v["state"], "drawn", "{v}");
+    for key in [
+        "drawn_fraction",
+        "drag_changed_fraction",
+        "zoom_changed_fraction",
+    ] {
+        // The checker's own bounds (view3d_check.mjs): 2 % of the canvas.
+        assert!(v[key].as_f64().unwrap() >= 0.02, "{key}: {v}");
+    }
+    assert!(
+        v["reset_difference_fraction"].as_f64().unwrap() <= 0.001,
+        "{v}"
+    );
+    assert_eq!(v["hidden_in_print"], true, "{v}");
+    assert!(strings(&v["console_errors"]).is_empty(), "{v}");
+    assert!(strings(&v["external_requests"]).is_empty(), "{v}");
+    assert_eq!((v["ok"].as_bool(), code), (Some(true), 0), "{v}");
+    let (v, code) = view(&["--no-webgl"]);
+    assert_eq!(v["state"], "unavailable", "{v}");
+    assert_eq!((v["ok"].as_bool(), code), (Some(true), 0), "{v}");
 }
