@@ -22,6 +22,10 @@ pub struct Sources<'a> {
     pub placement: Option<&'a Json>,
     /// closure.json (material, load, contact).
     pub log: Option<&'a Json>,
+    /// The landmarks file the valve frame came from.
+    pub landmarks: Option<&'a Path>,
+    /// landmarks.json of the landmarks stage, when coapt detected them.
+    pub detection: Option<&'a Json>,
 }
 
 /// The `case` object of report.json.
@@ -65,6 +69,18 @@ pub fn build(s: &Sources) -> Json {
                 .collect()
         })
         .unwrap_or_default();
+    let landmarks = match (s.detection, s.landmarks) {
+        (Some(d), _) => json!({
+            "source": "detected",
+            "points": d["points"].as_array().map(|ps| ps
+                .iter()
+                .map(|p| json!({"label": p["label"], "confidence": p["confidence"]}))
+                .collect::<Vec<_>>()),
+            "findings": d["findings"],
+        }),
+        (None, Some(p)) => json!({"source": "given", "file": p.display().to_string()}),
+        (None, None) => Json::Null,
+    };
     let cfg = s.log.map(|l| &l["config"]);
     let field = |k: &str| cfg.map_or(Json::Null, |c| c[k].clone());
     json!({
@@ -72,6 +88,7 @@ pub fn build(s: &Sources) -> Json {
         "computed_utc": computed,
         "coapt_version": env!("CARGO_PKG_VERSION"),
         "anatomy": anatomy,
+        "landmarks": landmarks,
         "leaflets": leaflets,
         "mesh_h_mm": s.placement.and_then(|p| p["h_mm"].as_f64()),
         "material": field("model"),

@@ -229,6 +229,37 @@ fn case_header(h: &mut String, c: Option<&Value>) {
     }
     row("Root (from the CT)", root);
 
+    let lm = c.get("landmarks");
+    match lm.and_then(|l| l.get("source")).and_then(Value::as_str) {
+        Some("detected") => {
+            let points: Vec<String> = array(lm.and_then(|l| l.get("points")))
+                .iter()
+                .map(|p| {
+                    format!(
+                        "{} {}",
+                        esc(&text_or(p.get("label"), "?")),
+                        fixed(num(p.get("confidence")), 2)
+                    )
+                })
+                .collect();
+            row(
+                "Landmarks",
+                format!(
+                    "detected by coapt from the segmented root (not placed by hand: check them on the CT figure); confidence {}",
+                    points.join(", ")
+                ),
+            );
+        }
+        Some("given") => row(
+            "Landmarks",
+            format!(
+                "given: {}",
+                esc(&text_or(lm.and_then(|l| l.get("file")), DASH))
+            ),
+        ),
+        _ => {}
+    }
+
     let ls = array(c.get("leaflets"));
     if !ls.is_empty() {
         let names: Vec<String> = ls
@@ -1385,6 +1416,7 @@ mod tests {
         assert!(pos.windows(2).all(|w| w[0] < w[1]), "{pos:?}");
         for needle in [
             "<dt>Case</dt><dd>sample · predicted 2026-11-27 19:29 UTC · coapt 0.1.0</dd>",
+            "<dt>Landmarks</dt><dd>given: sample_data/landmarks.mrk.json</dd>",
             "annulus 21.9 mm, sinus 30.3 mm, STJ 27.1 mm (area-equivalent diameters); intercommissural distances C1–C2 / C2–C3 / C3–C1 22.4 / 23.8 / 23.1 mm",
             "ozaki_size 23 (all three); free edge 31.6 / 31.6 / 31.6 mm, sutured edge 68.2 / 68.2 / 68.2 mm; placed hanging; mesh size 0.5 mm",
             "GOH (Gasser–Ogden–Holzapfel): μ 900 kPa, k₁ 1100 kPa, k₂ 1000, κ 0.29; thickness 0.5 mm; source: seed 001 §3",

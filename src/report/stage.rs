@@ -96,6 +96,14 @@ pub static SPEC: StageSpec = StageSpec {
             ArtifactKind::Landmarks,
             "commissures and nadirs, drawn on the CT",
         ),
+        Port {
+            name: "landmarks_report",
+            flag: "landmarks-report",
+            file: "landmarks.json",
+            kind: ArtifactKind::Json,
+            required: false,
+            help: "landmarks.json of `coapt landmarks` when the points were detected, not given: the case header says so, with each point's confidence",
+        },
         optional(
             "paths",
             "paths.vtp",
@@ -592,6 +600,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     for name in [
         "log",
         "summary",
+        "landmarks_report",
         "ct",
         "mask",
         "landmarks",
@@ -640,8 +649,17 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         Some(p) => Some(read_json(&p)?),
         None => None,
     };
+    // Only as wired by the runner or given: a landmarks.json left in the
+    // run directory by an earlier run without landmarks does not make
+    // given points "detected".
+    let detection = match io.input("landmarks_report") {
+        Some(p) => Some(read_json(p)?),
+        None => None,
+    };
     let case = case::build(&case::Sources {
         run_dir,
+        landmarks: optional_input(io, run_dir, "landmarks").as_deref(),
+        detection: detection.as_ref(),
         valve: &read_json(vpath)?,
         frame: &v.frame,
         placement: placement.as_ref(),

@@ -225,6 +225,29 @@ fn run_on_a_ct_alone_reaches_a_report() {
     let valve = json(&run.join("valve.json"));
     let c1 = &valve["landmarks_snapped"]["C1"]["moved_mm"];
     assert!(c1.as_f64().unwrap() < 0.5, "{valve}");
+    // The report says the points were detected, each with its confidence,
+    // and draws them (the CT figure reads landmarks.mrk.json).
+    let report = json(&run.join("report.json"));
+    let lm = &report["case"]["landmarks"];
+    assert_eq!(lm["source"], "detected", "{lm}");
+    let labels: Vec<&str> = lm["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["label"].as_str().unwrap())
+        .collect();
+    assert_eq!(labels, ["C1", "C2", "C3", "N1", "N2", "N3"], "{lm}");
+    assert!(lm["points"].as_array().unwrap().iter().all(|p| {
+        let c = p["confidence"].as_f64().unwrap();
+        (0.0..=1.0).contains(&c)
+    }));
+    assert!(
+        report["inputs"]["landmarks"].is_object(),
+        "{}",
+        report["inputs"]
+    );
+    let page = std::fs::read_to_string(run.join("report.html")).unwrap();
+    assert!(page.contains("<dt>Landmarks</dt><dd>detected by coapt"));
 }
 
 /// With landmarks given, the chain uses them and does not detect any.
