@@ -225,3 +225,15 @@ pub fn assert_honest_verdict(run: &Path) {
         report["solver"]
     );
 }
+
+/// The stages a run directory's manifest records, in order.
+pub fn manifest_stages(run: &Path) -> (serde_json::Value, Vec<String>) {
+    let manifest = json(&run.join("manifest.json"));
+    let stages = manifest["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["stage"].as_str().unwrap().to_string())
+        .collect();
+    (manifest, stages)
+}

@@ -186,13 +186,7 @@ fn run_on_a_ct_alone_reaches_a_report() {
     let run = run_default_chain(&d, &[("ct", &sd.join("ct.nii.gz"))], "");
     assert!(run.join("report.json").is_file());
     assert_honest_verdict(&run);
-    let manifest = json(&run.join("manifest.json"));
-    let stages: Vec<&str> = manifest["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["stage"].as_str().unwrap())
-        .collect();
+    let (manifest, stages) = manifest_stages(&run);
     assert_eq!(
         stages,
         [
@@ -268,13 +262,7 @@ fn given_landmarks_are_used_as_before() {
     .unwrap();
     let o = coapt(&["run", &s(&cfg), "--until", "valve", "--quiet"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let manifest = json(&d.join("run/manifest.json"));
-    let stages: Vec<&str> = manifest["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["stage"].as_str().unwrap())
-        .collect();
+    let (manifest, stages) = manifest_stages(&d.join("run"));
     assert_eq!(stages, ["segment", "surface", "valve"], "{manifest}");
     assert!(!d.join("run/landmarks.mrk.json").exists());
 }
