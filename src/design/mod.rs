@@ -259,7 +259,7 @@ pub fn table(s: &Summary) -> String {
     for o in &s.outcomes {
         match &o.result {
             Ok(m) => t.push_str(&format!(
-                "{:>4}  {:>12}  {:>10}  {:>7}  {:>10}  {}/{}{}\n",
+                "{:>4}  {:>12}  {:>10}  {:>7}  {:>10}  {}/{}{}{}\n",
                 o.size,
                 f(m.leaflet_area_mm2, 0),
                 f(m.coaptation_height_mm, 2),
@@ -267,6 +267,7 @@ pub fn table(s: &Summary) -> String {
                 f(m.effective_height_mm, 2),
                 m.passed,
                 m.judged,
+                if m.assessable { "" } else { ", not assessable" },
                 if s.recommendation.size == Some(o.size) {
                     "  ← recommended"
                 } else {

@@ -7,6 +7,8 @@
 pub struct Measured {
     pub closed: bool,
     pub meets_all: bool,
+    /// The closure can be judged (no gate of the verdict stops it).
+    pub assessable: bool,
     /// Criteria passed, and how many were judged.
     pub passed: usize,
     pub judged: usize,
@@ -98,8 +100,9 @@ pub fn recommend(outcomes: &[Outcome]) -> Recommendation {
         .iter()
         .filter_map(|o| o.result.as_ref().ok().map(|m| (o, m)))
         .max_by(|(a, ma), (b, mb)| {
-            ma.passed
-                .cmp(&mb.passed)
+            // A size that cannot be judged is never closer than one that can.
+            (ma.assessable, ma.passed)
+                .cmp(&(mb.assessable, mb.passed))
                 .then(
                     ma.central_coaptation_height_mm
                         .unwrap_or(f64::NEG_INFINITY)
@@ -142,6 +145,7 @@ mod tests {
         Measured {
             closed: central > 0.0,
             meets_all: passed == 5,
+            assessable: true,
             passed,
             judged: 5,
             failures: (passed..5).map(|i| format!("criterion {i}")).collect(),
@@ -203,6 +207,12 @@ mod tests {
         ]);
         assert_eq!((r.size, r.shown), (None, Some(23)));
         assert!(r.reason.starts_with("No size tried meets"), "{}", r.reason);
+        // A size that cannot be judged (its free edges too short to meet,
+        // say) is not the closest, however many criteria it would pass.
+        let mut short = m(4, 5.0);
+        short.assessable = false;
+        let r = recommend(&[o(17, Ok(short)), o(19, Ok(m(3, 2.0)))]);
+        assert_eq!(r.shown, Some(19), "{}", r.reason);
         let r = recommend(&[o(19, Err("a".into())), o(21, Err("b".into()))]);
         assert_eq!((r.size, r.shown), (None, None));
         assert!(

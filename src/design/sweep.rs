@@ -153,6 +153,7 @@ pub fn measured(doc: &Json) -> Measured {
     Measured {
         closed: m["closed"].as_bool().unwrap_or(false),
         meets_all: doc["verdict"]["meets_all_criteria"].as_bool() == Some(true),
+        assessable: doc["verdict"]["status"] != "not_assessable",
         passed,
         judged: criteria.len(),
         failures,

@@ -11,7 +11,8 @@
 //! - `metrics.rs`: heights, areas, effective height, billowing; `orifice.rs`
 //!   the uncovered lumen; `criteria.rs` the surgical criteria;
 //!   `verdict.rs` the answer (met, fails, not assessable and why);
-//!   `document.rs` report.json.
+//!   `document.rs` report.json; `reach.rs` whether each free edge can
+//!   reach the centre, and Ozaki's rule for the root.
 //! - `raster.rs` and `figures/`: the software rasteriser and the figures;
 //!   `html.rs`: the page; `view3d/`: its interactive 3-D view (WebGL);
 //!   `stage.rs`: the stage.
@@ -29,6 +30,7 @@ pub mod load;
 pub mod metrics;
 pub mod orifice;
 pub mod raster;
+pub mod reach;
 pub mod references;
 pub mod stage;
 pub mod symmetry;

@@ -10,7 +10,7 @@ use super::coaptation::{self, Options as ZoneOptions};
 use super::criteria::{self, Anatomy, Pressures, Thresholds};
 use super::document::{self, Context, Finding, Severity};
 use super::metrics::{self, Metrics};
-use super::{ClosedValve, Figure, case, figures, html, load, symmetry, verdict, view3d};
+use super::{ClosedValve, Figure, case, figures, html, load, reach, symmetry, verdict, view3d};
 use crate::geom::Point3;
 use crate::io::{Transaction, markups, nifti, volume_file, vtp};
 use crate::pipeline::manifest::{self, Manifest};
@@ -499,8 +499,17 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         billowing_mm: params.quantity("max_billowing"),
     };
     let crit = criteria::judge(&m, &thresholds, &anatomy, &pressures);
-    let verdict = verdict::decide(&crit, verdict::gates(log.as_ref()));
-    let finds = findings(
+    let placement = match optional_input(io, run_dir, "summary") {
+        Some(p) => Some(read_json(&p)?),
+        None => None,
+    };
+    let reach = placement
+        .as_ref()
+        .map_or(Vec::new(), |p| reach::reach(&v.frame, p));
+    let mut gates = verdict::gates(log.as_ref());
+    gates.extend(reach::gates(&reach, m.closed));
+    let verdict = verdict::decide(&crit, gates);
+    let mut finds = findings(
         v,
         &m,
         completed.is_some(),
@@ -508,6 +517,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         margin_note,
         thresholds.billowing_mm,
     );
+    finds.extend(reach::findings(&reach, m.closed));
     progress.set(0.5);
 
     // Figures.
@@ -645,10 +655,6 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         parameters: Json::Object(parameters),
     };
     let mut doc = document::build(&m, &crit, &verdict, &finds, &ctx);
-    let placement = match optional_input(io, run_dir, "summary") {
-        Some(p) => Some(read_json(&p)?),
-        None => None,
-    };
     // Only as wired by the runner or given: a landmarks.json left in the
     // run directory by an earlier run without landmarks does not make
     // given points "detected".

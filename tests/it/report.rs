@@ -181,6 +181,29 @@ fn ct_to_report_in_one_command_and_an_edit_reruns_only_what_it_touches() {
             .all(|c| c["pass"] == true);
         assert_eq!(v["meets_all_criteria"], all, "{v}");
     }
+    // The default template's free edges (24.3 mm) cannot meet in the
+    // sample's root (26.8 mm from commissure to the meeting point and on):
+    // the closure meets only on the placement's stretch, so it is not a
+    // prediction, and the page says what Ozaki's rule would cut.
+    if v["closed"] == true {
+        assert_eq!(v["status"], "not_assessable", "{v}");
+        let reasons = v["not_assessable_reasons"].to_string();
+        assert!(
+            reasons.contains("the free edges are too short to meet (leaflet 1: 24.3 mm against 26.8 mm needed (10.2 % short)"),
+            "{reasons}"
+        );
+    }
+    let findings = rep["findings"].to_string();
+    assert!(
+        findings.contains("The free edges are too short to meet"),
+        "{findings}"
+    );
+    assert!(
+        findings.contains(
+            "Ozaki's rule (the sizer size nearest each intercommissural distance) cuts 23 / 23 / 23"
+        ),
+        "{findings}"
+    );
     for k in ["segment", "surface", "valve", "leaflets", "close", "report"] {
         assert!(
             rep["timing_s"][k].as_f64().is_some(),
