@@ -497,6 +497,38 @@ pub fn close_on(
     wall: Option<&Wall>,
     sutured: Option<&Sutured>,
 ) -> Result<Closed, String> {
+    close_watched(l, cfg, axis, wall, sutured, None)
+}
+
+/// Which solve a residual told to a [`Watch`] comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Solve {
+    /// The suturing pre-stage (its rounds, one after another).
+    Suture,
+    /// The closure under pressure.
+    Close,
+}
+
+/// Told each Newton iteration's residual norm (N) and its solve: the
+/// stage's progress bar. It never changes the result.
+pub type Watch = std::sync::Arc<dyn Fn(Solve, f64) + Send + Sync>;
+
+fn watching(w: Option<&Watch>, solve: Solve) -> Option<super::system::Watch> {
+    w.map(|w| {
+        let w = w.clone();
+        std::sync::Arc::new(move |r: f64| w(solve, r)) as super::system::Watch
+    })
+}
+
+/// [`close_on`], telling `watch` how each solve goes.
+pub fn close_watched(
+    l: &Leaflets,
+    cfg: &CloseConfig,
+    axis: Option<Axis>,
+    wall: Option<&Wall>,
+    sutured: Option<&Sutured>,
+    watch: Option<&Watch>,
+) -> Result<Closed, String> {
     let t0 = Instant::now();
     let n_leaflets = l.leaflet.iter().map(|&k| k as usize + 1).max().unwrap_or(0);
     let axis = match axis {
@@ -543,6 +575,7 @@ pub fn close_on(
                 &stop,
                 &nopt,
                 contact,
+                watching(watch, Solve::Suture),
             )?;
             if s.status == suture::Status::Failed {
                 let (crossings, sewn_contacts) = leaflet_crossings(l, &s.x);
@@ -713,6 +746,7 @@ pub fn close_on(
         terms,
         project: false,
         pressure_tangent: true,
+        watch: watching(watch, Solve::Close),
     };
     let setup_s = t0.elapsed().as_secs_f64() - suturing.as_ref().map_or(0.0, |s| s.seconds);
     let t1 = Instant::now();

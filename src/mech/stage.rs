@@ -201,6 +201,49 @@ fn suture_distances(l: &Leaflets, wall: &TriMesh) -> Vec<f64> {
     out
 }
 
+/// How far a solve has come by its residual: ln(r₀/r) / ln(r₀/goal), 0 at
+/// its first residual r₀ and 1 at the goal, max(absolute, relative × r₀).
+/// A Newton solve's residual falls by orders of magnitude, and each order
+/// takes about as long as the last, so the log is what tracks time.
+fn residual_fraction(r0: f64, r: f64, (abs_n, rel): (f64, f64)) -> f64 {
+    let goal = abs_n.max(rel * r0);
+    if !(r0 > goal) {
+        return 1.0;
+    }
+    if !(r < r0) {
+        return 0.0;
+    }
+    ((r0 / r).ln() / (r0 / goal).ln()).clamp(0.0, 1.0)
+}
+
+/// The stage's bar while the solver runs: the suturing rounds fill the
+/// `suture` span of the bar, the closure the `close` span, each never going
+/// back (a suturing round starts from a larger residual than the last ended
+/// at).
+fn bar_watch(
+    progress: &Progress,
+    goal: (f64, f64),
+    suture: (f64, f64),
+    close: (f64, f64),
+) -> closure::Watch {
+    let bar = progress.clone();
+    // Per solve: its first residual and the furthest fraction reached.
+    let seen = std::sync::Mutex::new([(f64::NAN, 0.0f64); 2]);
+    std::sync::Arc::new(move |solve, r| {
+        let (k, (lo, hi)) = match solve {
+            closure::Solve::Suture => (0, suture),
+            closure::Solve::Close => (1, close),
+        };
+        let Ok(mut s) = seen.lock() else { return };
+        let (first, best) = &mut s[k];
+        if first.is_nan() {
+            *first = r;
+        }
+        *best = best.max(residual_fraction(*first, r, goal));
+        bar.set(lo + *best * (hi - lo));
+    })
+}
+
 fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
     let lpath = io.input("leaflets").expect("required");
     let mesh = vtp::read_mesh(lpath)?;
@@ -225,8 +268,17 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
     };
     progress.set(0.05);
     let wall_normals = wall_of(&wall);
-    let closed = closure::close_on(&leaflets, &cfg, axis, Some(&wall_normals), None)
-        .map_err(|e| Error::bad_input(lpath, e))?;
+    let goal = (cfg.tolerance, cfg.relative_tolerance);
+    let watch = bar_watch(progress, goal, (0.05, 0.35), (0.35, 0.8));
+    let closed = closure::close_watched(
+        &leaflets,
+        &cfg,
+        axis,
+        Some(&wall_normals),
+        None,
+        Some(&watch),
+    )
+    .map_err(|e| Error::bad_input(lpath, e))?;
     progress.set(0.8);
     // The seeds read the effective height on an extra closure at a low
     // pressure (3 mmHg), where the leaflets just meet without being pressed.
@@ -235,13 +287,15 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
             let mut low_cfg = cfg.clone();
             low_cfg.pressure = p;
             low_cfg.effective_height_pressure = None;
+            let watch = bar_watch(progress, goal, (0.8, 0.8), (0.8, 0.95));
             Some(
-                closure::close_on(
+                closure::close_watched(
                     &leaflets,
                     &low_cfg,
                     axis,
                     Some(&wall_normals),
                     closed.suturing.as_ref(),
+                    Some(&watch),
                 )
                 .map_err(|e| Error::bad_input(lpath, e))?,
             )
@@ -376,4 +430,44 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         "intersecting_triangle_pairs": crossing.len(),
         "solve_s": closed.solve_s,
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_residual_fraction_counts_orders_of_magnitude() {
+        let goal = (1e-7, 1e-7);
+        // From 0.1 N to the 1e-7 N goal: six orders; three are half.
+        assert_eq!(residual_fraction(0.1, 0.1, goal), 0.0);
+        assert!((residual_fraction(0.1, 1e-4, goal) - 0.5).abs() < 1e-12);
+        assert_eq!(residual_fraction(0.1, 1e-9, goal), 1.0);
+        // A residual above the first is no progress; a first residual at
+        // the goal is done; NaN is no progress.
+        assert_eq!(residual_fraction(0.1, 0.3, goal), 0.0);
+        assert_eq!(residual_fraction(1e-8, 1e-8, goal), 1.0);
+        assert_eq!(residual_fraction(0.1, f64::NAN, goal), 0.0);
+        // The relative goal when it is the larger: 1e-2 of 0.1 N.
+        assert!((residual_fraction(0.1, 1e-2, (1e-7, 1e-2)) - 0.5).abs() < 1e-12);
+    }
+
+    /// The watch never moves the bar back, keeps each solve in its span,
+    /// and a later suturing round starting higher does not undo the last.
+    #[test]
+    fn the_bar_watch_only_moves_forward_within_its_spans() {
+        let p = Progress::hidden();
+        let w = bar_watch(&p, (1e-7, 1e-7), (0.05, 0.35), (0.35, 0.8));
+        let at = |p: &Progress| p.position();
+        w(closure::Solve::Suture, 0.1);
+        assert!((at(&p) - 0.05).abs() < 1e-3);
+        w(closure::Solve::Suture, 1e-4);
+        assert!((at(&p) - 0.20).abs() < 1e-3);
+        w(closure::Solve::Suture, 1.0);
+        assert!((at(&p) - 0.20).abs() < 1e-3);
+        w(closure::Solve::Close, 1.0);
+        assert!((at(&p) - 0.35).abs() < 1e-3);
+        w(closure::Solve::Close, 1e-8);
+        assert!((at(&p) - 0.8).abs() < 1e-3);
+    }
 }

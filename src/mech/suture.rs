@@ -554,6 +554,7 @@ pub fn suture(
     stop: &Stop,
     nopt: &NewtonOptions,
     contact: Option<SewContact>,
+    watch: Option<super::system::Watch>,
 ) -> Result<Sutured, String> {
     let t0 = Instant::now();
     let n_leaflets = l.leaflet.iter().map(|&k| k as usize + 1).max().unwrap_or(0);
@@ -597,6 +598,7 @@ pub fn suture(
         ],
         project: false,
         pressure_tangent: true,
+        watch,
     };
     if let Some(c) = contact.filter(|_| n_leaflets > 1) {
         let params = BarrierParams::from_pressure(c.dhat, s.pressure.max(1e-6));
@@ -924,7 +926,7 @@ mod tests {
             reuse_factor: false,
         };
         let wall = Wall::Cylinder(axis);
-        let out = suture(&l, &s, &axis, &wall, &stop, &nopt, None).unwrap();
+        let out = suture(&l, &s, &axis, &wall, &stop, &nopt, None, None).unwrap();
         assert_eq!(out.status, Status::Sewn, "{}", out.reason);
         assert!(out.max_sin_phi < 0.01);
         assert!(out.initial_max_sin_phi > 0.3, "{}", out.initial_max_sin_phi);
@@ -961,7 +963,7 @@ mod tests {
         // The seed's start, K = 1 N/mm, walks the same path of equilibria
         // through six more rounds to the same K and the same sewn leaflet.
         let seed = Settings { k0: 1.0, ..s };
-        let from_one = suture(&l, &seed, &axis, &wall, &stop, &nopt, None).unwrap();
+        let from_one = suture(&l, &seed, &axis, &wall, &stop, &nopt, None, None).unwrap();
         assert_eq!(from_one.status, Status::Sewn);
         let (last, last_one) = (out.rounds.last().unwrap(), from_one.rounds.last().unwrap());
         assert_eq!(last.k_n_per_mm, last_one.k_n_per_mm);

@@ -78,7 +78,13 @@ pub struct System {
     pub project: bool,
     /// Include the load stiffness of the pressure in the tangent.
     pub pressure_tangent: bool,
+    /// Told the residual norm (N) after each Newton iteration, for a
+    /// progress bar; it never changes the solve.
+    pub watch: Option<Watch>,
 }
+
+/// See [`System::watch`].
+pub type Watch = std::sync::Arc<dyn Fn(f64) + Send + Sync>;
 
 /// The state is outside a material's domain (an inverted or collapsed
 /// triangle, Gent beyond lock-up), naming the first offending triangle.

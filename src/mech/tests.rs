@@ -189,6 +189,7 @@ fn assembled_tangent_is_the_derivative_of_the_residual() {
         terms: vec![Box::new(PlaneContact::new(vec![(plane, all)], &x, &tris))],
         project: false,
         pressure_tangent: true,
+        watch: None,
     };
     for t in sys.terms.iter_mut() {
         t.update(&x);

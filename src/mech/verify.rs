@@ -91,6 +91,7 @@ fn uniform_system(
         terms: Vec::new(),
         project,
         pressure_tangent: true,
+        watch: None,
     }
 }
 

@@ -114,6 +114,11 @@ impl Progress {
         }
     }
 
+    /// Where the bar stands (fraction in [0, 1], to 0.001).
+    pub fn position(&self) -> f64 {
+        self.bar.position() as f64 / 1000.0
+    }
+
     pub fn set(&self, fraction: f64) {
         self.bar
             .set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);

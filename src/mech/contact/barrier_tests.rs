@@ -319,6 +319,7 @@ fn a_pressed_sheet_settles_at_the_closed_form_gap() {
         ))],
         project: false,
         pressure_tangent: true,
+        watch: None,
     };
     // Start inside the margin: a flat membrane has no stiffness across
     // itself, so the barrier must hold the sheet from the first step.

@@ -351,6 +351,7 @@ fn an_edge_pushed_onto_an_edge_is_held_by_the_edge_pair() {
                 terms: vec![Box::new(term), Box::new(Push { n: 8, f: push })],
                 project: false,
                 pressure_tangent: true,
+                watch: None,
             };
             let mut y = x.clone();
             y[..8].iter_mut().for_each(|q| q.z += z0 - z_built);

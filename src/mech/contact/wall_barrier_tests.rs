@@ -399,6 +399,7 @@ fn blow_patch_onto(wall: Option<WallShape>) -> (Vec<V3>, bool, Vec<u8>) {
         terms,
         project: true,
         pressure_tangent: true,
+        watch: None,
     };
     let mut opt = NewtonOptions::default();
     opt.stop.abs_n = 1e-9;

@@ -95,6 +95,9 @@ pub fn newton_reusing(
             out.initial_residual_n = rn;
         }
         out.residual_n = rn;
+        if let Some(w) = &sys.watch {
+            w(rn);
+        }
         if out.done(rn, &opt.stop) {
             out.converged = true;
             out.stopped_by = Stopped::Converged;
