@@ -9,6 +9,7 @@ pub mod bvh;
 pub mod closest_point;
 pub mod frame;
 pub mod landmarks;
+pub mod nadir_sectors;
 pub mod polydata;
 pub mod resample;
 pub mod segment_distance;

@@ -152,6 +152,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let have_n: Vec<bool> = (1..=3)
         .map(|k| lm.get(&format!("N{k}")).is_some())
         .collect();
+    let mut nadir_labels = None;
     let nadirs = if have_n.iter().all(|&b| b) {
         let mut n = [Point3::origin(); 3];
         for k in 0..3 {
@@ -165,7 +166,15 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
                 json!({"point_mm": [q.x, q.y, q.z], "moved_mm": d}),
             );
         }
-        Some(n)
+        // The file's labels are names: leaflet k's nadir is the one between
+        // C_k and C_k+1 (issue "landmarks optional": an N1 between C3 and
+        // C1 used to be refused).
+        let of = crate::geom::nadir_sectors::nadir_sectors(&c, &n)
+            .map_err(|e| Error::bad_input(lm_path, e))?;
+        if of != [0, 1, 2] {
+            nadir_labels = Some(of.map(|i| format!("N{}", i + 1)));
+        }
+        Some(of.map(|i| n[i]))
     } else if have_n.iter().any(|&b| b) {
         return Err(Error::bad_input(
             lm_path,
@@ -186,6 +195,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     .map_err(|e| Error::failed("valve", e))?;
     let mut out = r.json;
     out["landmarks_snapped"] = Json::Object(snapped);
+    if let Some(l) = nadir_labels {
+        // Which of the file's nadirs each leaflet's path runs through.
+        out["nadir_of_leaflet"] = json!(l);
+    }
     let mut pd = PolyData::default();
     let mut leaflet = Vec::new();
     for (k, p) in r.paths.iter().enumerate() {

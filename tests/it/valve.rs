@@ -1,6 +1,8 @@
 //! `coapt valve` on the committed phantom: paths through the true
 //! commissures and nadirs, on the wall; frame and radii against truth.
 
+use std::path::Path;
+
 use coapt::geom::{Frame, Point3};
 use coapt::io::{markups, vtp};
 use coapt::valve::wall::Wall;
@@ -123,6 +125,81 @@ fn a_landmark_off_the_wall_is_named() {
     let line = err.lines().find(|l| l.starts_with("error: ")).unwrap();
     assert!(
         line.contains("moved.mrk.json") && line.contains("C2") && line.contains("from the wall"),
+        "{err}"
+    );
+}
+
+/// Nadir labels are names: the same points numbered N2, N3, N1 give the
+/// same suture paths (leaflet k's nadir is the one between C_k and
+/// C_k+1), and valve.json says which file label each leaflet took. Two
+/// nadirs in one sector are refused, naming them (exit 2).
+#[test]
+fn nadirs_are_matched_to_leaflets_by_where_they_lie() {
+    let d = tmpdir("valve-nadir-order");
+    let data = repo().join("sample_data");
+    let surface = data.join("truth_surface.vtp");
+    let run = |lm: &Path, out: &str| {
+        let dir = d.join(out);
+        std::fs::create_dir_all(&dir).unwrap();
+        let o = coapt(&[
+            "valve",
+            "--surface",
+            surface.to_str().unwrap(),
+            "--landmarks",
+            lm.to_str().unwrap(),
+            "--out",
+            dir.join("valve.json").to_str().unwrap(),
+        ]);
+        (o, dir)
+    };
+    let original = data.join("landmarks.mrk.json");
+    let (o, a) = run(&original, "a");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let lm = markups::read(&original).unwrap();
+    let relabel = |map: [(&str, &str); 3], name: &str| {
+        let mut l = lm.clone();
+        for (label, _) in l.points.iter_mut() {
+            if let Some((_, to)) = map.iter().find(|(from, _)| from == label) {
+                *label = to.to_string();
+            }
+        }
+        let p = d.join(name);
+        markups::write_mrk_json(&p, &l, Frame::Lps).unwrap();
+        p
+    };
+    let rotated = relabel(
+        [("N1", "N2"), ("N2", "N3"), ("N3", "N1")],
+        "rotated.mrk.json",
+    );
+    let (o, b) = run(&rotated, "b");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(a.join("paths.vtp")).unwrap(),
+        std::fs::read(b.join("paths.vtp")).unwrap()
+    );
+    let vb: Value = serde_json::from_slice(&std::fs::read(b.join("valve.json")).unwrap()).unwrap();
+    assert_eq!(
+        vb["nadir_of_leaflet"],
+        serde_json::json!(["N2", "N3", "N1"])
+    );
+    let va: Value = serde_json::from_slice(&std::fs::read(a.join("valve.json")).unwrap()).unwrap();
+    assert!(va.get("nadir_of_leaflet").is_none());
+    assert_eq!(va["valve_frame"], vb["valve_frame"]);
+    // Two nadirs between C1 and C2.
+    let mut two = lm.clone();
+    let n1 = lm.get("N1").unwrap();
+    for (label, p) in two.points.iter_mut() {
+        if label == "N2" {
+            *p = n1 + (*p - n1) * 0.02;
+        }
+    }
+    let bad = d.join("two.mrk.json");
+    markups::write_mrk_json(&bad, &two, Frame::Lps).unwrap();
+    let (o, _) = run(&bad, "c");
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("two.mrk.json") && err.contains("N1 and N2 both lie between C1 and C2"),
         "{err}"
     );
 }
