@@ -1,6 +1,6 @@
 //! The verdict as `coapt run` ends with it on the terminal: the summary
-//! sentence, each criterion's value against its threshold, and where the
-//! report is. Read from `report.json`, so the terminal and the page say the
+//! sentence, each criterion's value against its threshold, the page's
+//! findings, and where the report is. Read from `report.json`, so the terminal and the page say the
 //! same thing.
 
 use std::fmt::Write;
@@ -48,6 +48,18 @@ pub fn summary(doc: &Json, report_html: &Path) -> String {
             mm(m["coaptation_height_mm"].as_f64(), "mm"),
             mm(m["regurgitant_orifice_area_mm2"].as_f64(), "mm²"),
         );
+    }
+    // What the reader must know beyond the numbers (why it does not close,
+    // crossings, suturing, what Ozaki's rule would cut): the page's findings.
+    for f in doc["findings"].as_array().into_iter().flatten() {
+        let tag = match f["severity"].as_str() {
+            Some("error") => "error",
+            Some("warning") => "warning",
+            _ => "note",
+        };
+        if let Some(m) = f["message"].as_str() {
+            let _ = writeln!(out, "  {tag}: {m}");
+        }
     }
     let _ = writeln!(out, "report: {}", report_html.display());
     out
@@ -112,6 +124,10 @@ mod tests {
                 "coaptation_height_mm": 13.974,
                 "regurgitant_orifice_area_mm2": 0.5994,
             },
+            "findings": [
+                {"severity": "info", "message": "Ozaki's rule cuts 21 / 25 / 25."},
+                {"severity": "warning", "message": "The free edges are too short to meet."},
+            ],
         });
         let text = summary(&doc, Path::new("/runs/a/report.html"));
         assert_eq!(
@@ -122,6 +138,8 @@ mod tests {
              \x20 pass  Valve closed               yes\n\
              \x20 n/a   Leaflets below the STJ     not measurable\n\
              \x20 (effective height judged at 3 mmHg; coaptation height 13.97 mm, regurgitant orifice 0.60 mm²)\n\
+             \x20 note: Ozaki's rule cuts 21 / 25 / 25.\n\
+             \x20 warning: The free edges are too short to meet.\n\
              report: /runs/a/report.html\n"
         );
     }
