@@ -8,6 +8,7 @@ pub mod attributes;
 pub mod bvh;
 pub mod closest_point;
 pub mod frame;
+pub mod free_edge_reach;
 pub mod landmarks;
 pub mod nadir_sectors;
 pub mod polydata;

@@ -352,6 +352,29 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         }));
         progress.set((k + 1) as f64 / 3.5);
     }
+    // Free edges too short to meet cannot close the valve unstretched,
+    // whatever the mechanics: say so before a closure is spent on them.
+    let c3 = [commissures[0], commissures[1], commissures[2]];
+    let free: [f64; 3] = std::array::from_fn(|k| templates[k].outline().length(Edge::Free));
+    let need = crate::geom::free_edge_reach::needed_free_edges(&c3, &free);
+    let mut short = Vec::new();
+    for k in 0..3 {
+        per[k]["free_edge_needed_mm"] = json!(need[k]);
+        if need[k] > free[k] * (1.0 + crate::geom::free_edge_reach::MAX_SHORTFALL) {
+            short.push(format!(
+                "leaflet {}: {:.1} mm against {:.1} mm needed",
+                k + 1,
+                free[k],
+                need[k]
+            ));
+        }
+    }
+    if !short.is_empty() {
+        tracing::warn!(
+            "leaflets: the free edges are too short to meet at one point unstretched ({}); the valve cannot close as cut",
+            short.join(", ")
+        );
+    }
     let leaf_of: Vec<u16> = lf.iter().map(|&k| k as u16).collect();
     let sutured: Vec<bool> = bnd.iter().map(|&b| b == 1).collect();
     let crossings = crossings::summary(&out, &leaf_of, &sutured, &surface, &commissures);

@@ -3,19 +3,15 @@
 //! too short for its root; saying so (with the numbers) tells a surgeon
 //! what to change, where "no central coaptation" alone does not.
 //!
-//! To meet, the three free edges must pass through one point P, each from
-//! its commissure C_k to P and on to C_k+1, so free edge k must be at least
-//! |C_k P| + |P C_k+1|. P may as well lie in the commissures' plane
-//! (projecting it there shortens every leg), and the best P is the one
-//! that asks the least stretch of the worst leaflet: min over P of
-//! max_k (|C_k P| + |P C_k+1|) / L_k, a convex function of P, found on a
-//! grid refined twice. When it exceeds 1 the leaflets can meet only
-//! stretched, whatever the mechanics.
+//! The geometry is `geom::free_edge_reach`: the length each free edge
+//! needs to reach the point where the three can meet with the least
+//! stretch.
 
 use serde_json::Value as Json;
 
 use super::document::{Finding, Severity};
-use crate::geom::{Point3, ValveFrame};
+use crate::geom::ValveFrame;
+use crate::geom::free_edge_reach::{MAX_SHORTFALL, needed_free_edges};
 use crate::leaflet::template::sizer_size_for;
 
 /// One leaflet's free edge against its root.
@@ -59,7 +55,7 @@ pub fn reach(frame: &ValveFrame, placement: &Json) -> Vec<Reach> {
         return Vec::new();
     };
     let c = &frame.commissures_mm;
-    let p = meeting_point(c, &free);
+    let need = needed_free_edges(c, &free);
     (0..3)
         .map(|k| {
             let (a, b) = (c[k], c[(k + 1) % 3]);
@@ -68,48 +64,12 @@ pub fn reach(frame: &ValveFrame, placement: &Json) -> Vec<Reach> {
                 leaflet: k,
                 template: ls[k]["template"].as_str().unwrap_or("unnamed").to_string(),
                 free_edge_mm: free[k],
-                centre_path_mm: (a - p).norm() + (p - b).norm(),
+                centre_path_mm: need[k],
                 intercommissural_mm: gap,
                 rule_size: sizer_size_for(gap).ok(),
             }
         })
         .collect()
-}
-
-/// The point of the commissures' plane that asks the least stretch of the
-/// worst free edge (see the module note).
-fn meeting_point(c: &[Point3; 3], free: &[f64; 3]) -> Point3 {
-    let g = Point3::from((c[0].coords + c[1].coords + c[2].coords) / 3.0);
-    let u = (c[1] - c[0]).normalize();
-    let n = (c[1] - c[0]).cross(&(c[2] - c[0]));
-    let w = n.normalize().cross(&u);
-    let at = |x: f64, y: f64| g + u * x + w * y;
-    let worst = |p: &Point3| {
-        (0..3)
-            .map(|k| ((c[k] - p).norm() + (p - c[(k + 1) % 3]).norm()) / free[k])
-            .fold(0.0, f64::max)
-    };
-    // The commissures span at most a few centimetres: 0.5 mm steps over
-    // their extent, then 0.02 and 0.001 mm steps around the best.
-    let half = c.iter().map(|p| (p - g).norm()).fold(0.0, f64::max);
-    let (mut x0, mut y0) = (0.0, 0.0);
-    let mut span = half;
-    for step in [0.5, 0.02, 0.001] {
-        let n = (span / step).ceil() as i64;
-        let mut best = (f64::INFINITY, x0, y0);
-        for i in -n..=n {
-            for j in -n..=n {
-                let (x, y) = (x0 + i as f64 * step, y0 + j as f64 * step);
-                let v = worst(&at(x, y));
-                if v < best.0 {
-                    best = (v, x, y);
-                }
-            }
-        }
-        (x0, y0) = (best.1, best.2);
-        span = 2.0 * step;
-    }
-    at(x0, y0)
 }
 
 /// Short free edges, always; Ozaki's rule for the root when a free edge is
@@ -160,8 +120,9 @@ pub fn findings(reach: &[Reach], closed: bool) -> Vec<Finding> {
 
 /// A closed valve whose free edges are too short to meet unstretched met
 /// only because its placement stretched them, and the sutured state counts
-/// as stress-free (seed 001): that closure is not a prediction. Below 2 %
-/// a shortfall is within the placement's and the mesh's error.
+/// as stress-free (seed 001): that closure is not a prediction. Below
+/// [`MAX_SHORTFALL`] a shortfall is within the placement's and the mesh's
+/// error.
 pub fn gates(reach: &[Reach], closed: bool) -> Vec<String> {
     if !closed {
         return Vec::new();
@@ -196,14 +157,10 @@ fn list(short: &[&Reach]) -> String {
         .join(", ")
 }
 
-/// The shortfall a closed valve may have before its closure is not taken
-/// as a prediction.
-pub const MAX_SHORTFALL: f64 = 0.02;
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::Vector3;
+    use crate::geom::{Point3, Vector3};
     use serde_json::json;
 
     /// Commissures `r` off the axis at 120° (C2 at `a2` degrees), C2 `dh`
@@ -238,39 +195,6 @@ mod tests {
             assert!((x.intercommissural_mm - 2.0 * 13.9 * 60f64.to_radians().sin()).abs() < 1e-9);
             assert_eq!(x.rule_size, Some(25));
         }
-    }
-
-    /// No nearby point of the commissures' plane asks less of the worst
-    /// leaflet (convex, so local is global), on an uneven root.
-    #[test]
-    fn the_meeting_point_minimises_the_worst_stretch() {
-        let f = frame(13.0, 105.0, 4.0);
-        let c = f.commissures_mm;
-        let free = [22.0, 31.0, 27.0];
-        let p = meeting_point(&c, &free);
-        let worst = |p: &Point3| {
-            (0..3)
-                .map(|k| ((c[k] - p).norm() + (p - c[(k + 1) % 3]).norm()) / free[k])
-                .fold(0.0, f64::max)
-        };
-        let n = (c[1] - c[0]).cross(&(c[2] - c[0])).normalize();
-        assert!((p - c[0]).dot(&n).abs() < 1e-9, "in the commissures' plane");
-        let u = (c[1] - c[0]).normalize();
-        let w = n.cross(&u);
-        let best = worst(&p);
-        for k in 0..16 {
-            let a = k as f64 * std::f64::consts::PI / 8.0;
-            for d in [0.005, 0.1, 2.0] {
-                let q = p + (u * a.cos() + w * a.sin()) * d;
-                assert!(worst(&q) >= best - 1e-9, "{k} {d}: {} < {best}", worst(&q));
-            }
-        }
-        let r = reach(&f, &placement(free));
-        let max = r
-            .iter()
-            .map(|x| x.centre_path_mm / x.free_edge_mm)
-            .fold(0.0, f64::max);
-        assert!((max - best).abs() < 1e-12);
     }
 
     #[test]

@@ -135,6 +135,16 @@ fn sample_leaflets_cross_neither_each_other_nor_the_wall() {
         // Neighbours are sewn to the same three posts: the strips touch there.
         let summary: Value =
             serde_json::from_slice(&std::fs::read(d.join("leaflets.json")).unwrap()).unwrap();
+        // The default template's free edges (24.3 mm) cannot meet in this
+        // root: each needs 26.8 mm to the point where the three can meet.
+        for l in summary["leaflets"].as_array().unwrap() {
+            let need = l["free_edge_needed_mm"].as_f64().unwrap();
+            let free = l["free_edge_mm"].as_f64().unwrap();
+            if template.ends_with("ozaki_default.toml") {
+                assert!((need - 26.8).abs() < 0.05 && free < 24.4, "{l}");
+            }
+            assert!(need > 20.0 && need < 30.0, "{template}: {l}");
+        }
         let c = &summary["crossings"];
         assert_eq!(c["leaflet_leaflet_pairs"], 0);
         assert_eq!(c["leaflet_wall_pairs"], 0);
