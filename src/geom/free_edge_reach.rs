@@ -61,11 +61,7 @@ pub fn meeting_point(c: &[Point3; 3], free: &[f64; 3]) -> Point3 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn ring(r: f64, deg: f64, z: f64) -> Point3 {
-        let a = deg.to_radians();
-        Point3::new(r * a.cos(), r * a.sin(), z)
-    }
+    use crate::geom::ring;
 
     #[test]
     fn a_symmetric_root_needs_twice_its_radius() {

@@ -28,6 +28,13 @@ pub use valve_frame::ValveFrame;
 pub use volume::Volume;
 
 pub type Point3 = nalgebra::Point3<f64>;
+
+/// Test points: `r` off the z axis at `deg` degrees, at height `z`.
+#[cfg(test)]
+pub(crate) fn ring(r: f64, deg: f64, z: f64) -> Point3 {
+    let a = deg.to_radians();
+    Point3::new(r * a.cos(), r * a.sin(), z)
+}
 pub type Vector3 = nalgebra::Vector3<f64>;
 pub type Matrix3 = nalgebra::Matrix3<f64>;
 pub type Matrix4 = nalgebra::Matrix4<f64>;

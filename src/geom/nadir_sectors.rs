@@ -61,11 +61,7 @@ pub fn nadir_sectors(c: &[Point3; 3], n: &[Point3; 3]) -> Result<[usize; 3], Str
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn ring(r: f64, deg: f64, z: f64) -> Point3 {
-        let a = deg.to_radians();
-        Point3::new(r * a.cos(), r * a.sin(), z)
-    }
+    use crate::geom::ring;
 
     #[test]
     fn nadirs_go_to_the_sector_they_lie_in_whatever_their_labels() {
