@@ -40,7 +40,13 @@
 //! mesh, and on the sutured one a third of the triangles are obtuse, which
 //! three edge springs cannot hold, see `material::msm`), `bending` (true:
 //! add the bending stiffness D = E't³/12 of a
-//! shell, default false), `wall_contact` (true: free leaflet nodes are kept
+//! shell, default false), `wrinkling` (true: the neo-Hookean membrane
+//! carries no compression, `material::wrinkling`; a leaflet resting on its
+//! flat template is gathered onto a smaller surface, and the excess
+//! wrinkles instead of buckling the mesh; default false;
+//! `wrinkled_stiffness`, default 0.02: the fraction of the neo-Hookean
+//! energy a wrinkled or slack triangle keeps, without which a gathered
+//! mesh's slack triangles collapse), `wall_contact` (true: free leaflet nodes are kept
 //! off the aortic wall, `contact::wall_barrier`; default false). With it
 //! every free node's mid-surface stays at least half the thickness from
 //! the wall (aorta.vtp's wall triangles, or the cylinder about the axis
@@ -74,7 +80,9 @@ use std::path::Path;
 use serde::Deserialize;
 
 use super::element::Membrane;
-use super::material::{Gent, Goh, MassSpring, NeoHookean, StVenantKirchhoff, msm};
+use super::material::{
+    Gent, Goh, MassSpring, NeoHookean, StVenantKirchhoff, WrinklingNeoHookean, msm,
+};
 use super::suture;
 use crate::units::{self, Kind};
 use crate::{Error, Result};
@@ -105,6 +113,8 @@ struct Raw {
     time_limit: Option<String>,
     reference: Option<String>,
     bending: Option<bool>,
+    wrinkling: Option<bool>,
+    wrinkled_stiffness: Option<f64>,
     wall_contact: Option<bool>,
     effective_height_pressure: Option<String>,
     material_source: Option<String>,
@@ -221,6 +231,10 @@ pub struct CloseConfig {
     /// Add the leaflet's bending stiffness D = E't³/12 (discrete-shell
     /// hinges) to the membrane.
     pub bending: bool,
+    /// The neo-Hookean membrane carries no compression (tension field,
+    /// `material::wrinkling`): `Some(c)`, c the fraction of the
+    /// neo-Hookean energy kept where the sheet is wrinkled or slack.
+    pub wrinkling: Option<f64>,
     /// Keep free leaflet nodes off the aortic wall (`contact::wall_barrier`).
     pub wall_contact: bool,
     /// Also close at this (low) pressure, MPa, for the effective height
@@ -239,6 +253,10 @@ impl CloseConfig {
             Model::Svk { young, poisson } => Box::new(StVenantKirchhoff {
                 young: *young,
                 poisson: *poisson,
+            }),
+            Model::NeoHookean { mu } if self.wrinkling.is_some() => Box::new(WrinklingNeoHookean {
+                mu: *mu,
+                residual: self.wrinkling.unwrap_or(0.0),
             }),
             Model::NeoHookean { mu } => Box::new(NeoHookean { mu: *mu }),
             Model::Gent { mu, jm } => Box::new(Gent { mu: *mu, jm: *jm }),
@@ -289,6 +307,8 @@ impl CloseConfig {
             "effective_height_pressure_mmhg": self.effective_height_pressure.map(|p| p / units::MMHG_IN_MPA),
             "reference": format!("{:?}", self.reference).to_lowercase(),
             "bending": self.bending,
+            "wrinkling": self.wrinkling.is_some(),
+            "wrinkled_stiffness": self.wrinkling,
             "wall_contact": self.wall_contact,
             "suture": {
                 "mode": format!("{:?}", self.suture.mode).to_lowercase(),
@@ -302,6 +322,10 @@ impl CloseConfig {
         })
     }
 }
+
+/// Default fraction of the neo-Hookean energy a wrinkled or slack triangle
+/// keeps (`wrinkled_stiffness`): enough to hold a gathered mesh together.
+pub const WRINKLED_STIFFNESS: f64 = 0.02;
 
 pub fn read(path: &Path) -> Result<CloseConfig> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
@@ -437,6 +461,21 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
         }
     };
     let suture = parse_suture(raw.suture)?;
+    let wrinkling = match (raw.wrinkling.unwrap_or(false), raw.wrinkled_stiffness) {
+        (true, c) => Some(match c.unwrap_or(WRINKLED_STIFFNESS) {
+            c if (0.0..=1.0).contains(&c) => c,
+            c => return Err(format!("wrinkled_stiffness {c} must lie in [0, 1]")),
+        }),
+        (false, Some(_)) => {
+            return Err("wrinkled_stiffness needs wrinkling = true".into());
+        }
+        (false, None) => None,
+    };
+    if wrinkling.is_some() && !matches!(model, Model::NeoHookean { .. }) {
+        return Err(format!(
+            "wrinkling = true is built for model = \"neo-hookean\" only (the relaxed energy of {m} is not); set wrinkling = false or model = \"neo-hookean\""
+        ));
+    }
     let contact_margin =
         q(Kind::Length, &raw.contact_margin, "contact_margin")?.unwrap_or(0.5 * thickness);
     Ok(CloseConfig {
@@ -473,6 +512,7 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
         )?,
         reference,
         bending: raw.bending.unwrap_or(false),
+        wrinkling,
         wall_contact: raw.wall_contact.unwrap_or(false),
         material_source: raw
             .material_source
@@ -599,5 +639,36 @@ mod tests {
                 .to_json()["reference"],
             "flat"
         );
+    }
+
+    #[test]
+    fn wrinkling_is_the_neo_hookean_relaxed_and_refused_elsewhere() {
+        let base = "thickness = \"0.5 mm\"\npressure = \"80 mmHg\"\nmu = \"300 kPa\"\n";
+        let nh = parse(&format!(
+            "model = \"neo-hookean\"\nwrinkling = true\n{base}"
+        ))
+        .unwrap();
+        assert!(nh.wrinkling == Some(WRINKLED_STIFFNESS) && nh.to_json()["wrinkling"] == true);
+        assert_eq!(nh.model_name(), "neo-hookean, wrinkling");
+        let plain = parse(&format!("model = \"neo-hookean\"\n{base}")).unwrap();
+        assert!(plain.wrinkling.is_none());
+        let c = parse(&format!(
+            "model = \"neo-hookean\"\nwrinkling = true\nwrinkled_stiffness = 0\n{base}"
+        ))
+        .unwrap();
+        assert_eq!(c.wrinkling, Some(0.0));
+        for bad in [
+            "wrinkling = true\nwrinkled_stiffness = 1.5",
+            "wrinkled_stiffness = 0.1",
+        ] {
+            let e = parse(&format!("model = \"neo-hookean\"\n{bad}\n{base}")).unwrap_err();
+            assert!(e.contains("wrinkled_stiffness"), "{e}");
+        }
+        assert_eq!(plain.model_name(), "neo-hookean");
+        let e = parse(&format!(
+            "model = \"goh\"\nk1 = \"1 MPa\"\nwrinkling = true\n{base}"
+        ))
+        .unwrap_err();
+        assert!(e.contains("wrinkling") && e.contains("goh"), "{e}");
     }
 }

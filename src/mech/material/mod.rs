@@ -10,6 +10,8 @@
 //! * [`Gent`] — incompressible Gent with lock-up J_m (§5.2).
 //! * [`Goh`] — incompressible Gasser–Ogden–Holzapfel with two fibre families
 //!   from `RefTri::fiber` and dispersion κ (seed 001 eq. 17–19).
+//! * [`WrinklingNeoHookean`] — the neo-Hookean membrane relaxed to carry no
+//!   compression (tension field: taut, wrinkled or slack).
 //! * [`MassSpring`] — mass–spring model, three edge springs per triangle with
 //!   a linear, three-step or anisotropic three-step [`Law`] (§5.5).
 
@@ -19,6 +21,7 @@ pub mod invariants;
 pub mod msm;
 pub mod neo_hookean;
 pub mod svk;
+pub mod wrinkling;
 
 pub use gent::Gent;
 pub use goh::{GOH_EXP_MAX, Goh};
@@ -28,6 +31,7 @@ pub use msm::{
 };
 pub use neo_hookean::NeoHookean;
 pub use svk::StVenantKirchhoff;
+pub use wrinkling::{TensionState, WrinklingNeoHookean};
 
 #[cfg(test)]
 mod tests;

@@ -1018,3 +1018,155 @@ fn msm_obtuse_triangle_has_a_soft_flattening_mode() {
     let (me_c, _) = k(&msm, &equilateral, 0.94);
     assert!(me_c > 0.0, "equilateral, compressed: {me_c}");
 }
+
+// ---------------------------------------------------------------------------
+// Tension field (wrinkling neo-Hookean)
+
+/// Finite differences in each tension-field state separately (the Hessian
+/// jumps where they meet): states are drawn over stretches 0.4–1.5 and kept
+/// only when clearly inside `want`.
+#[test]
+fn wrinkling_fd_in_each_state() {
+    let m = WrinklingNeoHookean {
+        mu: 1.0 / 3.0,
+        residual: 0.0,
+    };
+    let mut rng = SplitMix64::new(700);
+    for (want, m) in [
+        TensionState::Taut,
+        TensionState::Wrinkled,
+        TensionState::Slack,
+    ]
+    .into_iter()
+    .flat_map(|s| {
+        [
+            (s, m),
+            (
+                s,
+                WrinklingNeoHookean {
+                    residual: 0.05,
+                    ..m
+                },
+            ),
+        ]
+    }) {
+        let mut worst = Errs::default();
+        let mut tries = 0;
+        while worst.n < 25 {
+            tries += 1;
+            assert!(tries < 20_000, "{want:?}: too few states drawn");
+            let (p, scale) = rand_tri(&mut rng);
+            let r = RefTri::new(p, H, None).unwrap();
+            let q = rand_state(&r, &p, 0.4, 1.5, 0.03, &mut rng);
+            // Every perturbation of the FD stencil must stay in the state.
+            let inside = (0..9).all(|c| {
+                [-1e-4, 1e-4].iter().all(|&d| {
+                    WrinklingNeoHookean::state(&r, &perturb(&q, c, d * scale)) == Some(want)
+                })
+            });
+            if !inside {
+                continue;
+            }
+            if let Some(e) = fd_check(&m, &r, &q, scale) {
+                worst.max(e);
+            }
+        }
+        eprintln!(
+            "wrinkling {want:?}, residual {}: grad {:.2e} hess {:.2e} Σf {:.2e} torque {:.2e} asym {:.2e}",
+            m.residual, worst.grad, worst.hess, worst.sum, worst.torque, worst.sym
+        );
+        if want != TensionState::Slack || m.residual > 0.0 {
+            assert!(
+                worst.grad <= 1e-6 && worst.hess <= 1e-6,
+                "{want:?}: {worst:?}"
+            );
+            assert!(worst.sum <= 1e-10 && worst.torque <= 1e-9 && worst.sym <= 1e-12);
+        }
+    }
+}
+
+/// A strip pulled along e_x: whatever its width (below the free width
+/// λ^(−1/2)), its energy and axial force are the free uniaxial strip's and
+/// the lateral force is zero; a sheet shorter than its reference both ways
+/// costs nothing; taut, the law is the neo-Hookean one.
+#[test]
+fn wrinkling_uniaxial_slack_and_taut_closed_forms() {
+    let mu = 0.3;
+    let m = WrinklingNeoHookean { mu, residual: 0.0 };
+    let nh = NeoHookean { mu };
+    let side = 2.0;
+    let patch = Patch::new(side, None);
+    let vol = side * side * H;
+    for &l in &[1.05f64, 1.3, 1.6] {
+        let free = l.powf(-0.5);
+        for &l2 in &[0.3, 0.6, 0.95 * free, free] {
+            let (u, d1, d2) = patch.eval(&m, l, l2);
+            let w = 0.5 * mu * (l * l + 2.0 / l - 3.0);
+            assert!(
+                (u - vol * w).abs() < 1e-12 * (1.0 + u.abs()),
+                "λ {l} {l2}: {u}"
+            );
+            let t = vol * mu * (l - l.powi(-2));
+            assert!(
+                (d1 - t).abs() < 1e-10 * (1.0 + t),
+                "λ {l} {l2}: {d1} vs {t}"
+            );
+            assert!(d2.abs() < 1e-10, "λ {l} {l2}: lateral force {d2}");
+        }
+        // A kept fraction c of the neo-Hookean energy blends the two laws.
+        let blend = WrinklingNeoHookean { residual: 0.1, ..m };
+        let (ub, _, _) = patch.eval(&blend, l, 0.6);
+        let (un, _, _) = patch.eval(&nh, l, 0.6);
+        let w = vol * 0.5 * mu * (l * l + 2.0 / l - 3.0);
+        assert!(
+            (ub - (0.9 * w + 0.1 * un)).abs() < 1e-12 * un,
+            "λ {l}: {ub}"
+        );
+        // Wider than free: taut, and exactly the neo-Hookean law.
+        for &l2 in &[1.02 * free, 1.0, l] {
+            assert_eq!(patch.eval(&m, l, l2), patch.eval(&nh, l, l2));
+        }
+    }
+    for &(l1, l2) in &[(1.0, 1.0), (0.9, 0.5), (0.99, 0.99), (0.6, 0.2)] {
+        // At λ = 1 rounding may leave a ≈ 1 + 1e-16: wrinkled, by nothing.
+        let (u, d1, d2) = patch.eval(&m, l1, l2);
+        assert!(
+            u.abs() < 1e-15 && d1.abs() < 1e-14 && d2.abs() < 1e-14,
+            "λ {l1} {l2}"
+        );
+    }
+}
+
+/// The relaxed energy never exceeds the neo-Hookean one, equals it when
+/// taut, and is continuous with its forces across the taut–wrinkled and
+/// wrinkled–slack boundaries.
+#[test]
+fn wrinkling_relaxes_and_is_c1() {
+    let mu = 0.3;
+    let m = WrinklingNeoHookean { mu, residual: 0.0 };
+    let nh = NeoHookean { mu };
+    let mut rng = SplitMix64::new(701);
+    for _ in 0..200 {
+        let (p, _) = rand_tri(&mut rng);
+        let r = RefTri::new(p, H, None).unwrap();
+        let q = rand_state(&r, &p, 0.4, 1.5, 0.05, &mut rng);
+        let (Some(a), Some(b)) = (m.eval(&r, &q, false), nh.eval(&r, &q, false)) else {
+            continue;
+        };
+        assert!(a.energy <= b.energy * (1.0 + 1e-12) + 1e-15);
+        if WrinklingNeoHookean::state(&r, &q) == Some(TensionState::Taut) {
+            assert_eq!(a.energy, b.energy);
+        }
+    }
+    let patch = Patch::new(2.0, None);
+    let eps = 1e-7;
+    for &l in &[1.1f64, 1.4] {
+        let free = l.powf(-0.5);
+        let (u0, a0, b0) = patch.eval(&m, l, free * (1.0 - eps));
+        let (u1, a1, b1) = patch.eval(&m, l, free * (1.0 + eps));
+        assert!((u0 - u1).abs() < 1e-6 * u0 && (a0 - a1).abs() < 1e-5 * a0.abs());
+        assert!(b0.abs() < 1e-9 && b1.abs() < 1e-5);
+    }
+    let (u, a, b) = patch.eval(&m, 1.0 + eps, 0.7);
+    assert!(u.abs() < 1e-12 && a.abs() < 1e-6 && b.abs() < 1e-12);
+}
