@@ -11,6 +11,7 @@ use super::contact::leaflet_barrier::LeafletBarrier;
 use super::contact::planes::Plane;
 use super::contact::wall_barrier::{WallBarrier, WallGeometry, WallShape, WallSummary};
 use super::element::{RefTri, V3};
+use super::reference_blend;
 use super::solve::{self, NewtonOptions, Outcome, RelaxOptions, Stop, Stopped};
 use super::sparse::Dofs;
 use super::suture::{self, Sutured, Wall};
@@ -761,6 +762,41 @@ pub fn close_watched(
         ..nopt
     };
     let outcome = match cfg.solver {
+        SolverKind::Newton if cfg.reference_steps > 1 => {
+            // The reference walks from the sutured state to the one asked
+            // for; each step starts where the last left off.
+            let target = std::mem::take(&mut sys.refs);
+            let mut all: Option<Outcome> = None;
+            let mut notes = Vec::new();
+            for k in 1..=cfg.reference_steps {
+                let s = k as f64 / cfg.reference_steps as f64;
+                sys.refs = if k == cfg.reference_steps {
+                    target.clone()
+                } else {
+                    reference_blend::blended(
+                        &l.x,
+                        &ref_x,
+                        &l.tris,
+                        s,
+                        cfg.thickness,
+                        l.fibers.as_deref(),
+                    )?
+                };
+                let left = Stop {
+                    max_seconds: (stop.max_seconds - t1.elapsed().as_secs_f64()).max(0.0),
+                    ..stop.clone()
+                };
+                let o = newton_with_continuation(&mut sys, &mut x, &left, &nopt);
+                notes.push(format!("reference {s:.2} of the way: {}", o.reason));
+                all = Some(merge(all, o));
+                if left.max_seconds <= 0.0 {
+                    break;
+                }
+            }
+            let mut o = all.unwrap_or_else(Outcome::start);
+            o.reason = notes.join("; ");
+            o
+        }
         SolverKind::Newton => newton_with_continuation(&mut sys, &mut x, &stop, &nopt),
         SolverKind::Relax => {
             // An explicit step costs about a hundredth of a Newton step, so

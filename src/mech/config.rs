@@ -38,7 +38,12 @@
 //! default: the flat template is, leaving the stress of both placing and
 //! suturing in the leaflet; seed 000's springs rest on the flat template's
 //! mesh, and on the sutured one a third of the triangles are obtuse, which
-//! three edge springs cannot hold, see `material::msm`), `bending` (true:
+//! three edge springs cannot hold, see `material::msm`), `reference_steps`
+//! (default 1; with "flat" or "placed", n > 1 closes n times while the
+//! reference moves from the sutured state to the one asked for, its squared
+//! edge lengths blended, `reference_blend`: a placement far from isometric
+//! to the flat template starts there from residuals of 1e7 N and more),
+//! `bending` (true:
 //! add the bending stiffness D = E't³/12 of a
 //! shell, default false), `wrinkling` (true: the neo-Hookean membrane
 //! carries no compression, `material::wrinkling`; a leaflet resting on its
@@ -112,6 +117,7 @@ struct Raw {
     max_iterations: Option<usize>,
     time_limit: Option<String>,
     reference: Option<String>,
+    reference_steps: Option<usize>,
     bending: Option<bool>,
     wrinkling: Option<bool>,
     wrinkled_stiffness: Option<f64>,
@@ -228,6 +234,9 @@ pub struct CloseConfig {
     pub max_iterations: usize,
     pub time_limit: f64,
     pub reference: Reference,
+    /// Closures in which the reference moves from the sutured state to
+    /// `reference` (1: straight onto it; `reference_blend`).
+    pub reference_steps: usize,
     /// Add the leaflet's bending stiffness D = E't³/12 (discrete-shell
     /// hinges) to the membrane.
     pub bending: bool,
@@ -306,6 +315,7 @@ impl CloseConfig {
             "time_limit_s": self.time_limit,
             "effective_height_pressure_mmhg": self.effective_height_pressure.map(|p| p / units::MMHG_IN_MPA),
             "reference": format!("{:?}", self.reference).to_lowercase(),
+            "reference_steps": self.reference_steps,
             "bending": self.bending,
             "wrinkling": self.wrinkling.is_some(),
             "wrinkled_stiffness": self.wrinkling,
@@ -511,6 +521,16 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
             "time_limit",
         )?,
         reference,
+        reference_steps: match raw.reference_steps.unwrap_or(1) {
+            1 => 1,
+            n if !(2..=100).contains(&n) => {
+                return Err(format!("reference_steps {n} must lie in 1..=100"));
+            }
+            _ if reference == Reference::Sutured => {
+                return Err("reference_steps blends the sutured state into the reference: it needs reference = \"flat\" or \"placed\"".into());
+            }
+            n => n,
+        },
         bending: raw.bending.unwrap_or(false),
         wrinkling,
         wall_contact: raw.wall_contact.unwrap_or(false),
@@ -670,5 +690,26 @@ mod tests {
         ))
         .unwrap_err();
         assert!(e.contains("wrinkling") && e.contains("goh"), "{e}");
+    }
+
+    #[test]
+    fn reference_steps_blend_towards_a_reference_other_than_the_sutured_one() {
+        let base = "model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\n";
+        assert_eq!(parse(base).unwrap().reference_steps, 1);
+        let c = parse(&format!(
+            "{base}reference = \"flat\"\nreference_steps = 4\n"
+        ))
+        .unwrap();
+        assert_eq!((c.reference, c.reference_steps), (Reference::Flat, 4));
+        assert_eq!(c.to_json()["reference_steps"], 4);
+        let e = parse(&format!("{base}reference_steps = 4\n")).unwrap_err();
+        assert!(e.contains("reference_steps") && e.contains("flat"), "{e}");
+        for n in [0, 101] {
+            let e = parse(&format!(
+                "{base}reference = \"flat\"\nreference_steps = {n}\n"
+            ))
+            .unwrap_err();
+            assert!(e.contains("reference_steps"), "{e}");
+        }
     }
 }

@@ -18,6 +18,7 @@ pub mod element;
 pub mod gmres;
 pub mod material;
 pub mod pressure;
+pub mod reference_blend;
 pub mod shapes;
 pub mod solve;
 pub mod sparse;
