@@ -165,7 +165,18 @@ pub fn run_default_chain(dir: &Path, inputs: &[(&str, &Path)], extra: &str) -> P
 /// `coapt run` of the whole chain with `template` and the default mechanics
 /// (`pipelines/close.toml`); `extra` is appended to the configuration.
 pub fn run_chain(dir: &Path, inputs: &[(&str, &Path)], template: &Path, extra: &str) -> PathBuf {
-    let p = repo().join("pipelines");
+    let close = repo().join("pipelines/close.toml");
+    run_chain_with(dir, inputs, template, &close, extra)
+}
+
+/// [`run_chain`] with the mechanics of `close`.
+pub fn run_chain_with(
+    dir: &Path,
+    inputs: &[(&str, &Path)],
+    template: &Path,
+    close: &Path,
+    extra: &str,
+) -> PathBuf {
     let mut text = format!(
         "[run]\ndir = \"{}\"\n\n[inputs]\n",
         dir.join("run").display()
@@ -176,7 +187,7 @@ pub fn run_chain(dir: &Path, inputs: &[(&str, &Path)], template: &Path, extra: &
     text += &format!(
         "template = \"{}\"\nconfig = \"{}\"\n{extra}",
         template.display(),
-        p.join("close.toml").display()
+        close.display()
     );
     let cfg = dir.join("chain.toml");
     std::fs::write(&cfg, text).unwrap();

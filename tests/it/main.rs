@@ -10,6 +10,7 @@ mod common;
 mod design;
 mod dicom;
 mod end_to_end;
+mod flat_reference;
 mod formats;
 mod hanging;
 mod landmarks;
