@@ -3,11 +3,12 @@
 //! a glance whether the lumen, the frame and the paths sit where the CT says.
 
 use super::ct_plane::{Sampler, contour, window};
+use super::label_layout;
 use super::legend::{LegendItem, Swatch, draw_legend_row};
 use super::notice::notice;
 use super::palette::{BACKGROUND, INK};
 use super::scale_bar::draw_scale_bar;
-use super::text::{HAlign, TextStyle, VAlign, draw_text};
+use super::text::{HAlign, TextStyle, VAlign, draw_text, text_width};
 use super::to_figure;
 use crate::geom::{Point3, ValveFrame, Vector3, Volume};
 use crate::report::Figure;
@@ -196,6 +197,7 @@ fn render_plane(
     let label = TextStyle::new(13.0, [255; 3])
         .align(HAlign::Left, VAlign::Middle)
         .halo([0; 3]);
+    let mut shown = Vec::new();
     for (name, p) in points {
         let d = dist(p);
         let q = cam.project(p);
@@ -207,7 +209,15 @@ fn render_plane(
         } else {
             c.ring(q[0], q[1], 4.0, 1.5, LANDMARK);
         }
-        draw_text(&mut c, q[0] + 7.0, q[1] - 7.0, name, &label);
+        shown.push((name, [q[0], q[1]]));
+    }
+    let anchors: Vec<[f64; 2]> = shown.iter().map(|s| s.1).collect();
+    let widths: Vec<f64> = shown.iter().map(|s| text_width(13.0, s.0)).collect();
+    for ((name, _), o) in shown
+        .iter()
+        .zip(label_layout::place(&anchors, &widths, 13.0))
+    {
+        draw_text(&mut c, o[0], o[1], name, &label);
     }
     c.finish()
 }

@@ -15,6 +15,7 @@ pub mod convergence;
 pub mod ct_check;
 pub mod ct_plane;
 pub mod font;
+pub mod label_layout;
 pub mod legend;
 pub mod mesh_edges;
 pub mod notice;
