@@ -41,6 +41,14 @@ pub static SPEC: StageSpec = StageSpec {
             required: false,
             help: "segment.json: its VAJ plane (vaj.plane) is the annulus plane",
         },
+        Port {
+            name: "given_landmarks",
+            flag: "given",
+            file: "given.mrk.json",
+            kind: ArtifactKind::SomeLandmarks,
+            required: false,
+            help: "a user's points (any of C1–C3, N1–N3, e.g. corrected in 3D Slicer): each replaces the detected one; the rest are detected",
+        },
     ],
     outputs: &[
         Port {
@@ -90,9 +98,50 @@ fn snap(mesh: &TriMesh, bvh: &Bvh, tris: &[[u32; 3]], p: &Point3) -> Option<Poin
     best.map(|(_, q)| Point3::from(q))
 }
 
-/// Findings for points below `min_confidence`, and for a STJ that is not
-/// a clear narrowing.
-fn findings(det: &Detection, min_confidence: f64) -> Vec<String> {
+/// Where a point of the written landmarks comes from.
+#[derive(Debug, Clone, PartialEq)]
+enum Source {
+    Detected,
+    /// The user's file; the detector had put the point at `detected`.
+    Given {
+        detected: Point3,
+    },
+}
+
+impl Source {
+    fn name(&self) -> &'static str {
+        match self {
+            Source::Detected => "detected",
+            Source::Given { .. } => "given",
+        }
+    }
+}
+
+/// Every detected point that `given` holds is replaced by the user's; the
+/// sources follow `det.points`.
+fn merge_given(det: &mut Detection, given: Option<&Landmarks>) -> Vec<Source> {
+    det.points
+        .iter_mut()
+        .map(|p| match given.and_then(|g| g.get(&p.label)) {
+            Some(q) => {
+                let detected = p.point_mm;
+                p.point_mm = q;
+                Source::Given { detected }
+            }
+            None => Source::Detected,
+        })
+        .collect()
+}
+
+/// |a − b| of a JSON [x, y, z] and a point (mm).
+fn distance_mm(a: &Json, b: &Point3) -> f64 {
+    let c = |k: usize| a[k].as_f64().unwrap_or(f64::NAN);
+    (Point3::new(c(0), c(1), c(2)) - b).norm()
+}
+
+/// Findings for detected points below `min_confidence` (a given point is
+/// the user's), and for a STJ that is not a clear narrowing.
+fn findings(det: &Detection, sources: &[Source], min_confidence: f64) -> Vec<String> {
     let mut out = Vec::new();
     if !det.stj_is_minimum {
         out.push(format!(
@@ -100,8 +149,8 @@ fn findings(det: &Detection, min_confidence: f64) -> Vec<String> {
             det.stj_height_mm
         ));
     }
-    for p in &det.points {
-        if p.confidence < min_confidence {
+    for (p, s) in det.points.iter().zip(sources) {
+        if p.confidence < min_confidence && *s == Source::Detected {
             out.push(format!(
                 "{} detected with low confidence {:.2} (< {min_confidence}): check it in 3D Slicer ({})",
                 p.label, p.confidence, p.evidence
@@ -168,8 +217,13 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     }
     let detect_s = t1.elapsed().as_secs_f64();
     progress.set(0.9);
+    let given = match io.input("given_landmarks") {
+        Some(p) => Some(markups::read(p)?),
+        None => None,
+    };
+    let sources = merge_given(&mut det, given.as_ref());
     let min_conf = params.float("min_confidence");
-    let found = findings(&det, min_conf);
+    let found = findings(&det, &sources, min_conf);
     for f in &found {
         tracing::warn!(stage = "landmarks", event = "finding", "landmarks: {f}");
     }
@@ -188,6 +242,16 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             json!(detect::COMMISSURE_BELOW_STJ_MM),
         );
         m.insert("min_confidence".into(), json!(min_conf));
+        if let Some(Json::Array(points)) = m.get_mut("points") {
+            for (p, s) in points.iter_mut().zip(&sources) {
+                p["source"] = json!(s.name());
+                if let Source::Given { detected } = s {
+                    let given = p["point_mm"].clone();
+                    p["detected_mm"] = json!([detected.x, detected.y, detected.z]);
+                    p["given_to_detected_mm"] = json!(distance_mm(&given, detected));
+                }
+            }
+        }
         m.insert("findings".into(), json!(found));
         m.insert(
             "timings_s".into(),
@@ -254,12 +318,38 @@ mod tests {
     /// findings naming what is uncertain; confident points are not.
     #[test]
     fn low_confidence_is_a_finding() {
-        let f = findings(&detection([0.9, 0.3], true), 0.5);
+        let d = vec![Source::Detected; 2];
+        let f = findings(&detection([0.9, 0.3], true), &d, 0.5);
         assert_eq!(f.len(), 1, "{f:?}");
         assert!(f[0].contains("N1") && f[0].contains("0.30"), "{f:?}");
-        let f = findings(&detection([0.9, 0.8], false), 0.5);
+        let f = findings(&detection([0.9, 0.8], false), &d, 0.5);
         assert_eq!(f.len(), 1, "{f:?}");
         assert!(f[0].contains("no clear STJ"), "{f:?}");
-        assert!(findings(&detection([0.9, 0.8], true), 0.5).is_empty());
+        assert!(findings(&detection([0.9, 0.8], true), &d, 0.5).is_empty());
+    }
+
+    /// A user's point replaces the detected one of its label, whatever else
+    /// the file holds; a low confidence of a replaced point is no finding.
+    #[test]
+    fn given_points_replace_detected_ones_by_label() {
+        let mut det = detection([0.9, 0.3], true);
+        let mut given = Landmarks::new(Frame::Lps);
+        given.push("N1", Point3::new(1.0, 2.0, 3.0));
+        given.push("STJ", Point3::new(9.0, 9.0, 9.0));
+        let s = merge_given(&mut det, Some(&given));
+        assert_eq!(
+            s,
+            vec![
+                Source::Detected,
+                Source::Given {
+                    detected: Point3::origin()
+                }
+            ]
+        );
+        assert_eq!(det.points[1].point_mm, Point3::new(1.0, 2.0, 3.0));
+        assert_eq!(det.points[0].point_mm, Point3::origin());
+        assert!(findings(&det, &s, 0.5).is_empty());
+        let mut det = detection([0.9, 0.3], true);
+        assert_eq!(merge_given(&mut det, None), vec![Source::Detected; 2]);
     }
 }

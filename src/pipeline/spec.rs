@@ -19,6 +19,8 @@ pub enum ArtifactKind {
     Mask,
     /// Markups / fcsv / plain JSON landmarks; C1–C3 required.
     Landmarks,
+    /// Landmarks holding any of C1–C3 and N1–N3 (a user's corrections).
+    SomeLandmarks,
     /// VTK XML PolyData triangle mesh.
     Mesh,
     /// VTK XML PolyData with polylines.
@@ -43,6 +45,9 @@ impl ArtifactKind {
             }
             ArtifactKind::Mask => "NIfTI mask (.nii/.nii.gz)",
             ArtifactKind::Landmarks => "landmarks (.mrk.json/.fcsv/.json)",
+            ArtifactKind::SomeLandmarks => {
+                "landmarks (.mrk.json/.fcsv/.json) holding any of C1–C3, N1–N3"
+            }
             ArtifactKind::Mesh => "triangle mesh (.vtp)",
             ArtifactKind::Polylines => "polylines (.vtp)",
             ArtifactKind::Json => "JSON",

@@ -10,6 +10,9 @@ use crate::{Error, Result};
 /// Labels every landmarks input must hold.
 pub const REQUIRED_LANDMARKS: [&str; 3] = ["C1", "C2", "C3"];
 
+/// The points of the valve: commissures and nadirs.
+pub const VALVE_LANDMARKS: [&str; 6] = ["C1", "C2", "C3", "N1", "N2", "N3"];
+
 pub fn input(kind: ArtifactKind, path: &Path) -> Result<()> {
     if !path.exists() {
         return Err(Error::bad_input(path, "not found"));
@@ -25,6 +28,18 @@ pub fn input(kind: ArtifactKind, path: &Path) -> Result<()> {
             let lm = markups::read(path)?;
             lm.require(&REQUIRED_LANDMARKS)
                 .map_err(|e| e.in_file(path))?;
+        }
+        ArtifactKind::SomeLandmarks => {
+            let lm = markups::read(path)?;
+            if !VALVE_LANDMARKS.iter().any(|l| lm.get(l).is_some()) {
+                return Err(Error::bad_input(
+                    path,
+                    format!(
+                        "holds none of {}: label the points you place C1–C3 (commissures) or N1–N3 (nadirs)",
+                        VALVE_LANDMARKS.join(", ")
+                    ),
+                ));
+            }
         }
         ArtifactKind::Mesh => {
             vtp::read_mesh(path)?;

@@ -74,7 +74,12 @@ pub fn build(s: &Sources) -> Json {
             "source": "detected",
             "points": d["points"].as_array().map(|ps| ps
                 .iter()
-                .map(|p| json!({"label": p["label"], "confidence": p["confidence"]}))
+                .map(|p| json!({
+                    "label": p["label"],
+                    "confidence": p["confidence"],
+                    "source": p["source"].as_str().unwrap_or("detected"),
+                    "given_to_detected_mm": p["given_to_detected_mm"],
+                }))
                 .collect::<Vec<_>>()),
             "findings": d["findings"],
         }),

@@ -235,17 +235,20 @@ fn case_header(h: &mut String, c: Option<&Value>) {
             let points: Vec<String> = array(lm.and_then(|l| l.get("points")))
                 .iter()
                 .map(|p| {
-                    format!(
-                        "{} {}",
-                        esc(&text_or(p.get("label"), "?")),
-                        fixed(num(p.get("confidence")), 2)
-                    )
+                    let label = esc(&text_or(p.get("label"), "?"));
+                    match p.get("source").and_then(Value::as_str) {
+                        Some("given") => format!(
+                            "{label} given ({} mm from where coapt found it)",
+                            fixed(num(p.get("given_to_detected_mm")), 1)
+                        ),
+                        _ => format!("{label} {}", fixed(num(p.get("confidence")), 2)),
+                    }
                 })
                 .collect();
             row(
                 "Landmarks",
                 format!(
-                    "detected by coapt from the segmented root (not placed by hand: check them on the CT figure); confidence {}",
+                    "detected by coapt from the segmented root (not placed by hand: check them on the CT figure), except those given; confidence {}",
                     points.join(", ")
                 ),
             );

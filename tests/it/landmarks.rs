@@ -267,6 +267,86 @@ fn given_landmarks_are_used_as_before() {
     assert!(!d.join("run/landmarks.mrk.json").exists());
 }
 
+/// A user's file holding some of the points (here C1, moved 1.5 mm along
+/// the wall's tangent, and N2) corrects the detection point by point: the
+/// written landmarks are the user's where given and the detector's
+/// elsewhere, landmarks.json says which is which and how far the user's
+/// point lies from the detected one, and the report's case header lists
+/// them.
+#[test]
+fn given_points_override_detected_ones_point_by_point() {
+    let d = tmpdir("lm-merge");
+    let sd = repo().join("sample_data");
+    for sub in ["alone", "merged"] {
+        std::fs::create_dir_all(d.join(sub)).unwrap();
+    }
+    let alone = run_default_chain(&d.join("alone"), &[("ct", &sd.join("ct.nii.gz"))], "");
+    let detected = markups::read(&alone.join("landmarks.mrk.json")).unwrap();
+    let c1 = detected.get("C1").unwrap() + coapt::geom::Vector3::new(0.0, 0.0, 1.5);
+    let n2 = markups::read(&sd.join("landmarks.mrk.json"))
+        .unwrap()
+        .get("N2")
+        .unwrap();
+    let mut given = Landmarks::new(coapt::geom::Frame::Lps);
+    given.push("N2", n2);
+    given.push("C1", c1);
+    let given_path = d.join("mine.mrk.json");
+    markups::write_mrk_json(&given_path, &given, coapt::geom::Frame::Lps).unwrap();
+    let run = run_default_chain(
+        &d.join("merged"),
+        &[
+            ("ct", &sd.join("ct.nii.gz")),
+            ("given_landmarks", &given_path),
+        ],
+        "",
+    );
+    let merged = markups::read(&run.join("landmarks.mrk.json")).unwrap();
+    for l in LABELS {
+        let want = match l {
+            "C1" => c1,
+            "N2" => n2,
+            _ => detected.get(l).unwrap(),
+        };
+        assert_eq!(merged.get(l).unwrap(), want, "{l}");
+    }
+    let rep = json(&run.join("landmarks.json"));
+    for p in rep["points"].as_array().unwrap() {
+        let l = p["label"].as_str().unwrap();
+        let given = l == "C1" || l == "N2";
+        assert_eq!(p["source"], if given { "given" } else { "detected" }, "{p}");
+        if l == "C1" {
+            let moved = p["given_to_detected_mm"].as_f64().unwrap();
+            assert!((moved - 1.5).abs() < 1e-9, "{p}");
+        }
+    }
+    let page = std::fs::read_to_string(run.join("report.html")).unwrap();
+    assert!(
+        page.contains("C1 given (1.5 mm from where coapt found it)"),
+        "the case header names the given points"
+    );
+    // A file holding none of the six points is refused before any work.
+    std::fs::write(
+        &given_path,
+        markups::encode_mrk_json(
+            &{
+                let mut l = Landmarks::new(coapt::geom::Frame::Lps);
+                l.push("STJ", n2);
+                l
+            },
+            coapt::geom::Frame::Lps,
+        ),
+    )
+    .unwrap();
+    let cfg = d.join("merged/chain.toml");
+    let o = coapt(&["run", &s(&cfg), "--quiet"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("holds none of C1, C2, C3, N1, N2, N3"),
+        "{}",
+        stderr(&o)
+    );
+}
+
 /// The real CT, segmented without landmarks: the found points against the
 /// hand-placed ones of `../shared/real/`, matched by their order around the
 /// axis (that file numbers the sinuses from another one than the
