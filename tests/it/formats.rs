@@ -415,7 +415,7 @@ fn malformed_headers_are_refused_with_exit_2_and_nothing_written() {
     refused(&p, &p, &["ct.raw does not exist"]);
     std::fs::write(d.join("ct.raw"), &raw[..100]).unwrap();
     refused(&p, &d.join("ct.raw"), &["truncated", "voxel data of"]);
-    // A folder without DICOM images, a lone DICOM file, a text file.
+    // A folder without DICOM images, a broken DICOM file, a text file.
     let d = tmpdir("formats-bad-other");
     let dir = d.join("series");
     std::fs::create_dir_all(&dir).unwrap();
@@ -424,7 +424,8 @@ fn malformed_headers_are_refused_with_exit_2_and_nothing_written() {
     dcm.extend_from_slice(b"DICM\x02\x00\x00\x00");
     let p = d.join("IM0001.dcm");
     std::fs::write(&p, dcm).unwrap();
-    refused(&p, &p, &["single DICOM file", "folder"]);
+    // Read as DICOM (a single file may be a multi-frame CT): its damage named.
+    refused(&p, &p, &["corrupt DICOM file"]);
     let p = d.join("notes.txt");
     std::fs::write(&p, "not a volume\n").unwrap();
     refused(&p, &p, &["NIfTI", "NRRD", "MetaImage"]);
