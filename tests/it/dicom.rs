@@ -30,7 +30,7 @@ enum Codec {
 
 /// How to write a series; each field breaks or varies one thing.
 #[derive(Clone)]
-struct Spec {
+pub(crate) struct Spec {
     uid: String,
     number: i32,
     modality: &'static str,
@@ -46,7 +46,7 @@ struct Spec {
 }
 
 impl Spec {
-    fn new(uid: &str, number: i32) -> Self {
+    pub(crate) fn new(uid: &str, number: i32) -> Self {
         Spec {
             uid: uid.into(),
             number,
@@ -344,7 +344,7 @@ fn save(obj: InMemDicomObject, spec: &Spec, sop_class: &str, sop: &str, path: &P
 
 /// Write `v` as a series into `dir`: file names shuffled, InstanceNumber
 /// counting down, slope 1 and an intercept that alternates per slice.
-fn write_series(dir: &Path, v: &Volume<i16>, spec: &Spec) {
+pub(crate) fn write_series(dir: &Path, v: &Volume<i16>, spec: &Spec) {
     std::fs::create_dir_all(dir).unwrap();
     let [ni, nj, nk] = v.dims();
     let (orientation, spacing) = plane(v);
@@ -880,4 +880,220 @@ fn hostile_lengths_and_random_damage_are_refused_without_a_panic() {
         }
     }
     assert!(refused > 50, "{refused} refused, {ok} read");
+}
+
+/// The manifest's record of the `ct` input of segment.
+fn ct_record(run: &Path) -> serde_json::Value {
+    let m = json(&run.join("manifest.json"));
+    m["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["stage"] == "segment")
+        .unwrap()["inputs"]["ct"]
+        .clone()
+}
+
+fn run_config(d: &Path, ct: &Path, extra_run: &str) -> PathBuf {
+    let lm = repo().join("sample_data/landmarks.mrk.json");
+    let cfg = d.join("run.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "[run]\ndir = \"{}\"\n{extra_run}\n[inputs]\nct = \"{}\"\nlandmarks = \"{}\"\n",
+            s(&d.join("run")),
+            s(ct),
+            s(&lm)
+        ),
+    )
+    .unwrap();
+    cfg
+}
+
+/// A study folder with the CTA and a localiser: `run` reads the CTA, says
+/// so on stderr and in the manifest, which names the series (UID, number,
+/// description) beside the hash of its files.
+#[test]
+fn run_reads_the_only_plausible_cta_of_a_study_and_records_its_uid() {
+    let d = tmpdir("dicom-run-pick");
+    let v = nifti::read_i16(&repo().join("sample_data/ct.nii.gz")).unwrap();
+    let study = d.join("study");
+    write_series(&study.join("cta"), &v, &Spec::new("1.2.3.8.1", 4));
+    let mut scout = Spec::new("1.2.3.8.2", 1);
+    scout.image_type = "ORIGINAL\\PRIMARY\\LOCALIZER";
+    scout.description = "Topogram";
+    write_series(&study.join("scout"), &oblique(), &scout);
+    let cfg = run_config(&d, &study, "");
+    let o = coapt(&["run", &s(&cfg), "--until", "segment"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("only plausible CTA")
+            && err.contains("1.2.3.8.1")
+            && err.contains("localiser"),
+        "{err}"
+    );
+    let ct = ct_record(&d.join("run"));
+    let series = &ct["dicom_series"];
+    assert_eq!(series["series_instance_uid"], "1.2.3.8.1", "{ct}");
+    assert_eq!(series["series_number"], 4);
+    assert_eq!(series["series_description"], "CTA 1.0 test");
+    assert_eq!(series["slices"], 112);
+    assert_eq!(series["files"], 112);
+    assert!(
+        series["chosen"].as_str().unwrap().contains("1.2.3.8.2"),
+        "{ct}"
+    );
+    // The hash covers the CTA's files only, not the localiser's.
+    let cta_bytes: u64 = std::fs::read_dir(study.join("cta"))
+        .unwrap()
+        .map(|e| e.unwrap().metadata().unwrap().len())
+        .sum();
+    assert_eq!(ct["bytes"].as_u64().unwrap(), cta_bytes);
+    // The mask is the NIfTI's.
+    let reference = d.join("reference.nii.gz");
+    let lm = repo().join("sample_data/landmarks.mrk.json");
+    let o = coapt(&[
+        "segment",
+        "--ct",
+        &s(&repo().join("sample_data/ct.nii.gz")),
+        "--landmarks",
+        &s(&lm),
+        "--out",
+        &s(&reference),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        std::fs::read(&reference).unwrap() == std::fs::read(d.join("run/mask.nii.gz")).unwrap()
+    );
+}
+
+/// Two plausible CTA series (two phases): `run` refuses with exit 2, lists
+/// both (UID, number, description, slices, spacing) and says how to choose;
+/// `series =` under [run] (or `--series`) chooses; the two disagreeing is
+/// refused.
+#[test]
+fn run_refuses_to_guess_between_two_ctas_and_series_in_the_config_chooses() {
+    let d = tmpdir("dicom-run-two");
+    let v = nifti::read_i16(&repo().join("sample_data/ct.nii.gz")).unwrap();
+    let study = d.join("study");
+    let mut art = Spec::new("1.2.3.9.1", 3);
+    art.description = "CTA arterial";
+    write_series(&study, &v, &art);
+    let mut late = Spec::new("1.2.3.9.2", 6);
+    late.description = "CTA delayed";
+    write_series(&study, &v, &late);
+    let cfg = run_config(&d, &study, "");
+    let o = coapt(&["run", &s(&cfg), "--until", "segment", "--quiet"]);
+    assert_bad_input(
+        &o,
+        &study,
+        &[
+            "2 series that could each be the CT angiogram",
+            "1.2.3.9.1",
+            "1.2.3.9.2",
+            "CTA arterial",
+            "CTA delayed",
+            "112 slices",
+            "1.000 mm",
+            "--series",
+            "series = ",
+        ],
+    );
+    assert!(!d.join("run").join("mask.nii.gz").exists());
+    // Chosen in the config…
+    let cfg = run_config(&d, &study, "series = \"6\"\n");
+    let o = coapt(&["run", &s(&cfg), "--until", "segment", "--quiet"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let ct = ct_record(&d.join("run"));
+    assert_eq!(
+        ct["dicom_series"]["series_instance_uid"], "1.2.3.9.2",
+        "{ct}"
+    );
+    assert_eq!(ct["dicom_series"]["chosen"], "chosen with series 6");
+    // …or on the command line; both, disagreeing, is an error.
+    let o = coapt(&[
+        "--series",
+        "3",
+        "run",
+        &s(&cfg),
+        "--until",
+        "segment",
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("run.series") && stderr(&o).contains("--series chose 3"));
+}
+
+/// `convert` leaves OUT.provenance.json beside its output: the input's
+/// format, the DICOM series read, each file's blake3 and the output's;
+/// the same conversion again writes the same bytes.
+#[test]
+fn convert_writes_a_provenance_record_beside_its_output() {
+    let d = tmpdir("dicom-convert-provenance");
+    let v = oblique();
+    let dir = d.join("series");
+    let mut spec = Spec::new("1.2.3.10.1", 9);
+    spec.description = "CTA 0.6";
+    write_series(&dir, &v, &spec);
+    let out = d.join("ct.nii.gz");
+    let o = coapt(&["convert", &s(&dir), &s(&out)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let side = d.join("ct.nii.gz.provenance.json");
+    let first = std::fs::read(&side).unwrap();
+    let p = json(&side);
+    assert_eq!(p["format"], "coapt-provenance/1");
+    assert_eq!(p["command"], "convert");
+    assert_eq!(p["input"]["format"], "DICOM");
+    assert_eq!(
+        p["input"]["dicom_series"]["series_instance_uid"],
+        "1.2.3.10.1"
+    );
+    assert_eq!(p["input"]["dicom_series"]["series_number"], 9);
+    assert_eq!(p["input"]["dicom_series"]["series_description"], "CTA 0.6");
+    let files = p["input"]["files"].as_array().unwrap();
+    assert_eq!(files.len(), 7);
+    let mut names: Vec<String> = entries(&dir);
+    names.sort();
+    for (f, name) in files.iter().zip(&names) {
+        // Inside the output's folder: recorded relative to it.
+        assert_eq!(f["path"], format!("series/{name}"));
+        let bytes = std::fs::read(dir.join(name)).unwrap();
+        assert_eq!(f["bytes"].as_u64().unwrap(), bytes.len() as u64);
+        assert_eq!(f["blake3"], blake3::hash(&bytes).to_hex().to_string());
+    }
+    let nii = std::fs::read(&out).unwrap();
+    assert_eq!(p["output"]["path"], "ct.nii.gz");
+    assert_eq!(
+        p["output"]["blake3"],
+        blake3::hash(&nii).to_hex().to_string()
+    );
+    // No time stamp: the record is a function of the files.
+    let mut keys: Vec<&String> = p.as_object().unwrap().keys().collect();
+    keys.sort();
+    assert_eq!(
+        keys,
+        [
+            "coapt_version",
+            "command",
+            "format",
+            "git_commit",
+            "input",
+            "output"
+        ]
+    );
+    let o = coapt(&["convert", &s(&dir), &s(&out)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(std::fs::read(&side).unwrap() == first, "not reproducible");
+    // A NRRD input: its format, no series.
+    let o = coapt(&["convert", &s(&out), &s(&d.join("ct.nrrd"))]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let p = json(&d.join("ct.nrrd.provenance.json"));
+    assert_eq!(p["input"]["format"], "NIfTI-1");
+    assert!(p["input"]["dicom_series"].is_null());
+    assert_eq!(
+        p["input"]["files"][0]["blake3"],
+        blake3::hash(&nii).to_hex().to_string()
+    );
 }
