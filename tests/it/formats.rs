@@ -26,12 +26,12 @@ fn zlib(b: &[u8]) -> Vec<u8> {
     e.finish().unwrap()
 }
 
-fn le(v: &Volume<i16>) -> Vec<u8> {
+pub(crate) fn le(v: &Volume<i16>) -> Vec<u8> {
     v.as_slice().iter().flat_map(|x| x.to_le_bytes()).collect()
 }
 
 /// A NRRD header for `v`; `ras` writes the directions and origin in RAS.
-fn nrrd_header(v: &Volume<i16>, ras: bool, encoding: &str, extra: &str) -> String {
+pub(crate) fn nrrd_header(v: &Volume<i16>, ras: bool, encoding: &str, extra: &str) -> String {
     let a = v.affine();
     let s = if ras { -1.0 } else { 1.0 };
     let col = |c: usize| format!("({:?},{:?},{:?})", s * a[(0, c)], s * a[(1, c)], a[(2, c)]);
@@ -53,7 +53,7 @@ fn nrrd_header(v: &Volume<i16>, ras: bool, encoding: &str, extra: &str) -> Strin
 }
 
 /// A MetaImage header for `v` (ITK's field order and TransformMatrix layout).
-fn mha_header(v: &Volume<i16>, compressed: bool, file: &str) -> String {
+pub(crate) fn mha_header(v: &Volume<i16>, compressed: bool, file: &str) -> String {
     let a = v.affine();
     let sp = v.spacing();
     let m: Vec<String> = (0..9)
@@ -76,7 +76,7 @@ fn mha_header(v: &Volume<i16>, compressed: bool, file: &str) -> String {
     )
 }
 
-fn attached(path: &Path, header: String, data: &[u8]) -> PathBuf {
+pub(crate) fn attached(path: &Path, header: String, data: &[u8]) -> PathBuf {
     let mut f = header.into_bytes();
     f.extend_from_slice(data);
     std::fs::write(path, f).unwrap();
