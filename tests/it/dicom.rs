@@ -741,6 +741,64 @@ fn multiframe_files_read_back_and_one_without_functional_groups_is_refused() {
     );
 }
 
+/// [`oblique`] with int16's extremes side by side in slice 1 (whose Rescale
+/// Intercept is 0, so any int16 is a stored value).
+fn oblique_with_extremes() -> Volume<i16> {
+    let mut vals = oblique().as_slice().to_vec();
+    let at = 9 * 8;
+    vals[at..at + 6].copy_from_slice(&[0, i16::MIN, i16::MAX, i16::MIN, -1, 1]);
+    Volume::from_fortran_vec([9, 8, 7], *oblique().affine(), vals).unwrap()
+}
+
+/// JPEG as another encoder writes it: dcmtk's dcmcjpeg compressed the
+/// uncompressed series of [`oblique_with_extremes`] (see
+/// tests/data/dicom/make_fixtures.sh). Its lossless SV1 and Process 14
+/// predictor-6 series read back bit-identical; its baseline series — which
+/// dcmcjpeg made by rescaling to 8 bits, about 16 HU per grey level, before
+/// the lossy DCT — is refused.
+#[test]
+fn dcmtk_jpeg_lossless_series_read_bit_identical_and_its_baseline_is_refused() {
+    let data = repo().join("tests/data/dicom");
+    let v = oblique_with_extremes();
+    for (kind, ts) in [
+        ("dcmtk_sv1", uids::JPEG_LOSSLESS_SV1),
+        ("dcmtk_p14_sv6", "1.2.840.10008.1.2.4.57"),
+    ] {
+        let dir = data.join(kind);
+        for e in std::fs::read_dir(&dir).unwrap() {
+            let obj = dicom_object::open_file(e.unwrap().path()).unwrap();
+            assert_eq!(obj.meta().transfer_syntax().trim_end_matches('\0'), ts);
+        }
+        let got = coapt::io::volume_file::read_ct(&dir).unwrap();
+        assert_same(&got, &v, kind);
+    }
+    let dir = data.join("dcmtk_baseline");
+    let first = std::fs::read_dir(&dir)
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let obj = dicom_object::open_file(first).unwrap();
+    assert_eq!(
+        obj.element(tags::BITS_STORED)
+            .unwrap()
+            .to_int::<u16>()
+            .unwrap(),
+        8
+    );
+    assert_bad_input(
+        &coapt(&["check", "--ct", &s(&dir)]),
+        &dir,
+        &[
+            "JPEG baseline",
+            "1.2.840.10008.1.2.4.50",
+            "8-bit",
+            "12 bits",
+        ],
+    );
+}
+
 /// JPEG lossless (Process 14, SV1) decodes exactly: a series with values
 /// over the whole int16 range (−32768 next to 0 is the difference category
 /// 16 that has no extra bits) and the sample CT read back bit-identical to
@@ -748,11 +806,7 @@ fn multiframe_files_read_back_and_one_without_functional_groups_is_refused() {
 #[test]
 fn jpeg_lossless_series_read_back_bit_identical_to_uncompressed() {
     let d = tmpdir("dicom-jpeg-lossless");
-    let mut vals = oblique().as_slice().to_vec();
-    // Slice 1 has Rescale Intercept 0, so any int16 is a stored value.
-    let at = 9 * 8;
-    vals[at..at + 6].copy_from_slice(&[0, i16::MIN, i16::MAX, i16::MIN, -1, 1]);
-    let v = Volume::from_fortran_vec([9, 8, 7], *oblique().affine(), vals).unwrap();
+    let v = oblique_with_extremes();
     let sample = nifti::read_i16(&repo().join("sample_data").join("ct.nii.gz")).unwrap();
     for (name, vol) in [("oblique", &v), ("sample", &sample)] {
         let plain = d.join(format!("{name}-plain"));
