@@ -936,6 +936,76 @@ fn hostile_lengths_and_random_damage_are_refused_without_a_panic() {
     assert!(refused > 50, "{refused} refused, {ok} read");
 }
 
+/// Damaged compressed pixel data end in a volume or an exit-2 refusal that
+/// writes nothing, never a panic: dicom-rs's own RLE and JPEG adapters
+/// indexed past their buffers on such data (16 of 300 RLE and 10 of 400
+/// JPEG damages panicked `convert`), so coapt decodes both itself.
+#[test]
+fn damaged_rle_and_jpeg_pixel_data_are_refused_without_a_panic() {
+    let v = oblique();
+    let d = tmpdir("dicom-damaged-codecs");
+    let mut rng = coapt::rng::SplitMix64::new(24);
+    for (name, codec, multiframe) in [
+        ("rle", Codec::Rle, false),
+        ("jpeg", Codec::JpegLossless, false),
+        ("rle-mf", Codec::Rle, true),
+        ("jpeg-mf", Codec::JpegLossless, true),
+    ] {
+        let dir = d.join(name);
+        let mut spec = Spec::new("1.2.3.78", 1);
+        spec.codec = codec;
+        if multiframe {
+            write_multiframe(
+                &dir.join("mf.dcm"),
+                &v,
+                &spec,
+                uids::ENHANCED_CT_IMAGE_STORAGE,
+            );
+        } else {
+            write_series(&dir, &v, &spec);
+        }
+        let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        files.sort();
+        let victim = files[files.len() / 2].clone();
+        let good = std::fs::read(&victim).unwrap();
+        let pixels = good
+            .windows(4)
+            .rposition(|w| w == [0xE0, 0x7F, 0x10, 0x00])
+            .unwrap();
+        let out = d.join("out.nii");
+        let (mut ok, mut refused) = (0, 0);
+        for _ in 0..100 {
+            let mut b = good.clone();
+            for _ in 0..1 + rng.next_u64() % 4 {
+                let span = (b.len() - pixels - 12) as u64;
+                let i = pixels + 12 + (rng.next_u64() % span) as usize;
+                match rng.next_u64() % 4 {
+                    0 | 1 => b[i] = rng.next_u64() as u8,
+                    2 => {
+                        b.remove(i);
+                    }
+                    _ => b.insert(i, rng.next_u64() as u8),
+                }
+            }
+            std::fs::write(&victim, &b).unwrap();
+            let _ = std::fs::remove_file(&out);
+            let o = coapt(&["convert", &s(&dir), &s(&out)]);
+            match o.status.code() {
+                Some(0) => ok += 1,
+                Some(2) => {
+                    refused += 1;
+                    assert!(!out.exists(), "{name}: exit 2 left {out:?}");
+                }
+                c => panic!("{name}: exit {c:?}: {}", stderr(&o)),
+            }
+        }
+        assert!(refused > 30, "{name}: {refused} refused, {ok} read");
+    }
+}
+
 /// The manifest's record of the `ct` input of segment.
 fn ct_record(run: &Path) -> serde_json::Value {
     let m = json(&run.join("manifest.json"));

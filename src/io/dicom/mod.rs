@@ -14,19 +14,20 @@
 //!
 //! Transfer syntaxes: see [`syntax`] (uncompressed, deflated, RLE and JPEG
 //! lossless are read; JPEG baseline is refused because 8 bits cannot hold
-//! HU; JPEG-LS, JPEG 2000, JPEG XL, HTJ2K and video are not decoded).
+//! HU; JPEG-LS, JPEG 2000, JPEG XL, HTJ2K and video are not decoded), and
+//! [`pixels`] for who decodes what.
 
 mod choose;
 mod frames;
 mod geometry;
 mod lengths;
+mod pixels;
 mod scan;
 mod syntax;
 
 use std::path::Path;
 
 use dicom_object::DefaultDicomObject;
-use dicom_pixeldata::{PixelDecoder, PixelRepresentation};
 use nalgebra::Matrix4;
 
 pub use choose::{Chosen, choose, implausible};
@@ -178,11 +179,7 @@ fn decode_slice<T: NiftiRead>(
     if let Some(why) = syntax::refusal(&ts) {
         return Err(bad(why));
     }
-    let decoded = match sl.frame {
-        None => obj.decode_pixel_data(),
-        Some(f) => obj.decode_pixel_data_frame(f),
-    };
-    let px = decoded.map_err(|e| {
+    let px = pixels::decode(obj, sl, &ts).map_err(|e| {
         let at = sl
             .frame
             .map(|f| format!(" of frame {}", f + 1))
@@ -193,55 +190,25 @@ fn decode_slice<T: NiftiRead>(
              dcm2niix or `gdcmconv --raw`"
         ))
     })?;
-    if px.rows() != sl.rows || px.columns() != sl.columns || px.samples_per_pixel() != 1 {
+    if px.raw.len() != out.len() {
         return Err(bad(format!(
-            "pixel data is {}×{} with {} samples per pixel; coapt needs {}×{} greyscale",
-            px.columns(),
-            px.rows(),
-            px.samples_per_pixel(),
-            sl.columns,
-            sl.rows
-        )));
-    }
-    let data = px.data();
-    let signed = px.pixel_representation() == PixelRepresentation::Signed;
-    let bytes = match px.bits_allocated() {
-        8 => 1,
-        16 => 2,
-        32 => 4,
-        b => {
-            return Err(bad(format!(
-                "{b} bits allocated per pixel is not supported"
-            )));
-        }
-    };
-    if data.len() < out.len() * bytes {
-        return Err(bad(format!(
-            "pixel data holds {} bytes, {} pixels of {bytes} bytes need {}: truncated",
-            data.len(),
-            out.len(),
-            out.len() * bytes
+            "pixel data hold {} samples where {} pixels are needed",
+            px.raw.len(),
+            out.len()
         )));
     }
     let cols = sl.columns as usize;
     // Bits above Bits Stored carry nothing (or an overlay): mask them, and
     // sign-extend signed values from their top stored bit.
-    let stored_bits = (px.bits_stored() as u32).clamp(1, 8 * bytes as u32);
-    let unused = 64 - stored_bits;
+    let unused = 64 - px.bits_stored;
     let fix = |raw: u64| -> f64 {
-        if signed {
+        if px.signed {
             (((raw << unused) as i64) >> unused) as f64
         } else {
             ((raw << unused) >> unused) as f64
         }
     };
-    for (idx, (o, b)) in out.iter_mut().zip(data.chunks_exact(bytes)).enumerate() {
-        // Decoded samples are in native byte order.
-        let raw = match bytes {
-            1 => b[0] as u64,
-            2 => u16::from_ne_bytes([b[0], b[1]]) as u64,
-            _ => u32::from_ne_bytes([b[0], b[1], b[2], b[3]]) as u64,
-        };
+    for (idx, (o, &raw)) in out.iter_mut().zip(&px.raw).enumerate() {
         let stored = fix(raw);
         let v = stored * sl.slope + sl.intercept;
         *o = T::from_f64(v).ok_or_else(|| {
