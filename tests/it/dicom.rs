@@ -1068,6 +1068,17 @@ fn run_reads_the_only_plausible_cta_of_a_study_and_records_its_uid() {
         series["chosen"].as_str().unwrap().contains("1.2.3.8.2"),
         "{ct}"
     );
+    // `info` on the study folder says which it reads, and why.
+    let o = coapt(&["info", "--json", &s(&study)]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let i: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(i["series"].as_array().unwrap().len(), 2);
+    assert_eq!(i["chosen"]["uid"], "1.2.3.8.1");
+    assert!(
+        i["chosen"]["how"].as_str().unwrap().contains("localiser"),
+        "{i}"
+    );
+    assert_eq!(i["volume"]["dims"], serde_json::json!([112, 112, 112]));
     // The hash covers the CTA's files only, not the localiser's.
     let cta_bytes: u64 = std::fs::read_dir(study.join("cta"))
         .unwrap()

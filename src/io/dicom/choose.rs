@@ -178,3 +178,99 @@ pub fn choose<'a>(
         )),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::dicom::Slice;
+
+    /// A series of `n` axial 1 mm slices.
+    fn series(uid: &str, number: i64, n: usize) -> Series {
+        Series {
+            uid: uid.into(),
+            number: Some(number),
+            description: format!("series {number}"),
+            modality: "CT".into(),
+            localiser: false,
+            sop_class: "1.2.840.10008.5.1.4.1.1.2".into(),
+            without_pixels: false,
+            files: n,
+            transfer_syntax: "1.2.840.10008.1.2.1".into(),
+            slices: (0..n)
+                .map(|k| Slice {
+                    path: PathBuf::from(format!("{uid}-{k}")),
+                    frame: None,
+                    position: [0.0, 0.0, k as f64],
+                    orientation: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+                    pixel_spacing: [0.5, 0.5],
+                    rows: 4,
+                    columns: 4,
+                    slope: 1.0,
+                    intercept: 0.0,
+                })
+                .collect(),
+            problems: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn what_cannot_be_the_cta_is_set_aside_and_two_ctas_are_not_guessed_between() {
+        let cta = series("1.1", 3, 40);
+        assert_eq!(implausible(&cta), None);
+        let mut scout = series("1.2", 1, 40);
+        scout.localiser = true;
+        let mut mr = series("1.3", 2, 40);
+        mr.modality = "MR".into();
+        let mut sc = series("1.4", 4, 40);
+        sc.sop_class = "1.2.840.10008.5.1.4.1.1.7".into();
+        let mut sr = series("1.5", 5, 40);
+        sr.sop_class = "1.2.840.10008.5.1.4.1.1.88.67".into();
+        let mut empty = series("1.6", 6, 40);
+        empty.without_pixels = true;
+        let few = series("1.7", 7, 19);
+        for (s, why) in [
+            (&scout, "localiser"),
+            (&mr, "not CT"),
+            (&sc, "secondary capture"),
+            (&sr, "dose report"),
+            (&empty, "without pixel data"),
+            (&few, "19 readable slices"),
+        ] {
+            let got = implausible(s).unwrap_or_default();
+            assert!(got.contains(why), "{}: {got}", s.uid);
+        }
+        let dir = Path::new("study");
+        let all = vec![scout.clone(), mr, cta.clone(), sc, sr, empty, few.clone()];
+        let (s, how) = choose(dir, &all, None).unwrap();
+        assert_eq!(s.uid, "1.1");
+        let Chosen::OnlyPlausible(others) = &how else {
+            panic!("{how:?}");
+        };
+        assert_eq!(others.len(), 6);
+        // Two plausible: refused, both listed with slices and spacing.
+        let late = series("1.8", 8, 40);
+        let e = choose(dir, &[cta.clone(), late, few], None)
+            .err()
+            .unwrap()
+            .to_string();
+        for w in [
+            "1.1",
+            "1.8",
+            "40 slices",
+            "0.500 × 0.500 × 1.000 mm",
+            "--series",
+        ] {
+            assert!(e.contains(w), "{w}: {e}");
+        }
+        assert!(!e.contains("1.7"), "{e}");
+        // None plausible: the old refusal, listing every series.
+        let e = choose(dir, &[scout, series("1.9", 9, 3)], None)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("holds 2 series") && e.contains("1.9"), "{e}");
+        // A pick wins over plausibility.
+        let (s, how) = choose(dir, &all, Some("7")).unwrap();
+        assert_eq!((s.uid.as_str(), how), ("1.7", Chosen::Picked("7".into())));
+    }
+}

@@ -289,3 +289,41 @@ fn jpeg(data: &[u8], sl: &Slice, bytes: usize) -> Result<Vec<u64>, String> {
         })
         .collect())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{rle, unpack_bits};
+
+    #[test]
+    fn packbits_literals_repeats_and_no_ops_and_what_does_not_fit() {
+        // 3 literals, a no-op, 4 repeats of 9, 1 literal; a pad byte after.
+        let seg = [2, 1, 2, 3, 0x80, 0xFD, 9, 0, 7, 0];
+        assert_eq!(unpack_bits(&seg, 8).unwrap(), [1, 2, 3, 9, 9, 9, 9, 7]);
+        // One pixel more: the segment ends after 8 bytes, or its pad byte
+        // reads as a literal header with nothing after it.
+        assert!(unpack_bits(&seg[..9], 9).unwrap_err().contains("8 bytes"));
+        assert!(unpack_bits(&seg, 9).unwrap_err().contains("cut off"));
+        assert!(unpack_bits(&[5, 1, 2], 6).unwrap_err().contains("cut off"));
+        assert!(unpack_bits(&[0xFD], 4).unwrap_err().contains("cut off"));
+        // A run past the image is a mismatch, not a longer image.
+        assert!(
+            unpack_bits(&[0x81, 4], 3)
+                .unwrap_err()
+                .contains("128 bytes")
+        );
+    }
+
+    #[test]
+    fn rle_segments_combine_most_significant_first_and_a_bad_header_is_refused() {
+        let mut d = vec![0u8; 64];
+        d[0] = 2;
+        d[4] = 64;
+        d[8] = 66;
+        d.extend_from_slice(&[0xFF, 0x12, 0x01, 0x34, 0x56]);
+        assert_eq!(rle(&d, 2, 2).unwrap(), [0x1234, 0x1256]);
+        assert!(rle(&d, 2, 1).unwrap_err().contains("2 segments"));
+        d[8] = 200;
+        assert!(rle(&d, 2, 2).unwrap_err().contains("corrupt"));
+        assert!(rle(&d[..40], 2, 2).unwrap_err().contains("64-byte header"));
+    }
+}
