@@ -56,7 +56,18 @@ impl FileRecord {
     /// are hashed together, and the series named.
     pub fn of_input(path: &Path, run_dir: &Path) -> Result<FileRecord> {
         let (files, series) = crate::io::volume_file::source(path);
-        let (blake3, bytes) = provenance::hash_files(&files)?;
+        Self::of_source(path, run_dir, &files, series)
+    }
+
+    /// [`FileRecord::of_input`] from what [`crate::io::volume_file::source`]
+    /// found (so a caller that needs the files too scans a folder once).
+    pub fn of_source(
+        path: &Path,
+        run_dir: &Path,
+        files: &[PathBuf],
+        series: Option<crate::io::volume_file::SeriesSource>,
+    ) -> Result<FileRecord> {
+        let (blake3, bytes) = provenance::hash_files(files)?;
         Ok(FileRecord {
             path: display_path(path, run_dir),
             blake3,

@@ -65,7 +65,7 @@ pub fn sidecar_path(output: &Path) -> std::path::PathBuf {
 pub fn conversion(input: &Path, format: &str, output: &Path) -> Result<serde_json::Value> {
     use super::manifest::{FileRecord, display_path};
     let base = output.parent().unwrap_or(Path::new(""));
-    let (files, _) = crate::io::volume_file::source(input);
+    let (files, series) = crate::io::volume_file::source(input);
     let each = files
         .iter()
         .map(|f| {
@@ -73,7 +73,7 @@ pub fn conversion(input: &Path, format: &str, output: &Path) -> Result<serde_jso
             Ok(serde_json::json!({"path": r.path, "blake3": r.blake3, "bytes": r.bytes}))
         })
         .collect::<Result<Vec<_>>>()?;
-    let whole = FileRecord::of_input(input, base)?;
+    let whole = FileRecord::of_source(input, base, &files, series)?;
     let out = FileRecord::of(output, base)?;
     Ok(serde_json::json!({
         "format": "coapt-provenance/1",
