@@ -356,7 +356,8 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
     };
     pipeline::progress::init_logging(log);
     if let Some(pick) = m.get_one::<String>("series") {
-        crate::io::volume_file::set_series(pick);
+        // The first choice in this process: cannot disagree.
+        let _ = crate::io::volume_file::set_series(pick);
     }
     let threads = match m.get_one::<usize>("threads") {
         Some(0) => return Err(Error::usage("--threads must be at least 1")),

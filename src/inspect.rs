@@ -72,7 +72,11 @@ pub fn describe(path: &Path, as_json: bool) -> Result<String> {
         return Err(Error::bad_input(path, "not found"));
     }
     let info = match input_format(path)? {
-        Format::Volume | Format::Nrrd if path.is_dir() => describe_dicom_folder(path)?,
+        Format::Volume | Format::Nrrd
+            if volume_file::sniff(path).is_ok_and(|f| f == volume_file::Format::Dicom) =>
+        {
+            describe_dicom_folder(path)?
+        }
         Format::Volume | Format::Nrrd => describe_volume(path)?,
         Format::Vtp => describe_polydata(&vtp::read(path)?),
         Format::Landmarks => describe_landmarks(path)?,
@@ -151,14 +155,21 @@ fn describe_dicom_folder(path: &Path) -> Result<Json> {
         .collect();
     let mut info = json!({
         "file": path.display().to_string(),
-        "format": "DICOM folder",
+        "format": if path.is_dir() { "DICOM folder" } else { "DICOM file" },
         "other_files": other,
         "series": list,
     });
-    if series.len() == 1 || volume_file::series_choice().is_some() {
-        info["volume"] = describe_volume(path)?;
-    } else {
-        info["note"] = json!("several series: choose one with --series UID|NUMBER");
+    let pick = volume_file::series_choice();
+    match dicom::choose(path, &series, pick) {
+        Ok((s, chosen)) => {
+            info["chosen"] = json!({"uid": s.uid, "number": s.number, "how": chosen.describe()});
+            info["volume"] = describe_volume(path)?;
+        }
+        // A wrong --series is an error; several plausible series a note.
+        Err(e) if pick.is_some() => return Err(e),
+        Err(_) => {
+            info["note"] = json!("several series: choose one with --series UID|NUMBER");
+        }
     }
     Ok(info)
 }
@@ -304,13 +315,39 @@ pub fn convert(input: &Path, output: &Path, frame: Frame) -> Result<()> {
 }
 
 /// A volume of any readable format into NIfTI or NRRD, keeping its voxel
-/// type where the writers have it (uint8, int16) and float32 otherwise.
+/// type where the writers have it (uint8, int16) and float32 otherwise;
+/// beside it, `OUTPUT.provenance.json` says what it was made from.
 fn convert_volume(input: &Path, output: &Path, to_nrrd: bool) -> Result<()> {
     let opts = nifti::ReadOptions::default();
     let h = volume_file::read_header(input, &opts)?;
+    write_volume(input, output, to_nrrd, &h, &opts)?;
+    let record = crate::pipeline::provenance::conversion(input, &h.format, output);
+    let sidecar = crate::pipeline::provenance::sidecar_path(output);
+    // Both or neither: a volume without its record would pass for one made
+    // from nothing in particular.
+    record
+        .and_then(|r| {
+            crate::io::write_atomic(&sidecar, |w| {
+                use std::io::Write;
+                w.write_all(serde_json::to_string_pretty(&r).expect("JSON").as_bytes())?;
+                w.write_all(b"\n")
+            })
+        })
+        .inspect_err(|_| {
+            let _ = std::fs::remove_file(output);
+        })
+}
+
+fn write_volume(
+    input: &Path,
+    output: &Path,
+    to_nrrd: bool,
+    h: &volume_file::VolumeHeader,
+    opts: &nifti::ReadOptions,
+) -> Result<()> {
     macro_rules! write_as {
         ($t:ty) => {{
-            let v = volume_file::read::<$t>(input, &opts)?;
+            let v = volume_file::read::<$t>(input, opts)?;
             if to_nrrd {
                 nrrd::write(output, &v)
             } else {

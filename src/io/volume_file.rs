@@ -7,7 +7,7 @@
 //! | NIfTI-1/2 | `.nii`, `.nii.gz` | [`super::nifti`] |
 //! | NRRD | `.nrrd` (attached), `.nhdr` + data file | [`super::nrrd`] |
 //! | MetaImage | `.mha` (attached), `.mhd` + data file | [`super::metaimage`] |
-//! | DICOM | a folder holding a CT series | [`super::dicom`] |
+//! | DICOM | a folder holding a CT series, or one multi-frame CT file | [`super::dicom`] |
 //!
 //! Every reader validates its header in full (sizes, byte limit, spacing
 //! bounds, a usable affine) before it allocates, and returns the volume with
@@ -28,15 +28,21 @@ use crate::{Error, Result};
 
 /// The volume formats coapt reads, for messages that list them.
 pub const ACCEPTED: &str = "NIfTI-1/2 (.nii, .nii.gz), NRRD (.nrrd, or .nhdr with its data \
-    file), MetaImage (.mha, or .mhd with its data file) or a folder holding a DICOM CT series";
+    file), MetaImage (.mha, or .mhd with its data file), a folder holding a DICOM CT series or \
+    a multi-frame (enhanced) DICOM CT file";
 
 /// The DICOM series chosen with `--series` (UID or SeriesNumber), for
 /// folders that hold several. Set once by the command line.
 static SERIES: OnceLock<String> = OnceLock::new();
 
-/// Choose the DICOM series read from folders that hold several.
-pub fn set_series(pick: &str) {
-    let _ = SERIES.set(pick.to_string());
+/// Choose the DICOM series read from folders that hold several; a second,
+/// different choice in the same process (`--series` and a run config's
+/// `series`) is refused with the first.
+pub fn set_series(pick: &str) -> std::result::Result<(), String> {
+    match SERIES.get_or_init(|| pick.to_string()) {
+        p if p == pick => Ok(()),
+        p => Err(p.clone()),
+    }
 }
 
 /// The series chosen with `--series`, if any.
@@ -49,7 +55,7 @@ pub enum Format {
     Nifti,
     Nrrd,
     MetaImage,
-    /// A folder holding a DICOM series.
+    /// A folder holding a DICOM series, or one multi-frame DICOM file.
     Dicom,
 }
 
@@ -88,11 +94,9 @@ pub fn sniff(path: &Path) -> Result<Format> {
         return Ok(Format::Nrrd);
     }
     if head.len() >= 132 && &head[128..132] == b"DICM" {
-        return Err(Error::bad_input(
-            path,
-            "is a single DICOM file; give coapt the folder that holds its series (multi-frame \
-             files are not read: convert them with dcm2niix)",
-        ));
+        // A multi-frame (enhanced) CT file is a whole series; a lone
+        // single-frame image is refused by the DICOM reader, naming it.
+        return Ok(Format::Dicom);
     }
     let first_line = head
         .split(|&b| b == b'\n')
@@ -209,40 +213,59 @@ pub fn read_ct(path: &Path) -> Result<Volume<i16>> {
     read(path, &ReadOptions::default())
 }
 
+/// The DICOM series a volume was read from, for provenance.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SeriesSource {
+    pub uid: String,
+    pub number: Option<i64>,
+    pub description: String,
+    /// Slices (frames of a multi-frame file counted one by one).
+    pub slices: usize,
+    /// How it was chosen among the folder's series.
+    pub chosen: String,
+}
+
 /// The files a volume is made of: the file itself and, for a NRRD or
-/// MetaImage header with detached data, its data file (for provenance
-/// hashes). Anything unreadable is left to the reader to report.
+/// MetaImage header with detached data, its data file; for a DICOM folder,
+/// the chosen series' files in name order (for provenance hashes). Anything
+/// unreadable is left to the reader to report.
 pub fn files_of(path: &Path) -> Vec<PathBuf> {
-    if path.is_dir() {
-        // A DICOM series: its images, in name order.
-        if let Ok(p) = dicom::plan(
-            path,
-            series_choice(),
-            &ReadOptions {
-                max_bytes: u64::MAX,
-            },
-            2,
-        ) {
-            let mut files: Vec<PathBuf> = p.series.slices.iter().map(|s| s.path.clone()).collect();
-            files.sort();
-            return files;
-        }
-    }
-    let mut files = vec![path.to_path_buf()];
-    if let Ok(f @ (Format::Nrrd | Format::MetaImage)) = sniff(path) {
-        if let Ok(l) = layout(
-            path,
-            f,
-            &ReadOptions {
-                max_bytes: u64::MAX,
-            },
-        ) {
-            if l.detached(path) {
-                files.push(l.data_file);
+    source(path).0
+}
+
+/// [`files_of`], and for DICOM the series they hold.
+pub fn source(path: &Path) -> (Vec<PathBuf>, Option<SeriesSource>) {
+    let unbounded = ReadOptions {
+        max_bytes: u64::MAX,
+    };
+    match sniff(path) {
+        Ok(Format::Dicom) => {
+            if let Ok(p) = dicom::plan(path, series_choice(), &unbounded, 2) {
+                let mut files: Vec<PathBuf> =
+                    p.series.slices.iter().map(|s| s.path.clone()).collect();
+                files.sort();
+                files.dedup();
+                let s = &p.series;
+                let series = SeriesSource {
+                    uid: s.uid.clone(),
+                    number: s.number,
+                    description: s.description.clone(),
+                    slices: s.slices.len(),
+                    chosen: p.chosen.describe(),
+                };
+                return (files, Some(series));
             }
         }
+        Ok(f @ (Format::Nrrd | Format::MetaImage)) => {
+            if let Ok(l) = layout(path, f, &unbounded) {
+                if l.detached(path) {
+                    return (vec![path.to_path_buf(), l.data_file], None);
+                }
+            }
+        }
+        _ => {}
     }
-    files
+    (vec![path.to_path_buf()], None)
 }
 
 #[cfg(test)]

@@ -4,6 +4,7 @@
 //! ```toml
 //! [run]
 //! dir = "../runs/phantom"        # relative to this file; `--out` overrides
+//! # series = "3"                 # the DICOM series, when the CT folder holds several
 //!
 //! [inputs]                       # external artifacts, by artifact name
 //! ct = "../sample_data/ct.nii.gz"
@@ -24,6 +25,9 @@ use crate::{Error, Result};
 pub struct RunConfig {
     pub path: PathBuf,
     pub run_dir: Option<PathBuf>,
+    /// `[run] series`: the DICOM series to read from a CT folder that holds
+    /// several (UID or SeriesNumber), as `--series` on the command line.
+    pub series: Option<String>,
     /// External artifacts by name, resolved against the config's directory.
     pub inputs: BTreeMap<String, PathBuf>,
     /// Parsed parameters of each stage section present.
@@ -61,6 +65,7 @@ impl RunConfig {
         let mut cfg = RunConfig {
             path: path.to_path_buf(),
             run_dir: None,
+            series: None,
             inputs: BTreeMap::new(),
             sections: BTreeMap::new(),
             design: None,
@@ -81,11 +86,23 @@ impl RunConfig {
                                     "must be a path string",
                                 ));
                             }
+                            ("series", toml::Value::String(s)) if !s.trim().is_empty() => {
+                                cfg.series = Some(s.trim().to_string())
+                            }
+                            ("series", toml::Value::Integer(n)) => cfg.series = Some(n.to_string()),
+                            ("series", _) => {
+                                return Err(Error::config(
+                                    path,
+                                    "run.series",
+                                    "must be a SeriesInstanceUID or a SeriesNumber (`coapt info \
+                                     DIR` lists the folder's series)",
+                                ));
+                            }
                             _ => {
                                 return Err(Error::config(
                                     path,
                                     format!("run.{k}"),
-                                    "unknown key (the [run] section takes: dir)",
+                                    "unknown key (the [run] section takes: dir, series)",
                                 ));
                             }
                         }

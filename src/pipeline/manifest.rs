@@ -20,6 +20,23 @@ pub struct FileRecord {
     pub path: String,
     pub blake3: String,
     pub bytes: u64,
+    /// A DICOM input: the series read, beside the hash of its files (a
+    /// folder's hash alone does not say which series of a study it was).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dicom_series: Option<SeriesRecord>,
+}
+
+/// The DICOM series an input was read from.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SeriesRecord {
+    pub series_instance_uid: String,
+    pub series_number: Option<i64>,
+    pub series_description: String,
+    pub slices: usize,
+    /// DICOM files hashed together into `blake3`.
+    pub files: usize,
+    /// How it was chosen among the folder's series.
+    pub chosen: String,
 }
 
 impl FileRecord {
@@ -29,23 +46,45 @@ impl FileRecord {
             path: display_path(path, run_dir),
             blake3,
             bytes,
+            dicom_series: None,
         })
     }
 
     /// As [`FileRecord::of`], but a volume header whose voxels live in a
     /// separate file (.nhdr, .mhd) is hashed together with that file, so a
-    /// changed data file makes the stage run again.
+    /// changed data file makes the stage run again; a DICOM series' files
+    /// are hashed together, and the series named.
     pub fn of_input(path: &Path, run_dir: &Path) -> Result<FileRecord> {
-        let (blake3, bytes) = provenance::hash_files(&crate::io::volume_file::files_of(path))?;
+        let (files, series) = crate::io::volume_file::source(path);
+        Self::of_source(path, run_dir, &files, series)
+    }
+
+    /// [`FileRecord::of_input`] from what [`crate::io::volume_file::source`]
+    /// found (so a caller that needs the files too scans a folder once).
+    pub fn of_source(
+        path: &Path,
+        run_dir: &Path,
+        files: &[PathBuf],
+        series: Option<crate::io::volume_file::SeriesSource>,
+    ) -> Result<FileRecord> {
+        let (blake3, bytes) = provenance::hash_files(files)?;
         Ok(FileRecord {
             path: display_path(path, run_dir),
             blake3,
             bytes,
+            dicom_series: series.map(|s| SeriesRecord {
+                series_instance_uid: s.uid,
+                series_number: s.number,
+                series_description: s.description,
+                slices: s.slices,
+                files: files.len(),
+                chosen: s.chosen,
+            }),
         })
     }
 }
 
-fn display_path(path: &Path, run_dir: &Path) -> String {
+pub fn display_path(path: &Path, run_dir: &Path) -> String {
     let rel = path.strip_prefix(run_dir).ok().map(Path::to_path_buf);
     match rel {
         Some(r) => r.to_string_lossy().into_owned(),

@@ -48,6 +48,54 @@ pub fn hash_files(paths: &[std::path::PathBuf]) -> Result<(String, u64)> {
     Ok((h.finalize().to_hex().to_string(), n))
 }
 
+/// Where `coapt convert` records what `output` was made from:
+/// `OUTPUT.provenance.json` beside it.
+pub fn sidecar_path(output: &Path) -> std::path::PathBuf {
+    let mut name = output.file_name().unwrap_or_default().to_os_string();
+    name.push(".provenance.json");
+    output.with_file_name(name)
+}
+
+/// The record of a conversion (format `coapt-provenance/1`): coapt's
+/// version, the input (its format, its files' hashes one by one and
+/// together as the manifest hashes it, and for DICOM the series read), and
+/// the output's hash. No time stamp, so converting the same input again
+/// writes the same bytes. Paths as in the manifest: relative to the
+/// output's folder when inside it, else absolute.
+pub fn conversion(input: &Path, format: &str, output: &Path) -> Result<serde_json::Value> {
+    use super::manifest::{FileRecord, display_path};
+    let base = output.parent().unwrap_or(Path::new(""));
+    let (files, series) = crate::io::volume_file::source(input);
+    let each = files
+        .iter()
+        .map(|f| {
+            let r = FileRecord::of(f, base)?;
+            Ok(serde_json::json!({"path": r.path, "blake3": r.blake3, "bytes": r.bytes}))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let whole = FileRecord::of_source(input, base, &files, series)?;
+    let out = FileRecord::of(output, base)?;
+    Ok(serde_json::json!({
+        "format": "coapt-provenance/1",
+        "command": "convert",
+        "coapt_version": version(),
+        "git_commit": git_commit(),
+        "input": {
+            "path": display_path(input, base),
+            "format": format,
+            "blake3": whole.blake3,
+            "bytes": whole.bytes,
+            "dicom_series": whole.dicom_series,
+            "files": each,
+        },
+        "output": {
+            "path": out.path,
+            "blake3": out.blake3,
+            "bytes": out.bytes,
+        },
+    }))
+}
+
 /// Current UTC time as RFC 3339 ("2026-11-21T07:10:00Z").
 pub fn now_utc() -> String {
     let secs = std::time::SystemTime::now()

@@ -164,6 +164,15 @@ pub fn run(
     inv: &Invocation,
 ) -> Result<RunReport> {
     let cfg = RunConfig::load(&opts.config, registry)?;
+    if let Some(pick) = &cfg.series {
+        crate::io::volume_file::set_series(pick).map_err(|first| {
+            Error::config(
+                &cfg.path,
+                "run.series",
+                format!("is {pick}, but --series chose {first}; give one of them"),
+            )
+        })?;
+    }
     let run_dir = match (&opts.out, &cfg.run_dir) {
         (Some(d), _) => d.clone(),
         (None, Some(d)) => d.clone(),

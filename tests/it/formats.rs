@@ -26,12 +26,12 @@ fn zlib(b: &[u8]) -> Vec<u8> {
     e.finish().unwrap()
 }
 
-fn le(v: &Volume<i16>) -> Vec<u8> {
+pub(crate) fn le(v: &Volume<i16>) -> Vec<u8> {
     v.as_slice().iter().flat_map(|x| x.to_le_bytes()).collect()
 }
 
 /// A NRRD header for `v`; `ras` writes the directions and origin in RAS.
-fn nrrd_header(v: &Volume<i16>, ras: bool, encoding: &str, extra: &str) -> String {
+pub(crate) fn nrrd_header(v: &Volume<i16>, ras: bool, encoding: &str, extra: &str) -> String {
     let a = v.affine();
     let s = if ras { -1.0 } else { 1.0 };
     let col = |c: usize| format!("({:?},{:?},{:?})", s * a[(0, c)], s * a[(1, c)], a[(2, c)]);
@@ -53,7 +53,7 @@ fn nrrd_header(v: &Volume<i16>, ras: bool, encoding: &str, extra: &str) -> Strin
 }
 
 /// A MetaImage header for `v` (ITK's field order and TransformMatrix layout).
-fn mha_header(v: &Volume<i16>, compressed: bool, file: &str) -> String {
+pub(crate) fn mha_header(v: &Volume<i16>, compressed: bool, file: &str) -> String {
     let a = v.affine();
     let sp = v.spacing();
     let m: Vec<String> = (0..9)
@@ -76,7 +76,7 @@ fn mha_header(v: &Volume<i16>, compressed: bool, file: &str) -> String {
     )
 }
 
-fn attached(path: &Path, header: String, data: &[u8]) -> PathBuf {
+pub(crate) fn attached(path: &Path, header: String, data: &[u8]) -> PathBuf {
     let mut f = header.into_bytes();
     f.extend_from_slice(data);
     std::fs::write(path, f).unwrap();
@@ -415,7 +415,7 @@ fn malformed_headers_are_refused_with_exit_2_and_nothing_written() {
     refused(&p, &p, &["ct.raw does not exist"]);
     std::fs::write(d.join("ct.raw"), &raw[..100]).unwrap();
     refused(&p, &d.join("ct.raw"), &["truncated", "voxel data of"]);
-    // A folder without DICOM images, a lone DICOM file, a text file.
+    // A folder without DICOM images, a broken DICOM file, a text file.
     let d = tmpdir("formats-bad-other");
     let dir = d.join("series");
     std::fs::create_dir_all(&dir).unwrap();
@@ -424,7 +424,8 @@ fn malformed_headers_are_refused_with_exit_2_and_nothing_written() {
     dcm.extend_from_slice(b"DICM\x02\x00\x00\x00");
     let p = d.join("IM0001.dcm");
     std::fs::write(&p, dcm).unwrap();
-    refused(&p, &p, &["single DICOM file", "folder"]);
+    // Read as DICOM (a single file may be a multi-frame CT): its damage named.
+    refused(&p, &p, &["corrupt DICOM file"]);
     let p = d.join("notes.txt");
     std::fs::write(&p, "not a volume\n").unwrap();
     refused(&p, &p, &["NIfTI", "NRRD", "MetaImage"]);

@@ -7,6 +7,7 @@ mod bench_stress_close;
 mod close;
 mod cohort;
 mod common;
+mod ct_formats_chain;
 mod design;
 mod dicom;
 mod end_to_end;

@@ -34,24 +34,24 @@ pub fn grid(slices: &[Slice]) -> Result<(Vec<usize>, Matrix4<f64>), String> {
                 "images differ in size ({}×{} in {}, {}×{} in {}); one series must be one grid",
                 first.columns,
                 first.rows,
-                first.path.display(),
+                first.place(),
                 s.columns,
                 s.rows,
-                s.path.display()
+                s.place()
             ));
         }
         if (0..6).any(|i| (s.orientation[i] - first.orientation[i]).abs() > ORIENTATION_TOL) {
             return Err(format!(
                 "images differ in orientation ({} and {}); one series must be one grid",
-                first.path.display(),
-                s.path.display()
+                first.place(),
+                s.place()
             ));
         }
         if (0..2).any(|i| (s.pixel_spacing[i] - first.pixel_spacing[i]).abs() > 1e-6) {
             return Err(format!(
                 "images differ in Pixel Spacing ({} and {})",
-                first.path.display(),
-                s.path.display()
+                first.place(),
+                s.place()
             ));
         }
     }
@@ -81,8 +81,8 @@ pub fn grid(slices: &[Slice]) -> Result<(Vec<usize>, Matrix4<f64>), String> {
         return Err(format!(
             "two images lie at the same position ({} and {}): duplicates, or several phases \
              or echoes in one series",
-            order[k].path.display(),
-            order[k + 1].path.display()
+            order[k].place(),
+            order[k + 1].place()
         ));
     }
     let mut sorted = steps.clone();
@@ -108,8 +108,8 @@ pub fn grid(slices: &[Slice]) -> Result<(Vec<usize>, Matrix4<f64>), String> {
             return Err(format!(
                 "{what}: {s:.3} mm between {} and {} where the other steps are {typical:.3} mm; \
                  export the complete series, or resample it to a regular grid first",
-                order[k].path.display(),
-                order[k + 1].path.display()
+                order[k].place(),
+                order[k + 1].place()
             ));
         }
     }

@@ -5,6 +5,7 @@
 //! and any length that runs past its container is refused; what the parser
 //! then allocates is bounded by the file's own size.
 
+use std::cell::Cell;
 use std::io::Read;
 
 use dicom_core::dictionary::{DataDictionary, DataDictionaryEntry, VirtualVr};
@@ -16,8 +17,10 @@ const MAX_DEPTH: usize = 32;
 const UNDEFINED: u32 = 0xFFFF_FFFF;
 
 /// Check a whole DICOM file (preamble, `DICM`, meta group, data set);
-/// `max_inflated` bounds a deflated data set once inflated.
-pub fn check(file: &[u8], max_inflated: u64) -> Result<(), String> {
+/// `max_inflated` bounds a deflated data set once inflated. Returns whether
+/// the data set holds Pixel Data (a dose report or a presentation state in a
+/// series folder has none, and the header reader stops before it).
+pub fn check(file: &[u8], max_inflated: u64) -> Result<bool, String> {
     if file.len() < 132 || &file[128..132] != b"DICM" {
         return Err("no DICM marker at byte 128".into());
     }
@@ -25,6 +28,7 @@ pub fn check(file: &[u8], max_inflated: u64) -> Result<(), String> {
         b: file,
         explicit: true,
         big: false,
+        pixels: Cell::new(false),
     };
     let mut pos = 132;
     let mut ts = String::new();
@@ -55,21 +59,27 @@ pub fn check(file: &[u8], max_inflated: u64) -> Result<(), String> {
             b: &inflated,
             explicit: true,
             big: false,
+            pixels: Cell::new(false),
         };
-        return w.elements(0, inflated.len(), 0, false).map(|_| ());
+        return w
+            .elements(0, inflated.len(), 0, false)
+            .map(|_| w.pixels.get());
     }
     let w = Walker {
         b: rest,
         explicit,
         big,
+        pixels: Cell::new(false),
     };
-    w.elements(0, rest.len(), 0, false).map(|_| ())
+    w.elements(0, rest.len(), 0, false).map(|_| w.pixels.get())
 }
 
 struct Walker<'a> {
     b: &'a [u8],
     explicit: bool,
     big: bool,
+    /// Pixel Data seen in the top-level data set.
+    pixels: Cell<bool>,
 }
 
 impl Walker<'_> {
@@ -169,6 +179,9 @@ impl Walker<'_> {
                 ));
             }
             let (tag, len, start) = self.header(pos)?;
+            if depth == 0 && tag == Tag(0x7FE0, 0x0010) {
+                self.pixels.set(true);
+            }
             if tag.0 == 0xFFFE {
                 if in_item && tag.1 == 0xE00D {
                     return Ok(start);

@@ -1,78 +1,41 @@
-//! DICOM CT series: a folder of single-frame CT images, as a PACS exports
-//! them, read with dicom-rs.
+//! DICOM CT: a folder of single-frame CT images, as a PACS exports them,
+//! or one multi-frame (enhanced) CT file, read with dicom-rs.
 //!
 //! The images are grouped by SeriesInstanceUID; a folder holding several
 //! series needs a choice (`--series UID|NUMBER`). The chosen series' slices
-//! are ordered by Image Position (Patient) projected on the slice normal,
-//! the slice step comes from the positions, the direction cosines and
-//! spacings make the LPS affine (DICOM's patient frame is LPS), and each
-//! slice's Rescale Slope/Intercept turns stored values into HU. Refused with
-//! a message: a non-CT modality, localisers, multi-frame images, missing
-//! slices, uneven steps, gantry tilt (sheared stacks), images of different
-//! sizes or orientations.
+//! (a multi-frame file's frames, each placed by its functional groups) are
+//! ordered by Image Position (Patient) projected on the slice normal, the
+//! slice step comes from the positions, the direction cosines and spacings
+//! make the LPS affine (DICOM's patient frame is LPS), and each slice's
+//! Rescale Slope/Intercept turns stored values into HU. Refused with a
+//! message: a non-CT modality, localisers, missing slices, uneven steps,
+//! gantry tilt (sheared stacks), images of different sizes or orientations,
+//! multi-frame files without functional groups.
 //!
-//! Transfer syntaxes decoded: implicit/explicit VR little endian, explicit
-//! VR big endian, deflated, RLE lossless, JPEG baseline/extended and JPEG
-//! lossless (dicom-rs's pure-Rust decoders; tested here: explicit VR little
-//! endian and RLE). Not decoded (refused, naming the syntax): JPEG-LS,
-//! JPEG 2000, JPEG XL, HTJ2K and video.
+//! Transfer syntaxes: see [`syntax`] (uncompressed, deflated, RLE and JPEG
+//! lossless are read; JPEG baseline is refused because 8 bits cannot hold
+//! HU; JPEG-LS, JPEG 2000, JPEG XL, HTJ2K and video are not decoded), and
+//! [`pixels`] for who decodes what.
 
+mod choose;
+mod frames;
 mod geometry;
 mod lengths;
+mod pixels;
 mod scan;
+mod syntax;
 
 use std::path::Path;
 
-use dicom_pixeldata::{PixelDecoder, PixelRepresentation};
+use dicom_object::DefaultDicomObject;
 use nalgebra::Matrix4;
 
+pub use choose::{Chosen, choose, implausible};
 pub use scan::{Series, Slice, scan};
 
 use super::nifti::{MAX_AXIS, NiftiRead, ReadOptions, SPACING_MM};
 use crate::geom::Volume;
 use crate::{Error, Result};
-
-/// The series `pick` names (its UID or its SeriesNumber), or the only one.
-pub fn choose<'a>(dir: &Path, series: &'a [Series], pick: Option<&str>) -> Result<&'a Series> {
-    let list = || {
-        series
-            .iter()
-            .map(|s| s.label())
-            .collect::<Vec<_>>()
-            .join("; ")
-    };
-    match pick {
-        None if series.len() == 1 => Ok(&series[0]),
-        None => Err(Error::bad_input(
-            dir,
-            format!(
-                "holds {} series; choose one with --series UID|NUMBER ({})",
-                series.len(),
-                list()
-            ),
-        )),
-        Some(p) => {
-            let hits: Vec<&Series> = series
-                .iter()
-                .filter(|s| s.uid == p || s.number.is_some_and(|n| p.parse() == Ok(n)))
-                .collect();
-            match hits.as_slice() {
-                [one] => Ok(one),
-                [] => Err(Error::bad_input(
-                    dir,
-                    format!("has no series {p}; it holds: {}", list()),
-                )),
-                _ => Err(Error::bad_input(
-                    dir,
-                    format!(
-                        "several series have the number {p}; choose by UID ({})",
-                        list()
-                    ),
-                )),
-            }
-        }
-    }
-}
 
 /// The refusal of a folder without DICOM images (`other` files in it).
 pub fn no_images(dir: &Path, other: usize) -> Error {
@@ -89,6 +52,8 @@ pub fn no_images(dir: &Path, other: usize) -> Error {
 /// A series checked to be one regular CT grid, ready to decode.
 pub struct Plan {
     pub series: Series,
+    /// How the series was chosen among those in the folder.
+    pub chosen: Chosen,
     /// Slice indices into `series.slices`, in grid order (k).
     order: Vec<usize>,
     pub dims: [usize; 3],
@@ -108,7 +73,7 @@ pub fn plan(
     if series.is_empty() {
         return Err(no_images(dir, other));
     }
-    let s = choose(dir, &series, pick)?;
+    let (s, chosen) = choose(dir, &series, pick)?;
     let bad = |p: String| Error::bad_input(dir, format!("series {}: {p}", s.uid));
     if s.modality != "CT" {
         return Err(bad(format!(
@@ -127,14 +92,11 @@ pub fn plan(
             format!("image of series {}: {p}", s.uid),
         ));
     }
-    if let Some(sl) = s.slices.iter().find(|sl| sl.frames != 1) {
+    if dir.is_file() && s.slices.len() == 1 && s.slices[0].frame.is_none() {
         return Err(Error::bad_input(
-            &sl.path,
-            format!(
-                "has {} frames: multi-frame (enhanced) CT images are not read; export the series \
-                 as single-frame images, or convert it with dcm2niix",
-                sl.frames
-            ),
+            dir,
+            "is a single-frame DICOM image (one slice); give coapt the folder that holds its \
+             series",
         ));
     }
     let (order, affine) = geometry::grid(&s.slices).map_err(bad)?;
@@ -173,95 +135,80 @@ pub fn plan(
     }
     Ok(Plan {
         series: s.clone(),
+        chosen,
         order,
         dims,
         affine_lps: affine,
     })
 }
 
-/// Read the series `pick` of the folder `dir` as `T`.
+/// Read the series `pick` of the folder (or multi-frame file) `dir` as `T`.
 pub fn read<T: NiftiRead>(dir: &Path, pick: Option<&str>, opts: &ReadOptions) -> Result<Volume<T>> {
     let plan = plan(dir, pick, opts, std::mem::size_of::<T>())?;
     let per = plan.dims[0] * plan.dims[1];
     let mut out = vec![T::default(); per * plan.dims[2]];
+    // A multi-frame file's frames come one after the other: open it once.
+    let mut open: Option<(&Path, DefaultDicomObject)> = None;
     for (k, &i) in plan.order.iter().enumerate() {
-        decode_slice(
-            &plan.series.slices[i],
-            &mut out[k * per..(k + 1) * per],
-            k,
-            opts.max_bytes,
-        )?;
+        let sl = &plan.series.slices[i];
+        if open.as_ref().map(|(p, _)| *p) != Some(sl.path.as_path()) {
+            let (obj, _) = scan::open_checked(&sl.path, opts.max_bytes, false)?
+                .ok_or_else(|| Error::bad_input(&sl.path, "is no longer a DICOM file"))?;
+            open = Some((&sl.path, obj));
+        }
+        let (_, obj) = open.as_ref().expect("opened above");
+        decode_slice(sl, obj, &mut out[k * per..(k + 1) * per], k)?;
     }
     Volume::from_fortran_vec(plan.dims, plan.affine_lps, out).map_err(|e| e.in_file(dir))
 }
 
-/// One image's pixels, rescaled to HU, into `out` (row after row).
-fn decode_slice<T: NiftiRead>(sl: &Slice, out: &mut [T], k: usize, max_bytes: u64) -> Result<()> {
+/// One image's (or frame's) pixels, rescaled to HU, into `out` (row after
+/// row).
+fn decode_slice<T: NiftiRead>(
+    sl: &Slice,
+    obj: &DefaultDicomObject,
+    out: &mut [T],
+    k: usize,
+) -> Result<()> {
     let bad = |p: String| Error::bad_input(&sl.path, p);
-    let obj = scan::open_checked(&sl.path, max_bytes, false)?
-        .ok_or_else(|| bad("is no longer a DICOM file".into()))?;
     let ts = obj
         .meta()
         .transfer_syntax()
         .trim_end_matches('\0')
         .to_string();
-    let px = obj.decode_pixel_data().map_err(|e| {
+    if let Some(why) = syntax::refusal(&ts) {
+        return Err(bad(why));
+    }
+    let px = pixels::decode(obj, sl, &ts).map_err(|e| {
+        let at = sl
+            .frame
+            .map(|f| format!(" of frame {}", f + 1))
+            .unwrap_or_default();
         bad(format!(
-            "cannot decode its pixel data (transfer syntax {ts}): {e}; coapt decodes \
-             uncompressed, deflated, RLE and JPEG (baseline, extended, lossless) images, not \
-             JPEG-LS or JPEG 2000: convert the series with dcm2niix or \
-             `gdcmconv --raw`"
+            "cannot decode the pixel data{at} (transfer syntax {ts}): {e}; the file is damaged, \
+             or encoded in a way coapt's decoders do not cover: convert the series with \
+             dcm2niix or `gdcmconv --raw`"
         ))
     })?;
-    if px.rows() != sl.rows || px.columns() != sl.columns || px.samples_per_pixel() != 1 {
+    if px.raw.len() != out.len() {
         return Err(bad(format!(
-            "pixel data is {}×{} with {} samples per pixel; coapt needs {}×{} greyscale",
-            px.columns(),
-            px.rows(),
-            px.samples_per_pixel(),
-            sl.columns,
-            sl.rows
-        )));
-    }
-    let data = px.data();
-    let signed = px.pixel_representation() == PixelRepresentation::Signed;
-    let bytes = match px.bits_allocated() {
-        8 => 1,
-        16 => 2,
-        32 => 4,
-        b => {
-            return Err(bad(format!(
-                "{b} bits allocated per pixel is not supported"
-            )));
-        }
-    };
-    if data.len() < out.len() * bytes {
-        return Err(bad(format!(
-            "pixel data holds {} bytes, {} pixels of {bytes} bytes need {}: truncated",
-            data.len(),
-            out.len(),
-            out.len() * bytes
+            "pixel data hold {} samples where {} pixels are needed",
+            px.raw.len(),
+            out.len()
         )));
     }
     let cols = sl.columns as usize;
     // Bits above Bits Stored carry nothing (or an overlay): mask them, and
     // sign-extend signed values from their top stored bit.
-    let stored_bits = (px.bits_stored() as u32).clamp(1, 8 * bytes as u32);
-    let unused = 64 - stored_bits;
+    let unused = 64 - px.bits_stored;
     let fix = |raw: u64| -> f64 {
-        if signed {
+        if px.signed {
             (((raw << unused) as i64) >> unused) as f64
         } else {
             ((raw << unused) >> unused) as f64
         }
     };
-    for (idx, (o, b)) in out.iter_mut().zip(data.chunks_exact(bytes)).enumerate() {
-        // Decoded samples are in native byte order.
-        let raw = match bytes {
-            1 => b[0] as u64,
-            2 => u16::from_ne_bytes([b[0], b[1]]) as u64,
-            _ => u32::from_ne_bytes([b[0], b[1], b[2], b[3]]) as u64,
-        };
+    for (idx, (o, &raw)) in out.iter_mut().zip(&px.raw).enumerate() {
         let stored = fix(raw);
         let v = stored * sl.slope + sl.intercept;
         *o = T::from_f64(v).ok_or_else(|| {

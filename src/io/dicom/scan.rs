@@ -16,10 +16,14 @@ const MAX_FILES: usize = 100_000;
 /// Sub-folder depth searched (PACS exports nest patient/study/series).
 const MAX_DEPTH: usize = 6;
 
-/// What one image's header says about its place in a volume.
+/// What one image (or one frame of a multi-frame image) says about its
+/// place in a volume.
 #[derive(Debug, Clone)]
 pub struct Slice {
     pub path: PathBuf,
+    /// The frame (0-based) of a multi-frame file; `None` for a single-frame
+    /// image.
+    pub frame: Option<u32>,
     /// Image Position (Patient): the centre of the first pixel, LPS mm.
     pub position: [f64; 3],
     /// Image Orientation (Patient): row direction (along a row, i.e. with
@@ -31,7 +35,16 @@ pub struct Slice {
     pub columns: u32,
     pub slope: f64,
     pub intercept: f64,
-    pub frames: u32,
+}
+
+impl Slice {
+    /// The file, and the frame in it when it has several, for messages.
+    pub fn place(&self) -> String {
+        match self.frame {
+            None => self.path.display().to_string(),
+            Some(f) => format!("{} (frame {})", self.path.display(), f + 1),
+        }
+    }
 }
 
 /// One series as found in the folder.
@@ -43,6 +56,13 @@ pub struct Series {
     pub modality: String,
     /// Some image is a localiser (scout, topogram).
     pub localiser: bool,
+    /// The first image's SOP Class UID (CT Image Storage, Enhanced CT,
+    /// Secondary Capture…).
+    pub sop_class: String,
+    /// Some image has no Pixel Data (a dose report, a presentation state).
+    pub without_pixels: bool,
+    /// DICOM files holding the series' images.
+    pub files: usize,
     pub transfer_syntax: String,
     pub slices: Vec<Slice>,
     /// Images whose geometry could not be read, and why.
@@ -50,6 +70,11 @@ pub struct Series {
 }
 
 impl Series {
+    /// Images (frames of multi-frame files counted one by one), readable or not.
+    pub fn images(&self) -> usize {
+        self.slices.len() + self.problems.len()
+    }
+
     /// "3 (1.2.840…): CTA 0.6 mm ART" for messages.
     pub fn label(&self) -> String {
         let n = self
@@ -62,14 +87,15 @@ impl Series {
             format!(" \"{}\"", self.description)
         };
         format!(
-            "number {n}, UID {}{desc}, {} {} image{}{}",
+            "number {n}, UID {}{desc}, {} {} image{}{}{}",
             self.uid,
             self.modality,
-            self.slices.len() + self.problems.len(),
-            if self.slices.len() + self.problems.len() == 1 {
-                ""
+            self.images(),
+            if self.images() == 1 { "" } else { "s" },
+            if self.files == 1 && self.slices.len() > 1 {
+                " in one multi-frame file"
             } else {
-                "s"
+                ""
             },
             if self.localiser { ", localiser" } else { "" }
         )
@@ -77,13 +103,14 @@ impl Series {
 }
 
 /// A DICOM file's header, after [`super::lengths::check`] has bounded what
-/// parsing it can allocate; `Ok(None)` for a file that is not DICOM (no
-/// `DICM` marker). `max_bytes` bounds the file (and an inflated data set).
+/// parsing it can allocate, and whether it holds Pixel Data; `Ok(None)` for
+/// a file that is not DICOM (no `DICM` marker). `max_bytes` bounds the file
+/// (and an inflated data set).
 pub fn open_checked(
     path: &Path,
     max_bytes: u64,
     until_pixels: bool,
-) -> Result<Option<DefaultDicomObject>> {
+) -> Result<Option<(DefaultDicomObject, bool)>> {
     let len = std::fs::metadata(path)
         .map_err(|e| Error::read(path, e))?
         .len();
@@ -98,28 +125,33 @@ pub fn open_checked(
         return Err(Error::bad_input(
             path,
             format!(
-                "a DICOM file of {len} bytes, above the limit of {max_bytes} bytes for one image"
+                "a DICOM file of {len} bytes, above the limit of {max_bytes} bytes for one file"
             ),
         ));
     }
     let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
-    super::lengths::check(&bytes, max_bytes)
+    let has_pixels = super::lengths::check(&bytes, max_bytes)
         .map_err(|p| Error::bad_input(path, format!("corrupt DICOM file: {p}")))?;
     let mut opts = OpenFileOptions::new().read_preamble(ReadPreamble::Always);
     if until_pixels {
         opts = opts.read_until(tags::PIXEL_DATA);
     }
     opts.open_file(path)
-        .map(Some)
+        .map(|obj| Some((obj, has_pixels)))
         .map_err(|e| Error::bad_input(path, format!("not a readable DICOM file: {e}")))
 }
 
-/// The series in `dir` (sub-folders included), in SeriesNumber order, and
-/// how many files were not DICOM. Every DICOM file's element lengths are
-/// checked first (see [`super::lengths`]).
+/// The series in `dir` (sub-folders included; or `dir` itself, a single
+/// multi-frame file), in SeriesNumber order, and how many files were not
+/// DICOM. Every DICOM file's element lengths are checked first (see
+/// [`super::lengths`]).
 pub fn scan(dir: &Path, max_bytes: u64) -> Result<(Vec<Series>, usize)> {
     let mut files = Vec::new();
-    walk(dir, 0, &mut files)?;
+    if dir.is_dir() {
+        walk(dir, 0, &mut files)?;
+    } else {
+        files.push(dir.to_path_buf());
+    }
     if files.len() > MAX_FILES {
         return Err(Error::bad_input(
             dir,
@@ -130,7 +162,7 @@ pub fn scan(dir: &Path, max_bytes: u64) -> Result<(Vec<Series>, usize)> {
     let mut by_uid: BTreeMap<String, Series> = BTreeMap::new();
     let mut other = 0;
     for path in files {
-        let Some(obj) = open_checked(&path, max_bytes, true)? else {
+        let Some((obj, has_pixels)) = open_checked(&path, max_bytes, true)? else {
             // Notes, thumbnails…: not DICOM.
             other += 1;
             continue;
@@ -149,26 +181,39 @@ pub fn scan(dir: &Path, max_bytes: u64) -> Result<(Vec<Series>, usize)> {
             continue;
         }
         let uid = text(&obj, tags::SERIES_INSTANCE_UID);
+        let ts = obj
+            .meta()
+            .transfer_syntax()
+            .trim_end_matches('\0')
+            .to_string();
         let s = by_uid.entry(uid.clone()).or_insert_with(|| Series {
             uid,
             number: text(&obj, tags::SERIES_NUMBER).trim().parse().ok(),
             description: text(&obj, tags::SERIES_DESCRIPTION),
             modality: text(&obj, tags::MODALITY),
             localiser: false,
-            transfer_syntax: obj
+            sop_class: obj
                 .meta()
-                .transfer_syntax()
+                .media_storage_sop_class_uid()
                 .trim_end_matches('\0')
                 .to_string(),
+            without_pixels: false,
+            files: 0,
+            transfer_syntax: ts.clone(),
             slices: Vec::new(),
             problems: Vec::new(),
         });
-        let image_type = text(&obj, tags::IMAGE_TYPE).to_ascii_uppercase();
-        if image_type.contains("LOCALIZER") {
-            s.localiser = true;
+        s.files += 1;
+        s.without_pixels |= !has_pixels;
+        if let Some(why) = super::syntax::refusal(&ts) {
+            s.problems.push((path, why));
+            continue;
         }
-        match slice(&obj, &path) {
-            Ok(sl) => s.slices.push(sl),
+        match super::frames::slices_of(&obj, &path) {
+            Ok((slices, localiser)) => {
+                s.localiser |= localiser;
+                s.slices.extend(slices);
+            }
             Err(p) => s.problems.push((path, p)),
         }
     }
@@ -203,73 +248,4 @@ fn text(obj: &DefaultDicomObject, tag: dicom_core::Tag) -> String {
         .and_then(|e| e.to_str().ok())
         .map(|s| s.trim_matches([' ', '\0']).to_string())
         .unwrap_or_default()
-}
-
-fn numbers(
-    obj: &DefaultDicomObject,
-    tag: dicom_core::Tag,
-    name: &str,
-    n: usize,
-) -> std::result::Result<Vec<f64>, String> {
-    let e = obj
-        .element_opt(tag)
-        .ok()
-        .flatten()
-        .ok_or_else(|| format!("{name} is missing"))?;
-    let v = e
-        .to_multi_float64()
-        .map_err(|_| format!("{name} is not a list of numbers"))?;
-    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
-        return Err(format!("{name} must hold {n} finite numbers, has {v:?}"));
-    }
-    Ok(v)
-}
-
-fn slice(obj: &DefaultDicomObject, path: &Path) -> std::result::Result<Slice, String> {
-    let p = numbers(
-        obj,
-        tags::IMAGE_POSITION_PATIENT,
-        "Image Position (Patient)",
-        3,
-    )?;
-    let o = numbers(
-        obj,
-        tags::IMAGE_ORIENTATION_PATIENT,
-        "Image Orientation (Patient)",
-        6,
-    )?;
-    let sp = numbers(obj, tags::PIXEL_SPACING, "Pixel Spacing", 2)?;
-    let int = |tag, name: &str| -> std::result::Result<u32, String> {
-        obj.element_opt(tag)
-            .ok()
-            .flatten()
-            .ok_or_else(|| format!("{name} is missing"))?
-            .to_int::<u32>()
-            .map_err(|_| format!("{name} is not a whole number"))
-    };
-    let opt = |tag, default: f64| -> std::result::Result<f64, String> {
-        match obj.element_opt(tag).ok().flatten() {
-            None => Ok(default),
-            Some(e) => e
-                .to_float64()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| "Rescale Slope/Intercept is not a number".to_string()),
-        }
-    };
-    let frames = match obj.element_opt(tags::NUMBER_OF_FRAMES).ok().flatten() {
-        None => 1,
-        Some(e) => e.to_int::<u32>().unwrap_or(0),
-    };
-    Ok(Slice {
-        path: path.to_path_buf(),
-        position: [p[0], p[1], p[2]],
-        orientation: [o[0], o[1], o[2], o[3], o[4], o[5]],
-        pixel_spacing: [sp[0], sp[1]],
-        rows: int(tags::ROWS, "Rows")?,
-        columns: int(tags::COLUMNS, "Columns")?,
-        slope: opt(tags::RESCALE_SLOPE, 1.0)?,
-        intercept: opt(tags::RESCALE_INTERCEPT, 0.0)?,
-        frames,
-    })
 }
