@@ -478,6 +478,36 @@ fn merge(prev: Option<Outcome>, mut next: Outcome) -> Outcome {
     }
 }
 
+/// The stress-free triangles at `ref_x` (the reference's positions), with
+/// the leaflets' fibres, which `coapt leaflets` gives tangent to the placed
+/// triangles (`placed`).
+fn reference_triangles(
+    reference: Reference,
+    thickness: f64,
+    l: &Leaflets,
+    placed: &[V3],
+    ref_x: &[V3],
+) -> Result<Vec<RefTri>, String> {
+    Ok(match (reference, l.fibers.as_deref()) {
+        // Projected onto the flat template's plane the placed fibres would
+        // point anywhere; their edge coordinates carry over.
+        (Reference::Flat, Some(f)) => {
+            reference_blend::blended(placed, ref_x, &l.tris, 1.0, thickness, Some((f, placed)))?
+        }
+        _ => l
+            .tris
+            .iter()
+            .enumerate()
+            .map(|(t, tri)| {
+                let fib = l.fibers.as_ref().map(|f| f[t]);
+                RefTri::new(tri.map(|i| ref_x[i as usize]), thickness, fib).ok_or_else(|| {
+                    format!("triangle {t} is degenerate in the reference configuration")
+                })
+            })
+            .collect::<Result<Vec<_>, String>>()?,
+    })
+}
+
 /// Close the leaflets. `axis`: from valve.json when known, else estimated.
 /// The suture line is sewn to the cylinder about the axis through it; see
 /// [`close_on`] for a patient's wall.
@@ -639,15 +669,7 @@ pub fn close_watched(
             return Err("reference = \"flat\" (the MSM's default) needs the leaflets' point data ref_uv, the flat template's coordinates that `coapt leaflets` writes; set reference = \"sutured\" to rest on the sutured state instead".into());
         }
     };
-    let mut refs = Vec::with_capacity(l.tris.len());
-    for (t, tri) in l.tris.iter().enumerate() {
-        let fib = l.fibers.as_ref().map(|f| f[t]);
-        refs.push(
-            RefTri::new(tri.map(|i| ref_x[i as usize]), cfg.thickness, fib).ok_or_else(|| {
-                format!("triangle {t} is degenerate in the reference configuration")
-            })?,
-        );
-    }
+    let refs = reference_triangles(cfg.reference, cfg.thickness, l, &placed.x, &ref_x)?;
     let fixed: Vec<[bool; 3]> = l.boundary.iter().map(|&b| [b == 1; 3]).collect();
     let signs = pressure_signs(l, &axis, n_leaflets);
     let tri_pressure: Vec<f64> = l
@@ -779,7 +801,7 @@ pub fn close_watched(
                         &l.tris,
                         s,
                         cfg.thickness,
-                        l.fibers.as_deref(),
+                        l.fibers.as_deref().map(|f| (f, placed.x.as_slice())),
                     )?
                 };
                 let left = Stop {
@@ -956,6 +978,36 @@ fn sutured_cylinder(l: &Leaflets, axis: &Axis) -> WallShape {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// On the flat template the fibres are the template's own, whatever
+    /// way the placed triangle lies: the placed fibre of a triangle turned
+    /// into 3-D (θ = 0, along the template's u) comes back along u.
+    #[test]
+    fn flat_reference_fibres_are_the_templates() {
+        let uv = [[0.0, 0.0], [2.0, 0.0], [0.0, 1.0]];
+        let rot = nalgebra::Rotation3::from_euler_angles(0.4, -0.9, 1.3);
+        let placed: Vec<V3> = uv
+            .iter()
+            .map(|p| rot * V3::new(p[0], p[1], 0.0) + V3::new(5.0, 1.0, 2.0))
+            .collect();
+        let along_u = rot * V3::x();
+        let l = Leaflets {
+            x: placed.clone(),
+            tris: vec![[0, 1, 2]],
+            boundary: vec![0; 3],
+            leaflet: vec![0],
+            ref_uv: Some(uv.to_vec()),
+            fibers: Some(vec![[along_u, along_u]]),
+            pressure_side: None,
+        };
+        let flat: Vec<V3> = uv.iter().map(|p| V3::new(p[0], p[1], 0.0)).collect();
+        let r = &reference_triangles(Reference::Flat, 0.5, &l, &placed, &flat).unwrap()[0];
+        assert!((r.fiber[0] - V3::x()).norm() < 1e-12, "{:?}", r.fiber[0]);
+        assert!((r.area - 1.0).abs() < 1e-12);
+        // Resting on the placed state, the placed fibre is the one.
+        let r = &reference_triangles(Reference::Placed, 0.5, &l, &placed, &placed).unwrap()[0];
+        assert!((r.fiber[0] - along_u).norm() < 1e-12);
+    }
 
     #[test]
     fn a_failure_names_ballooning_or_a_collapse_and_nothing_else() {

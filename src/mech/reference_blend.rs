@@ -40,15 +40,20 @@ fn edge_coordinates(v: &V3, e1: &V3, e2: &V3) -> (f64, f64) {
     ((c * p - b * q) / det, (a * q - b * p) / det)
 }
 
+/// The fibres per triangle and the positions they are tangent to (the
+/// placed leaflets: `coapt leaflets` pushes the template's fibres forward
+/// onto them).
+pub type Fibres<'a> = (&'a [[V3; 2]], &'a [V3]);
+
 /// Reference triangles at blend `s` ∈ [0, 1] between the positions `from`
-/// (s = 0; where the fibres are given) and `to` (s = 1).
+/// (s = 0) and `to` (s = 1).
 pub fn blended(
     from: &[V3],
     to: &[V3],
     tris: &[[u32; 3]],
     s: f64,
     thickness: f64,
-    fibers: Option<&[[V3; 2]]>,
+    fibers: Option<Fibres>,
 ) -> Result<Vec<RefTri>, String> {
     tris.iter()
         .enumerate()
@@ -64,8 +69,8 @@ pub fn blended(
             let (l0, l1) = (len2(from), len2(to));
             let p = triangle_from_lengths([0, 1, 2].map(|k| (1.0 - s) * l0[k] + s * l1[k]))
                 .ok_or_else(|| format!("triangle {t} is degenerate in the blended reference"))?;
-            let fib = fibers.map(|f| {
-                let (e1, e2) = (from[b] - from[a], from[c] - from[a]);
+            let fib = fibers.map(|(f, on)| {
+                let (e1, e2) = (on[b] - on[a], on[c] - on[a]);
                 f[t].map(|m| {
                     let (al, be) = edge_coordinates(&m, &e1, &e2);
                     (p[1] - p[0]) * al + (p[2] - p[0]) * be
@@ -139,7 +144,7 @@ mod tests {
         ];
         let m = V3::new(1.0, 1.0, 0.0).normalize();
         let fib = [[m, V3::new(1.0, 0.0, 0.0)]];
-        let r = &blended(&from, &to, &[[0, 1, 2]], 1.0, 0.5, Some(&fib)).unwrap()[0];
+        let r = &blended(&from, &to, &[[0, 1, 2]], 1.0, 0.5, Some((&fib, &from))).unwrap()[0];
         // In the blended triangle (laid with edge 0→1 on x): m = e₁/4 + e₂/2
         // of the source maps to (0.5, 1.0), normalised.
         let want = V3::new(0.5, 1.0, 0.0).normalize();
