@@ -237,6 +237,19 @@ pub fn assert_honest_verdict(run: &Path) {
     );
 }
 
+/// (stage, status) of every stage the run's manifest records, in order.
+pub fn stage_statuses(run: &Path) -> Vec<(String, String)> {
+    json(&run.join("manifest.json"))["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            let f = |k: &str| r[k].as_str().unwrap().to_string();
+            (f("stage"), f("status"))
+        })
+        .collect()
+}
+
 /// The stages a run directory's manifest records, in order.
 pub fn manifest_stages(run: &Path) -> (serde_json::Value, Vec<String>) {
     let manifest = json(&run.join("manifest.json"));

@@ -68,21 +68,6 @@ fn report_numbers(run: &Path) -> serde_json::Value {
     r
 }
 
-fn statuses(run: &Path) -> Vec<(String, String)> {
-    let (m, _) = manifest_stages(run);
-    m["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| {
-            (
-                r["stage"].as_str().unwrap().to_string(),
-                r["status"].as_str().unwrap().to_string(),
-            )
-        })
-        .collect()
-}
-
 fn copy_dir(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).unwrap();
     for e in std::fs::read_dir(from).unwrap() {
@@ -114,9 +99,11 @@ fn the_chain_reports_the_same_valve_from_nifti_dicom_nrrd_and_metaimage() {
     let from_dicom = d.join("dicom-run");
     run(&config(&d, &from_dicom, &dicom));
     assert!(
-        statuses(&from_dicom).iter().all(|(_, st)| st == "ran"),
+        stage_statuses(&from_dicom)
+            .iter()
+            .all(|(_, st)| st == "ran"),
         "{:?}",
-        statuses(&from_dicom)
+        stage_statuses(&from_dicom)
     );
     assert!(
         std::fs::read(from_dicom.join("closed.vtp")).unwrap() == closed,
@@ -128,7 +115,7 @@ fn the_chain_reports_the_same_valve_from_nifti_dicom_nrrd_and_metaimage() {
         let dir = d.join(format!("{name}-run"));
         copy_dir(&reference, &dir);
         run(&config(&d, &dir, ct));
-        let st = statuses(&dir);
+        let st = stage_statuses(&dir);
         let expect: Vec<(String, String)> = [
             ("segment", "ran"),
             ("surface", "skipped"),

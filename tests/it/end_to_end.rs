@@ -60,18 +60,6 @@ fn run_chain(cfg: &Path) {
     assert_eq!(o.status.code(), Some(0), "coapt run: {}", stderr(&o));
 }
 
-fn statuses(run: &Path) -> Vec<(String, String)> {
-    json(&run.join("manifest.json"))["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| {
-            let f = |k: &str| r[k].as_str().unwrap().to_string();
-            (f("stage"), f("status"))
-        })
-        .collect()
-}
-
 /// Every leaf of the metrics block: a null is a metric the report could not
 /// give (serde_json also writes NaN and ±∞ as null).
 fn leaves<'a>(path: String, v: &'a Value, out: &mut Vec<(String, &'a Value)>) {
@@ -179,7 +167,7 @@ fn sample_phantom_to_report_matches_truth_and_is_mesh_converged() {
     let run = d.join("run");
     run_chain(&write_config(&d, "0.5 mm"));
     assert_eq!(
-        statuses(&run)
+        stage_statuses(&run)
             .iter()
             .map(|s| s.0.as_str())
             .collect::<Vec<_>>(),
@@ -193,7 +181,7 @@ fn sample_phantom_to_report_matches_truth_and_is_mesh_converged() {
 
     // A coarser leaflet mesh re-runs the leaflets and what follows only.
     run_chain(&write_config(&d, "0.7 mm"));
-    for (stage, status) in statuses(&run) {
+    for (stage, status) in stage_statuses(&run) {
         let rerun = ["leaflets", "close", "report"].contains(&stage.as_str());
         assert_eq!(status, if rerun { "ran" } else { "skipped" }, "{stage}");
     }

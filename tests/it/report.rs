@@ -29,20 +29,6 @@ fn sample_config(dir: &Path) -> PathBuf {
     cfg
 }
 
-fn statuses(run: &Path) -> Vec<(String, String)> {
-    json(&run.join("manifest.json"))["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| {
-            (
-                r["stage"].as_str().unwrap().to_string(),
-                r["status"].as_str().unwrap().to_string(),
-            )
-        })
-        .collect()
-}
-
 /// The report.json numbers that must not depend on anything but the inputs.
 fn measured(v: &Value) -> Value {
     serde_json::json!({
@@ -58,7 +44,7 @@ fn ct_to_report_in_one_command_and_an_edit_reruns_only_what_it_touches() {
     let run = d.join("run");
     let o = coapt(&["run", &s(&cfg), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let st = statuses(&run);
+    let st = stage_statuses(&run);
     let names: Vec<&str> = st.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(
         names,
@@ -248,9 +234,9 @@ fn ct_to_report_in_one_command_and_an_edit_reruns_only_what_it_touches() {
     let o = coapt(&["run", &s(&cfg), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
-        statuses(&run).iter().all(|(_, s)| s == "skipped"),
+        stage_statuses(&run).iter().all(|(_, s)| s == "skipped"),
         "{:?}",
-        statuses(&run)
+        stage_statuses(&run)
     );
 
     // An edit of the closure settings re-runs close and report only.
@@ -258,7 +244,7 @@ fn ct_to_report_in_one_command_and_an_edit_reruns_only_what_it_touches() {
     std::fs::write(d.join("close.toml"), text.replace("80 mmHg", "90 mmHg")).unwrap();
     let o = coapt(&["run", &s(&cfg), "--quiet"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let st = statuses(&run);
+    let st = stage_statuses(&run);
     for (stage, status) in &st {
         let want = if stage == "close" || stage == "report" {
             "ran"
