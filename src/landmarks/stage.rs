@@ -133,12 +133,6 @@ fn merge_given(det: &mut Detection, given: Option<&Landmarks>) -> Vec<Source> {
         .collect()
 }
 
-/// |a − b| of a JSON [x, y, z] and a point (mm).
-fn distance_mm(a: &Json, b: &Point3) -> f64 {
-    let c = |k: usize| a[k].as_f64().unwrap_or(f64::NAN);
-    (Point3::new(c(0), c(1), c(2)) - b).norm()
-}
-
 /// Findings for detected points below `min_confidence` (a given point is
 /// the user's), and for a STJ that is not a clear narrowing.
 fn findings(det: &Detection, sources: &[Source], min_confidence: f64) -> Vec<String> {
@@ -243,12 +237,11 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         );
         m.insert("min_confidence".into(), json!(min_conf));
         if let Some(Json::Array(points)) = m.get_mut("points") {
-            for (p, s) in points.iter_mut().zip(&sources) {
+            for ((p, s), found) in points.iter_mut().zip(&sources).zip(&det.points) {
                 p["source"] = json!(s.name());
                 if let Source::Given { detected } = s {
-                    let given = p["point_mm"].clone();
                     p["detected_mm"] = json!([detected.x, detected.y, detected.z]);
-                    p["given_to_detected_mm"] = json!(distance_mm(&given, detected));
+                    p["given_to_detected_mm"] = json!((found.point_mm - detected).norm());
                 }
             }
         }
