@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 secs=${1:-60}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(volume vtp markups configs valve_json)
+[ ${#targets[@]} -gt 0 ] || targets=(volume dicom vtp markups configs valve_json stages)
 dir=${COAPT_FUZZ_TARGET_DIR:-$HOME/.cache/coapt-fuzz-target}
 cargo +nightly fuzz build -O --target-dir "$dir"
 corpus=${COAPT_FUZZ_CORPUS:-$HOME/.cache/coapt-fuzz-corpus}
