@@ -205,13 +205,13 @@ fn command() -> Command {
             .subcommand(
                 Command::new("stress-close")
                     .about("The closure solver on randomised hostile variants of the peer case: counts converged / failed with a diagnosis / non-finite / hang")
-                    .arg(Arg::new("cases").long("cases").value_name("N").default_value("500").value_parser(clap::value_parser!(usize)))
+                    .arg(Arg::new("cases").long("cases").value_name("N").default_value("500").value_parser(bench::bounded::count(1, 100_000)))
                     .arg(Arg::new("seed").long("seed").value_name("N").default_value("1").value_parser(clap::value_parser!(u64)))
-                    .arg(Arg::new("h-min").long("h-min").value_name("MM").default_value("0.25").value_parser(clap::value_parser!(f64)))
-                    .arg(Arg::new("h-max").long("h-max").value_name("MM").default_value("3").value_parser(clap::value_parser!(f64)))
-                    .arg(Arg::new("time-limit").long("time-limit").value_name("S").default_value("60").value_parser(clap::value_parser!(f64)).help("the solver's own limit per case; twice that plus 10 s counts as a hang"))
+                    .arg(Arg::new("h-min").long("h-min").value_name("MM").default_value("0.25").value_parser(bench::bounded::mesh_size()))
+                    .arg(Arg::new("h-max").long("h-max").value_name("MM").default_value("3").value_parser(bench::bounded::mesh_size()))
+                    .arg(Arg::new("time-limit").long("time-limit").value_name("S").default_value("60").value_parser(bench::bounded::time_limit()).help("the solver's own limit per case; twice that plus 10 s counts as a hang"))
                     .arg(Arg::new("csv").long("csv").value_name("FILE").value_parser(clap::value_parser!(PathBuf)).help("one row per case"))
-                    .arg(Arg::new("only").long("only").value_name("I,J,…").value_delimiter(',').value_parser(clap::value_parser!(usize)).help("replay these cases of the seed's sequence (0-based indices, as in the CSV) instead of 0..N"))
+                    .arg(Arg::new("only").long("only").value_name("I,J,…").value_delimiter(',').value_parser(bench::bounded::count(0, 1_000_000)).help("replay these cases of the seed's sequence (0-based indices, as in the CSV) instead of 0..N"))
                     .arg(Arg::new("plausible").long("plausible").action(clap::ArgAction::SetTrue).help("draw only from the plausible range: E 0.3–10 MPa, 40–120 mmHg, 0.2–0.8 mm, jittered but unsqueezed meshes (use with --h-max 2)")),
             )
             .subcommand(
@@ -361,6 +361,13 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
     }
     let threads = match m.get_one::<usize>("threads") {
         Some(0) => return Err(Error::usage("--threads must be at least 1")),
+        // Each thread is a stack and a worker: a million of them was a hang.
+        Some(&n) if n > MAX_THREADS => {
+            return Err(Error::usage(format!(
+                "--threads {n}: at most {MAX_THREADS} (this machine has {})",
+                std::thread::available_parallelism().map_or(1, |n| n.get())
+            )));
+        }
         Some(&n) => n,
         None => std::thread::available_parallelism()
             .map(|n| n.get())
@@ -606,6 +613,9 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
         }
     }
 }
+
+/// More worker threads than any machine coapt runs on has cores.
+const MAX_THREADS: usize = 1024;
 
 fn run_stage(spec: &'static StageSpec, m: &ArgMatches, inv: &Invocation) -> Result<()> {
     let mut given = std::collections::BTreeMap::new();

@@ -193,6 +193,21 @@ pub fn format(kind: Kind, value: f64) -> String {
     format!("{} {}", trim_float(shown), kind.display_unit())
 }
 
+/// A number for a message: as [`format`] writes it, or in scientific
+/// notation when that would run to many digits (1e300 is "1e300", not 301
+/// characters).
+pub fn short(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-4..1e7).contains(&x.abs()) {
+        let s = format!("{x:.3e}");
+        match s.split_once('e') {
+            Some((m, e)) => format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.')),
+            None => s,
+        }
+    } else {
+        trim_float(x)
+    }
+}
+
 /// Shortest decimal that reads back to the same f64 (Rust's `{}`), with
 /// angles rounded to 12 significant digits so 35° prints as "35".
 fn trim_float(x: f64) -> String {

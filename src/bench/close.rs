@@ -487,7 +487,7 @@ pub fn command() -> Command {
             Arg::new("h")
                 .long("h")
                 .value_name("MM")
-                .value_parser(clap::value_parser!(f64))
+                .value_parser(super::bounded::mesh_size())
                 .help("one mesh size (default: 1.0, 0.7, 0.5, 0.35)"),
         )
         .arg(
@@ -507,7 +507,7 @@ pub fn command() -> Command {
                 .long("time-limit")
                 .value_name("S")
                 .default_value("600")
-                .value_parser(clap::value_parser!(f64))
+                .value_parser(super::bounded::time_limit())
                 .help("solver time limit per mesh (s)"),
         )
         .arg(
@@ -542,7 +542,7 @@ pub fn command() -> Command {
                 .requires("grid")
                 .value_delimiter(',')
                 .action(clap::ArgAction::Append)
-                .value_parser(clap::value_parser!(f64))
+                .value_parser(super::bounded::mesh_size())
                 .help("grid mesh sizes in mm (default 3,2,1,0.5,0.25)"),
         )
         .arg(

@@ -242,7 +242,7 @@ pub fn command() -> Command {
                 .long("h")
                 .value_name("MM")
                 .default_value("0.5")
-                .value_parser(clap::value_parser!(f64))
+                .value_parser(super::bounded::mesh_size())
                 .help("mesh size (mm)"),
         )
         .arg(
@@ -256,14 +256,14 @@ pub fn command() -> Command {
             Arg::new("lug-height")
                 .long("lug-height")
                 .value_name("MM")
-                .value_parser(clap::value_parser!(f64))
+                .value_parser(super::bounded::number(5.0, 30.0, " mm"))
                 .help("sensitivity only: the flat cusp's lug corners this far above its lowest point (default: the commissure height, 17.8 mm); a lower cusp hangs lower"),
         )
         .arg(
             Arg::new("margin")
                 .long("margin")
                 .value_name("MM")
-                .value_parser(clap::value_parser!(f64))
+                .value_parser(super::bounded::number(0.01, 5.0, " mm"))
                 .help("coaptation margin: a point coapts within this distance of another leaflet (default 1.8 × thickness = 0.54 mm, the report's)"),
         )
         .arg(

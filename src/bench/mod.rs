@@ -2,6 +2,7 @@
 //! child `coapt` process so that peak memory belongs to one run alone. One
 //! file per benchmark.
 
+pub mod bounded;
 pub mod close;
 pub mod close_grid;
 pub mod close_grid_plot;

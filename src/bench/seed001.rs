@@ -132,7 +132,7 @@ pub fn command() -> Command {
                 .long("h")
                 .value_name("MM")
                 .default_value("0.5")
-                .value_parser(clap::value_parser!(f64))
+                .value_parser(super::bounded::mesh_size())
                 .help("mesh size (the seed's h₁ = 0.5 mm)"),
         )
         .arg(

@@ -488,7 +488,7 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
     }
     let contact_margin =
         q(Kind::Length, &raw.contact_margin, "contact_margin")?.unwrap_or(0.5 * thickness);
-    Ok(CloseConfig {
+    let cfg = CloseConfig {
         model,
         thickness,
         pressure,
@@ -552,7 +552,162 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
             None => None,
         },
         suture,
-    })
+    };
+    check_ranges(&cfg)?;
+    Ok(cfg)
+}
+
+/// Ranges outside which a closure means nothing physically or costs without
+/// bound: each value outside is refused with its range and why, before any
+/// work (a 1e6 mm leaflet, 1e12 mmHg or a 1e12 s limit ran for as long as
+/// anyone let them; a 1e300 N tolerance "converged" at the first iterate).
+pub fn check_ranges(c: &CloseConfig) -> std::result::Result<(), String> {
+    const MMHG: f64 = 133.322e-6;
+    let check = |key: &str, v: f64, (lo, hi): (f64, f64), (scale, unit): (f64, &str), why: &str| {
+        if v >= lo && v <= hi {
+            Ok(())
+        } else {
+            let s = |x: f64| units::short(x / scale);
+            let unit = if unit.is_empty() {
+                String::new()
+            } else {
+                format!(" {unit}")
+            };
+            Err(format!(
+                "{key} {}{unit} lies outside {}–{}{unit}: {why}",
+                s(v),
+                s(lo),
+                s(hi)
+            ))
+        }
+    };
+    const MM: (f64, &str) = (1.0, "mm");
+    const MPA: (f64, &str) = (1.0, "MPa");
+    const HG: (f64, &str) = (MMHG, "mmHg");
+    const ONE: (f64, &str) = (1.0, "");
+    let tissue = "pericardium, native leaflets and polymers lie within 0.01–100 MPa";
+    check(
+        "thickness",
+        c.thickness,
+        (0.05, 3.0),
+        MM,
+        "leaflets are 0.1–1 mm thick",
+    )?;
+    check(
+        "pressure",
+        c.pressure,
+        (0.0, 300.0 * MMHG),
+        HG,
+        "diastolic pressures lie within 40–120 mmHg",
+    )?;
+    let moduli: Vec<(&str, f64)> = match &c.model {
+        Model::NeoHookean { mu } | Model::Gent { mu, .. } => vec![("mu", *mu)],
+        Model::Goh { mu, k1, .. } => vec![("mu", *mu), ("k1", *k1)],
+        Model::Svk { young, .. } => vec![("young", *young)],
+        Model::Msm(msm::Law::Linear { young }) => vec![("young", *young)],
+        Model::Msm(_) => vec![],
+    };
+    for (key, v) in moduli {
+        check(key, v, (1e-3, 1e3), MPA, tissue)?;
+    }
+    if let Model::Goh { k2, .. } = c.model {
+        check(
+            "k2",
+            k2,
+            (0.0, 1e4),
+            ONE,
+            "fibre stiffening of tissues lies within 0–1000 (it enters as exp(k2 E²))",
+        )?;
+    }
+    if let Model::Gent { jm, .. } = c.model {
+        check(
+            "jm",
+            jm,
+            (1e-3, 1e3),
+            ONE,
+            "Gent's locking invariant is of order 1",
+        )?;
+    }
+    check(
+        "contact_margin",
+        c.contact_margin,
+        (1e-3, 2.0),
+        MM,
+        "the contact reach is a fraction of the thickness",
+    )?;
+    check(
+        "contact_alpha",
+        c.contact_alpha,
+        (1e-3, 1e4),
+        ONE,
+        "the penalty factor is of order 10",
+    )?;
+    check(
+        "plane_offset",
+        c.plane_offset,
+        (0.0, 5.0),
+        MM,
+        "the planes move by about half a thickness",
+    )?;
+    check(
+        "tolerance",
+        c.tolerance,
+        (0.0, 1.0),
+        (1.0, "N"),
+        "a closure's pressure load is of order 10 N; a tolerance near it accepts any state",
+    )?;
+    check(
+        "relative_tolerance",
+        c.relative_tolerance,
+        (0.0, 0.1),
+        ONE,
+        "a fraction of the first residual",
+    )?;
+    check(
+        "max_iterations",
+        c.max_iterations as f64,
+        (1.0, 1e5),
+        ONE,
+        "closures take tens to hundreds of iterations",
+    )?;
+    check(
+        "time_limit",
+        c.time_limit,
+        (0.0, 86_400.0),
+        (1.0, "s"),
+        "one closure takes seconds to minutes; a day at most",
+    )?;
+    let s = &c.suture;
+    check("suture.mu", s.mu, (1e-3, 1e3), MPA, tissue)?;
+    check(
+        "suture.thickness",
+        s.thickness,
+        (0.05, 3.0),
+        MM,
+        "leaflets are 0.1–1 mm thick",
+    )?;
+    check(
+        "suture.pressure",
+        s.pressure,
+        (0.0, 300.0 * MMHG),
+        HG,
+        "the auxiliary problem's pressure is of the diastolic order",
+    )?;
+    check(
+        "suture.k0",
+        s.k0,
+        (1e-9, 1e6),
+        (1.0, "N/mm"),
+        "the first suturing force parameter",
+    )?;
+    check(
+        "suture.max_rounds",
+        s.max_rounds as f64,
+        (1.0, 1000.0),
+        ONE,
+        "the force parameter doubles each round",
+    )?;
+    Ok(())
 }
 
 fn parse_suture(raw: Option<RawSuture>) -> std::result::Result<suture::Settings, String> {
@@ -601,6 +756,73 @@ fn parse_suture(raw: Option<RawSuture>) -> std::result::Result<suture::Settings,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Values no closure can mean, or that cost without bound, are refused
+    /// with the key, the value in its unit and the range; the bounds
+    /// themselves are accepted.
+    #[test]
+    fn values_outside_physical_ranges_are_refused_with_their_range() {
+        let base = "model = \"neo-hookean\"\nmu = \"900 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\n";
+        let with = |line: &str| {
+            let key = line.split(" =").next().unwrap();
+            let kept: String = base
+                .lines()
+                .filter(|l| !l.starts_with(&format!("{key} =")))
+                .map(|l| format!("{l}\n"))
+                .collect();
+            parse(&format!("{kept}{line}\n"))
+        };
+        for (line, words) in [
+            (
+                "thickness = \"1e6 mm\"",
+                &["thickness 1000000 mm", "0.05–3 mm"][..],
+            ),
+            (
+                "pressure = \"1e12 mmHg\"",
+                &["pressure 1e12 mmHg", "0–300 mmHg"],
+            ),
+            ("mu = \"1e9 MPa\"", &["mu 1e9 MPa", "0.001–1000 MPa"]),
+            (
+                "contact_alpha = 1e300",
+                &["contact_alpha 1e300 lies", "0.001–10000:"],
+            ),
+            ("tolerance = \"1e300 N\"", &["tolerance", "0–1 N"]),
+            ("relative_tolerance = 0.5", &["relative_tolerance 0.5 lies"]),
+            (
+                "max_iterations = 1000000000000",
+                &["max_iterations 1e12 lies", "1–100000"],
+            ),
+            (
+                "time_limit = \"1e12 s\"",
+                &["time_limit 1e12 s", "0–86400 s"],
+            ),
+            ("plane_offset = \"1e6 mm\"", &["plane_offset", "0–5 mm"]),
+            (
+                "contact_margin = \"1e6 mm\"",
+                &["contact_margin", "0.001–2 mm"],
+            ),
+        ] {
+            let e = with(line).expect_err(line);
+            for w in words {
+                assert!(e.contains(w), "{line}: no {w:?} in {e}");
+            }
+        }
+        let e = parse(&format!("{base}[suture]\nmax_rounds = 1000000\n")).unwrap_err();
+        assert!(
+            e.contains("suture.max_rounds 1000000 lies outside 1–1000"),
+            "{e}"
+        );
+        for line in [
+            "thickness = \"3 mm\"",
+            "pressure = \"300 mmHg\"",
+            "pressure = \"0 mmHg\"",
+            "max_iterations = 100000",
+            "time_limit = \"86400 s\"",
+            "tolerance = \"1e-18 N\"",
+        ] {
+            assert!(with(line).is_ok(), "{line}: {:?}", with(line).err());
+        }
+    }
 
     #[test]
     fn parses_units_and_refuses_bare_numbers_and_unknown_keys() {

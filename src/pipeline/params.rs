@@ -56,7 +56,10 @@ pub fn parse_text(p: &Param, text: &str) -> Result<Value> {
                 .parse()
                 .map_err(|_| Error::value(format!("'{t}' is not a number")))?;
             if !(f >= min && f <= max) {
-                return Err(Error::value(format!("{f} is outside [{min}, {max}]")));
+                return Err(Error::value(format!(
+                    "{} is outside [{min}, {max}]",
+                    units::short(f)
+                )));
             }
             Value::Float(f)
         }

@@ -17,7 +17,7 @@ use crate::pipeline::manifest::{self, Manifest};
 use crate::pipeline::{
     ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec, provenance,
 };
-use crate::units::Kind;
+use crate::units::{self, Kind};
 use crate::{Error, Result};
 
 const fn optional(
@@ -203,31 +203,39 @@ pub static SPEC: StageSpec = StageSpec {
 };
 
 fn check(p: &Params) -> Result<()> {
-    for name in ["max_billowing", "max_regurgitant_orifice"] {
-        if !(p.quantity(name) >= 0.0) {
-            return Err(Error::value(format!(
-                "report.{name} must be zero or positive"
-            )));
+    // A criterion or a measure outside what a valve can show means nothing
+    // (a 1 km margin made every point "coapting" with exit 0).
+    let ranges: [(&str, f64, f64, &str); 7] = [
+        ("column_width", MIN_COLUMN_MM, 10.0, "mm"),
+        ("hcc_radius", 0.1, 30.0, "mm"),
+        ("min_central_coaptation", 0.0, 30.0, "mm"),
+        ("min_effective_height", 0.0, 40.0, "mm"),
+        ("max_regurgitant_orifice", 0.0, 1000.0, "mm²"),
+        ("max_billowing", 0.0, 30.0, "mm"),
+        ("margin", 0.01, 5.0, "mm"),
+    ];
+    for (name, lo, hi, unit) in ranges {
+        let v = match p.get(name) {
+            crate::pipeline::params::Value::Quantity(v, _) => *v,
+            _ => continue,
+        };
+        if v >= lo && v <= hi {
+            continue;
         }
-    }
-    for name in ["column_width", "hcc_radius"] {
-        if !(p.quantity(name) > 0.0) {
-            return Err(Error::value(format!("report.{name} must be positive")));
-        }
-    }
-    // The strip's columns cost time ∝ 1/width (1e-6 mm ran past 120 s);
-    // narrower than the 0.05 mm raster of the orifice they resolve nothing.
-    let w = p.quantity("column_width");
-    if w < MIN_COLUMN_MM {
+        let flag = name.replace('_', "-");
+        // The strip's columns cost time ∝ 1/width (1e-6 mm ran past 120 s);
+        // narrower than the 0.05 mm raster of the orifice they resolve nothing.
+        let cost = if name == "column_width" && v > 0.0 && v < lo {
+            format!("about {:.0e} columns per strip; ", 30.0 / v)
+        } else {
+            String::new()
+        };
         return Err(Error::value(format!(
-            "--column-width {w} mm: about {:.0e} columns per strip; it must be at least {MIN_COLUMN_MM} mm",
-            30.0 / w
+            "--{flag} {} {unit} (report.{name}): {cost}it must lie within {} {unit} to {} {unit}",
+            units::short(v),
+            units::short(lo),
+            units::short(hi)
         )));
-    }
-    if let crate::pipeline::params::Value::Quantity(m, _) = p.get("margin") {
-        if !(*m > 0.0) {
-            return Err(Error::value("report.margin must be positive"));
-        }
     }
     Ok(())
 }

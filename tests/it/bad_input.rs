@@ -355,6 +355,94 @@ fn sizes_that_imply_absurd_work_are_refused_before_it() {
     }
 }
 
+/// Counts and sizes on the command line that set the work are bounded:
+/// a million threads (a hang), 1e12 stress cases (an 8 TB allocation),
+/// a 1e-6 mm benchmark mesh, a 1 km coaptation margin (every point
+/// "coapting", exit 0) and a close.toml asking for 1e12 s are refused with
+/// exit 2 and the range, before any output.
+#[test]
+fn counts_limits_and_margins_out_of_range_are_refused() {
+    let d = tmpdir("absurd-counts");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let ct = s(&repo().join("sample_data/ct.nii.gz"));
+    let out = d.join("out");
+    let cases: [(Vec<String>, &[&str]); 5] = [
+        (
+            stage_args(
+                "segment",
+                &[
+                    ("ct", ct),
+                    ("out", s(&out.join("m.nii.gz"))),
+                    ("threads", "1000000".into()),
+                ],
+            ),
+            &["--threads 1000000", "at most 1024"],
+        ),
+        (
+            [
+                "bench",
+                "stress-close",
+                "--cases",
+                "1000000000000",
+                "--csv",
+                &s(&out.join("x.csv")),
+            ]
+            .map(String::from)
+            .to_vec(),
+            &["--cases", "1 to 100000"],
+        ),
+        (
+            ["bench", "close", "--h", "1e-6"].map(String::from).to_vec(),
+            &["--h", "0.05 to 10 mm"],
+        ),
+        (
+            stage_args(
+                "report",
+                &[
+                    ("closed", s(&repo().join("sample_data/ct.nii.gz"))),
+                    ("leaflets", s(&repo().join("sample_data/ct.nii.gz"))),
+                    ("valve", s(&repo().join("sample_data/landmarks.mrk.json"))),
+                    ("out", s(&out)),
+                    ("margin", "1e6 mm".into()),
+                ],
+            ),
+            &["--margin 1000000 mm", "0.01 mm to 5 mm"],
+        ),
+        (
+            {
+                let cfg = d.join("close.toml");
+                std::fs::write(
+                    &cfg,
+                    "model = \"neo-hookean\"\nmu = \"900 kPa\"\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ntime_limit = \"1e12 s\"\n",
+                )
+                .unwrap();
+                // Any triangle mesh passes the meshes' check; the config is refused.
+                let mesh = s(&repo().join("sample_data/truth_surface.vtp"));
+                stage_args(
+                    "close",
+                    &[
+                        ("leaflets", mesh.clone()),
+                        ("surface", mesh),
+                        ("config", s(&cfg)),
+                        ("out", s(&out.join("closed.vtp"))),
+                    ],
+                )
+            },
+            &["time_limit 1e12 s", "0–86400 s"],
+        ),
+    ];
+    for (args, words) in cases {
+        let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{}: {err}", args.join(" "));
+        for w in words {
+            assert!(err.contains(w), "{}: no {w:?} in {err}", args.join(" "));
+        }
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(!out.exists(), "{} wrote output", args.join(" "));
+    }
+}
+
 /// Absurd voxel spacings are refused at read, by `info` and `convert` and
 /// so by every stage: 1e-6 mm sent the segmentation after 160 GB.
 #[test]
