@@ -30,7 +30,7 @@ done
 c="$tmp/case"
 "$coapt" phantom --out "$c" --preset sample --spacing "2, 2, 2 mm" --quiet
 printf '[leaflet1]\nkind = "ozaki_size"\nsize = 21\n[leaflet2]\nkind = "ozaki_size"\nsize = 21\n[leaflet3]\nkind = "ozaki_size"\nsize = 21\n' > "$c/template.toml"
-printf 'model = "neo-hookean"\nmu = "900 kPa"\nthickness = "0.5 mm"\npressure = "80 mmHg"\nbending = true\ntolerance = "1e-4 N"\nmax_iterations = 100\ntime_limit = "3 s"\n' > "$c/close.toml"
+printf 'model = "neo-hookean"\nmu = "900 kPa"\nthickness = "0.5 mm"\npressure = "80 mmHg"\nbending = true\ntolerance = "1e-4 N"\nmax_iterations = 100\ntime_limit = "300 s"\n' > "$c/close.toml"
 "$coapt" segment --ct "$c/ct.nii.gz" --landmarks "$c/landmarks.mrk.json" --out "$c/mask.nii.gz" --quiet
 "$coapt" surface --mask "$c/mask.nii.gz" --out "$c/aorta.vtp" --quiet
 "$coapt" valve --surface "$c/aorta.vtp" --landmarks "$c/landmarks.mrk.json" --out "$c/valve.json" --spacing "1 mm" --quiet
@@ -46,7 +46,7 @@ mkdir -p $s
 { printf '\x04'; cat "$c/landmarks.mrk.json"; } > $s/4_valve_landmarks
 { printf '\x05'; cat "$c/valve.json"; } > $s/5_leaflets_valve_json
 { printf '\x06'; cat "$c/template.toml"; } > $s/6_leaflets_template
-{ printf '\x07'; cat "$c/close.toml"; } > $s/7_close_config
+{ printf '\x07'; sed 's/max_iterations = 100/max_iterations = 20/; s/"300 s"/"1 s"/' "$c/close.toml"; } > $s/7_close_config
 { printf '\x08'; cat "$c/leaflets.vtp"; } > $s/8_close_leaflets
 { printf '\x09'; cat "$c/closed.vtp"; } > $s/9_report_closed
 ls -la seeds/dicom $s

@@ -16,12 +16,15 @@ targets=("$@")
 dir=${COAPT_FUZZ_TARGET_DIR:-$HOME/.cache/coapt-fuzz-target}
 cargo +nightly fuzz build -O --target-dir "$dir"
 corpus=${COAPT_FUZZ_CORPUS:-$HOME/.cache/coapt-fuzz-corpus}
+# Run the built binaries themselves: `cargo fuzz run` builds again with
+# other flags (debug line tables), a second full sanitizer build.
+bin="$dir/x86_64-unknown-linux-gnu/release"
 for t in "${targets[@]}"; do
-  mkdir -p "$corpus/$t"
+  mkdir -p "$corpus/$t" "fuzz/artifacts/$t"
   echo "== $t: ${secs} s"
-  cargo +nightly fuzz run -O --target-dir "$dir" "$t" "$corpus/$t" "fuzz/seeds/$t" -- \
-    -max_total_time="$secs" -rss_limit_mb=2048 -malloc_limit_mb=1024 -timeout=10 -print_final_stats=1 2>&1 |
-    grep -E "^(stat::|#[0-9]+ *DONE|==|SUMMARY|ERROR|artifact_prefix|Test unit written)" || true
+  "$bin/$t" -artifact_prefix="fuzz/artifacts/$t/" -max_total_time="$secs" -rss_limit_mb=2048 \
+    -malloc_limit_mb=1024 -timeout=10 -print_final_stats=1 "$corpus/$t" "fuzz/seeds/$t" 2>&1 |
+    grep -E "^(stat::|#[0-9]+ *DONE|==|SUMMARY|ERROR|artifact_prefix|Test unit written|INFO: Seed|thread .* panicked)" || true
 done
 if compgen -G "fuzz/artifacts/*/*" >/dev/null; then
   echo "crashes saved (each must become a regression test):" fuzz/artifacts/*/*

@@ -88,7 +88,7 @@ fuzz_target!(|data: &[u8]| {
                     return;
                 };
                 match coapt::mech::config::parse(text) {
-                    Ok(c) if c.time_limit <= 3.0 => {}
+                    Ok(c) if c.time_limit <= 1.0 => {}
                     Ok(_) => return,
                     Err(_) => {}
                 }
