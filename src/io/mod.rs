@@ -6,6 +6,7 @@
 pub mod atomic;
 pub mod base64;
 pub mod dicom;
+pub mod leaflet_mesh;
 pub mod markups;
 pub mod metaimage;
 pub mod nifti;

@@ -83,67 +83,18 @@ fn v3(p: &Point3) -> V3 {
 
 /// The mechanics' view of a leaflets mesh, or what is missing from it.
 pub fn leaflets_from_mesh(m: &TriMesh) -> std::result::Result<Leaflets, String> {
-    let boundary: Vec<u8> = m
-        .point_data
-        .get("boundary")
-        .and_then(|a| a.values.to_f64())
-        .ok_or("no point data 'boundary' (0 interior, 1 sutured, 2 free edge)")?
-        .iter()
-        .map(|&b| b as u8)
-        .collect();
-    let leaflet: Vec<u16> = m
-        .cell_data
-        .get("leaflet")
-        .and_then(|a| a.values.to_f64())
-        .ok_or("no cell data 'leaflet'")?
-        .iter()
-        .map(|&k| (k.max(1.0) - 1.0) as u16)
-        .collect();
-    if leaflet.iter().any(|&k| k > 7) {
-        return Err("cell data 'leaflet' must number leaflets 1..8".into());
-    }
-    let ref_uv = m
-        .point_data
-        .get("ref_uv")
-        .filter(|a| a.components == 2)
-        .and_then(|a| a.values.to_f64())
-        .map(|v| v.chunks(2).map(|c| [c[0], c[1]]).collect());
-    let fibers = match (m.cell_data.get("fiber1"), m.cell_data.get("fiber2")) {
-        (Some(a), Some(b)) if a.components == 3 && b.components == 3 => {
-            let (a, b) = (
-                a.values.to_f64().unwrap_or_default(),
-                b.values.to_f64().unwrap_or_default(),
-            );
-            Some(
-                (0..m.triangles.len())
-                    .map(|t| {
-                        [
-                            V3::new(a[3 * t], a[3 * t + 1], a[3 * t + 2]),
-                            V3::new(b[3 * t], b[3 * t + 1], b[3 * t + 2]),
-                        ]
-                    })
-                    .collect(),
-            )
-        }
-        _ => None,
-    };
-    let pressure_side = match m
-        .field_data
-        .get("pressure_sign")
-        .and_then(|a| a.values.to_f64())
-    {
-        Some(v) if v.iter().all(|s| *s == 1.0 || *s == -1.0) => Some(v),
-        Some(_) => return Err("field data 'pressure_sign' must hold +1 or -1 per leaflet".into()),
-        None => None,
-    };
+    let a = crate::io::leaflet_mesh::arrays(m)?;
+    let f = |d: [f64; 3]| V3::new(d[0], d[1], d[2]);
     Ok(Leaflets {
-        pressure_side,
+        pressure_side: a.pressure_sign,
         x: m.vertices.iter().map(v3).collect(),
         tris: m.triangles.clone(),
-        boundary,
-        leaflet,
-        ref_uv,
-        fibers,
+        boundary: a.boundary,
+        leaflet: a.leaflet.iter().map(|&k| k as u16).collect(),
+        ref_uv: a.ref_uv,
+        fibers: a
+            .fibres
+            .map(|v| v.iter().map(|[p, q]| [f(*p), f(*q)]).collect()),
     })
 }
 

@@ -33,47 +33,30 @@ pub fn closed_valve(
             ),
         ));
     }
-    if closed.triangles.is_empty() {
-        return Err(bad("has no triangles".into()));
-    }
-    if closed
+    // The placed leaflets carry the arrays (one reading for every stage);
+    // the closed mesh, written from them by `coapt close`, must agree.
+    let a =
+        crate::io::leaflet_mesh::arrays(placed).map_err(|e| Error::bad_input(placed_path, e))?;
+    if let Some(i) = closed
         .vertices
         .iter()
-        .any(|p| !p.coords.iter().all(|c| c.is_finite()))
+        .position(|p| !p.coords.iter().all(|c| c.is_finite()))
     {
-        return Err(bad("has non-finite positions".into()));
+        return Err(bad(format!("point {i} has a non-finite position")));
     }
-    let boundary: Vec<u8> = placed
-        .point_data
-        .get("boundary")
-        .or_else(|| closed.point_data.get("boundary"))
-        .and_then(|a| a.values.to_f64())
-        .ok_or_else(|| bad("no point data 'boundary' (0 interior, 1 sutured, 2 free edge)".into()))?
-        .iter()
-        .map(|&b| b as u8)
-        .collect();
-    if boundary.iter().any(|&b| b > 2) {
-        return Err(bad("point data 'boundary' must be 0, 1 or 2".into()));
-    }
-    let leaflet: Vec<f64> = closed
+    if let Some(k) = closed
         .cell_data
         .get("leaflet")
-        .and_then(|a| a.values.to_f64())
-        .ok_or_else(|| bad("no cell data 'leaflet' (1, 2, 3)".into()))?;
-    if leaflet
-        .iter()
-        .any(|&k| !(1.0..=8.0).contains(&k) || k.fract() != 0.0)
+        .and_then(|k| k.values.to_f64())
     {
-        return Err(bad("cell data 'leaflet' must number leaflets 1..8".into()));
+        if k.iter().zip(&a.leaflet).any(|(k, l)| *k != (*l + 1) as f64) {
+            return Err(bad(format!(
+                "its cell data 'leaflet' differs from that of {}",
+                placed_path.display()
+            )));
+        }
     }
-    let tri_leaflet: Vec<u8> = leaflet.iter().map(|&k| k as u8 - 1).collect();
-    let leaflets = *tri_leaflet.iter().max().expect("non-empty") as usize + 1;
-    let ref_uv = placed
-        .point_data
-        .get("ref_uv")
-        .filter(|a| a.components == 2)
-        .and_then(|a| a.values.to_f64())
-        .map(|v| v.chunks(2).map(|c| [c[0], c[1]]).collect());
+    let (tri_leaflet, boundary, ref_uv, leaflets) = (a.leaflet, a.boundary, a.ref_uv, a.leaflets);
     Ok(ClosedValve {
         x: closed.vertices.clone(),
         x0: placed.vertices.clone(),

@@ -544,6 +544,81 @@ fn a_zero_valve_axis_and_an_absurd_hc_are_refused_everywhere() {
     assert!(!d.join("out").exists());
 }
 
+/// One reading of the leaflet mesh for every stage: a leaflets.vtp whose
+/// arrays are wrong (close took `boundary` 7 and `leaflet` 0 that the report
+/// refused) is refused by close and report alike, naming the file and the
+/// array, with nothing written.
+#[test]
+fn a_wrong_leaflet_mesh_is_refused_by_close_and_report_alike() {
+    use coapt::geom::attributes::DataArray;
+    let d = tmpdir("wrong-leaflets");
+    let surface = sample_valve_and_leaflets(&d, "pipelines/templates/ozaki_default.toml", &[]);
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let good = coapt::io::vtp::read_mesh(&d.join("leaflets.vtp")).unwrap();
+    let n = good.vertices.len();
+    let breaks: [(&str, Box<dyn Fn(&mut coapt::geom::TriMesh)>, &str); 3] = [
+        (
+            "boundary7.vtp",
+            Box::new(move |m| {
+                let mut b = vec![0.0; n];
+                b[5] = 7.0;
+                m.point_data.insert(DataArray::scalars_f64("boundary", b));
+            }),
+            "'boundary' of point 5 is 7",
+        ),
+        (
+            "leaflet0.vtp",
+            Box::new(|m| {
+                let k = vec![0.0; m.triangles.len()];
+                m.cell_data.insert(DataArray::scalars_f64("leaflet", k));
+            }),
+            "'leaflet' of triangle 0 is 0",
+        ),
+        (
+            "onefibre.vtp",
+            Box::new(|m| {
+                let f = vec![[1.0, 0.0, 0.0]; m.triangles.len()];
+                m.cell_data.insert(DataArray::vectors_f64("fiber1", &f));
+                m.cell_data.remove("fiber2");
+            }),
+            "'fiber1' and 'fiber2' come together",
+        ),
+    ];
+    for (name, f, words) in breaks {
+        let mut m = good.clone();
+        f(&mut m);
+        let bad = d.join(name);
+        coapt::io::vtp::write_mesh(&bad, &m).unwrap();
+        let out = d.join("out");
+        let runs = [
+            stage_args(
+                "close",
+                &[
+                    ("leaflets", s(&bad)),
+                    ("surface", s(&surface)),
+                    ("config", s(&repo().join("pipelines/close.toml"))),
+                    ("out", s(&out.join("closed.vtp"))),
+                ],
+            ),
+            stage_args(
+                "report",
+                &[
+                    ("closed", s(&d.join("leaflets.vtp"))),
+                    ("leaflets", s(&bad)),
+                    ("valve", s(&d.join("valve.json"))),
+                    ("out", s(&out)),
+                ],
+            ),
+        ];
+        for mut args in runs {
+            args.push("--quiet".into());
+            let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
+            assert_bad_input(&o, &bad, &[words]);
+            assert!(!out.exists(), "{} {name} wrote output", args[0]);
+        }
+    }
+}
+
 /// A scan too thin to hold a root (a 112 × 112 × 1 image made a one-slice
 /// "aorta" with exit 0) is refused as bad input, with its extent.
 #[test]
