@@ -5,7 +5,8 @@
 # The build goes to $HOME/.cache/coapt-fuzz-target and the growing corpus to
 # $HOME/.cache/coapt-fuzz-corpus/<target> (outside the clone: thousands of
 # files); the committed seeds, small valid files of each format, are in
-# fuzz/seeds/<target>. A crash is saved in fuzz/artifacts/<target>/ and must
+# fuzz/seeds/<target>. A crash, leak, timeout or out-of-memory input is saved in
+# fuzz/artifacts/<target>/ (slow-unit-* files only report slowness) and must
 # become a regression test in tests/it/bad_input.rs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,11 +23,15 @@ bin="$dir/x86_64-unknown-linux-gnu/release"
 for t in "${targets[@]}"; do
   mkdir -p "$corpus/$t" "fuzz/artifacts/$t"
   echo "== $t: ${secs} s"
+  # A stage runs a whole computation: its first input also builds the case.
+  timeout=10
+  [ "$t" = stages ] && timeout=60
   "$bin/$t" -artifact_prefix="fuzz/artifacts/$t/" -max_total_time="$secs" -rss_limit_mb=2048 \
-    -malloc_limit_mb=1024 -timeout=10 -print_final_stats=1 "$corpus/$t" "fuzz/seeds/$t" 2>&1 |
+    -malloc_limit_mb=1024 -timeout=$timeout -report_slow_units=$timeout -print_final_stats=1 \
+    "$corpus/$t" "fuzz/seeds/$t" 2>&1 |
     grep -E "^(stat::|#[0-9]+ *DONE|==|SUMMARY|ERROR|artifact_prefix|Test unit written|INFO: Seed|thread .* panicked)" || true
 done
-if compgen -G "fuzz/artifacts/*/*" >/dev/null; then
-  echo "crashes saved (each must become a regression test):" fuzz/artifacts/*/*
+if compgen -G "fuzz/artifacts/*/[!s]*" >/dev/null; then
+  echo "crashes saved (each must become a regression test):" fuzz/artifacts/*/[!s]*
   exit 1
 fi

@@ -3,6 +3,8 @@
 use serde_json::{Value as Json, json};
 
 use super::{SegmentParams, segment};
+use crate::geom::landmarks::Landmarks;
+use crate::geom::{Point3, Volume};
 use crate::io::{Transaction, markups, nifti, volume_file};
 use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
 use crate::{Error, Result};
@@ -86,7 +88,11 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         ));
     }
     let lm = match io.input("landmarks") {
-        Some(p) => Some(markups::read(p)?),
+        Some(p) => {
+            let lm = markups::read(p)?;
+            check_commissures(&ct, &lm).map_err(|e| Error::bad_input(p, e))?;
+            Some(lm)
+        }
         None => None,
     };
     let read_s = t0.elapsed().as_secs_f64();
@@ -121,4 +127,46 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         "blood_hu": r.blood_hu,
         "debug_images": debug,
     }))
+}
+
+/// How far outside the CT's box a commissure may lie (mm): a point placed on
+/// the wall of a root cut by the edge of the scan is still this scan's.
+const LANDMARK_OUTSIDE_MM: f64 = 20.0;
+
+/// The commissures must span a circle and lie on this scan: otherwise the
+/// landmarks file is the bad input (it said exit 1 "the computation failed").
+fn check_commissures(ct: &Volume<i16>, lm: &Landmarks) -> std::result::Result<(), String> {
+    let Ok(c) = lm.require(&["C1", "C2", "C3"]) else {
+        return Ok(());
+    };
+    let c: [Point3; 3] = [c[0], c[1], c[2]];
+    // The CT's box in its own index space, so oblique grids are judged alike.
+    let d = ct.dims();
+    let sp = ct.spacing();
+    for (label, p) in ["C1", "C2", "C3"].iter().zip(&c) {
+        let ijk = ct.world_to_index(p);
+        let outside = (0..3)
+            .map(|k| {
+                let hi = d[k] as f64 - 1.0;
+                (if ijk[k] < 0.0 {
+                    -ijk[k]
+                } else {
+                    (ijk[k] - hi).max(0.0)
+                }) * sp[k]
+            })
+            .fold(0.0, f64::max);
+        if !(outside <= LANDMARK_OUTSIDE_MM) {
+            return Err(format!(
+                "{label} at ({:.1}, {:.1}, {:.1}) mm (LPS) lies {outside:.1} mm outside the CT's field of view: are the landmarks from this scan?",
+                p.x, p.y, p.z
+            ));
+        }
+    }
+    if super::anchor::circumcircle(&c).is_none() {
+        return Err(
+            "the three commissures C1–C3 are collinear (or two coincide): their circle, which seeds the segmentation, is undefined; place each on the root wall at its commissure"
+                .into(),
+        );
+    }
+    Ok(())
 }

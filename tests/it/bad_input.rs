@@ -619,6 +619,71 @@ fn a_wrong_leaflet_mesh_is_refused_by_close_and_report_alike() {
     }
 }
 
+/// Landmarks that cannot belong to the scan are the bad input, named, with
+/// exit 2 (segment said exit 1, "the computation failed"; ×1e300 reached
+/// the valve stage's anatomy checks): off the CT by 300 mm, two commissures
+/// coinciding, coordinates of 1e300 mm.
+#[test]
+fn landmarks_that_cannot_belong_to_the_scan_are_refused_by_name() {
+    let d = tmpdir("foreign-landmarks");
+    let text = std::fs::read_to_string(repo().join("sample_data/landmarks.mrk.json")).unwrap();
+    let mut j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    fn points(j: &mut serde_json::Value) -> Vec<(String, &mut serde_json::Value)> {
+        j["markups"][0]["controlPoints"]
+            .as_array_mut()
+            .unwrap()
+            .iter_mut()
+            .map(|c| (c["label"].as_str().unwrap().to_string(), c))
+            .collect()
+    }
+    let c1 = points(&mut j)
+        .into_iter()
+        .find(|(l, _)| l == "C1")
+        .map(|(_, c)| c["position"].clone())
+        .unwrap();
+    let mut cases = Vec::new();
+    for (name, words) in [
+        (
+            "far.mrk.json",
+            &["C1 at", "outside the CT's field of view"][..],
+        ),
+        ("same.mrk.json", &["collinear (or two coincide)"]),
+        (
+            "huge.mrk.json",
+            &["more than 100 m from the scanner's origin"],
+        ),
+    ] {
+        let mut v = j.clone();
+        for (label, c) in points(&mut v) {
+            let p: Vec<f64> = serde_json::from_value(c["position"].clone()).unwrap();
+            c["position"] = match name {
+                "far.mrk.json" => serde_json::json!([p[0] + 300.0, p[1] + 300.0, p[2]]),
+                "same.mrk.json" if label == "C2" => c1.clone(),
+                "huge.mrk.json" => serde_json::json!([p[0] * 1e300, p[1], p[2]]),
+                _ => c["position"].clone(),
+            };
+        }
+        let p = d.join(name);
+        std::fs::write(&p, serde_json::to_string(&v).unwrap()).unwrap();
+        cases.push((p, words));
+    }
+    for (p, words) in cases {
+        let out = d.join("out/mask.nii.gz");
+        let o = coapt(&[
+            "segment",
+            "--ct",
+            repo().join("sample_data/ct.nii.gz").to_str().unwrap(),
+            "--landmarks",
+            p.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert_bad_input(&o, &p, words);
+        assert!(!d.join("out").exists());
+    }
+}
+
 /// A scan too thin to hold a root (a 112 × 112 × 1 image made a one-slice
 /// "aorta" with exit 0) is refused as bad input, with its extent.
 #[test]

@@ -162,9 +162,21 @@ fn position3(who: &str, v: &Value) -> Result<[f64; 3], String> {
     }
 }
 
+/// Farther from the scanner's origin than this (mm) no patient lies: a point
+/// ×1e300 was read, and then judged as an anatomy ("N1 and N2 both lie
+/// between C3 and C1").
+pub const MAX_COORDINATE_MM: f64 = 1e5;
+
 fn finite3(who: &str, shown: &str, p: [f64; 3]) -> Result<[f64; 3], String> {
-    if p.iter().all(|c| c.is_finite()) {
+    if p.iter()
+        .all(|c| c.is_finite() && c.abs() <= MAX_COORDINATE_MM)
+    {
         Ok(p)
+    } else if p.iter().all(|c| c.is_finite()) {
+        Err(format!(
+            "{who}: position {shown} lies more than {} m from the scanner's origin: coordinates are in mm",
+            MAX_COORDINATE_MM / 1000.0
+        ))
     } else {
         Err(format!(
             "{who}: position {shown} has a non-finite coordinate: every coordinate must be a finite number of mm"

@@ -22,7 +22,7 @@ fn random_landmarks(seed: u64, frame: Frame) -> Landmarks {
     let mut r = SplitMix64::new(seed);
     let mut lm = Landmarks::new(frame);
     for (i, label) in ["C1", "C2", "C3", "N1", "N2", "N3"].iter().enumerate() {
-        let mut c = || r.range(-400.0, 400.0) * 10f64.powi((r.uniform() * 10.0) as i32 - 6);
+        let mut c = || r.range(-400.0, 400.0) * 10f64.powi((r.uniform() * 9.0) as i32 - 6);
         let mut p = [c(), c(), c()];
         if i == 0 {
             p[1] = -0.0;
