@@ -665,6 +665,13 @@ fn inflate(src: &[u8], dst: &mut [u8]) -> std::result::Result<(), String> {
     let status = z
         .decompress(src, dst, flate2::FlushDecompress::Finish)
         .map_err(|e| format!("corrupt zlib data ({e})"))?;
+    if status != flate2::Status::StreamEnd && z.total_out() as usize == dst.len() {
+        // Full, yet the stream goes on ("expected 17616 bytes, got 17616").
+        return Err(format!(
+            "the block inflates to more than the {} bytes its header announces (corrupt)",
+            dst.len()
+        ));
+    }
     if status != flate2::Status::StreamEnd || z.total_out() as usize != dst.len() {
         return Err(format!(
             "expected {} bytes after decompression, got {} (truncated or corrupt)",
@@ -791,4 +798,28 @@ fn parse_ascii(text: &str, ty: Ty) -> std::result::Result<DataValues, String> {
             DataValues::Str(split_strings(&bytes))
         }
     })
+}
+
+#[cfg(test)]
+mod inflate_tests {
+    use super::inflate;
+
+    fn zlib(bytes: &[u8]) -> Vec<u8> {
+        let mut e = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        std::io::Write::write_all(&mut e, bytes).unwrap();
+        e.finish().unwrap()
+    }
+
+    /// A block that inflates to more than its header says is named as such,
+    /// not "expected 16 bytes, got 16".
+    #[test]
+    fn a_block_longer_or_shorter_than_announced_says_which() {
+        let z = zlib(&[7u8; 32]);
+        let mut exact = [0u8; 32];
+        assert!(inflate(&z, &mut exact).is_ok());
+        let e = inflate(&z, &mut [0u8; 16]).unwrap_err();
+        assert!(e.contains("more than the 16 bytes"), "{e}");
+        let e = inflate(&z[..z.len() / 2], &mut [0u8; 32]).unwrap_err();
+        assert!(e.contains("expected 32 bytes"), "{e}");
+    }
 }
