@@ -262,7 +262,8 @@ impl PhantomParams {
                 Ok(())
             } else {
                 Err(Error::value(format!(
-                    "phantom {name} = {v} {unit} is outside [{lo}, {hi}] {unit}"
+                    "phantom {name} = {} {unit} is outside [{lo}, {hi}] {unit}",
+                    crate::units::short(v)
                 )))
             }
         };

@@ -779,6 +779,10 @@ impl Target {
     }
 }
 
+/// Most triangles a remeshed wall may have (a whole thoracic aorta at
+/// 0.2 mm edges has about 2e6).
+pub const MAX_TRIANGLES: f64 = 4e6;
+
 /// Remesh a closed, manifold, labelled surface to edges of about
 /// `params.target_edge`. Returns the new mesh (vertices and triangles only;
 /// same frame), its labels and the report.
@@ -795,6 +799,18 @@ pub fn remesh(
         )));
     }
     assert_eq!(label.len(), mesh.triangles.len(), "one label per triangle");
+    // Equilateral triangles of edge l cover √3/4 l² each: the count the
+    // remeshing will build, judged before it builds it (0.05 mm edges on a
+    // root and arch ran past 20 s towards 1e7 triangles).
+    let estimate = mesh.total_area() / (3f64.sqrt() / 4.0 * l * l);
+    if estimate > MAX_TRIANGLES {
+        return Err(Error::value(format!(
+            "--target-edge {l} mm: the {:.0} mm² surface would need about {:.1e} triangles, more than {MAX_TRIANGLES:.0e}: use an edge of at least {:.2} mm",
+            mesh.total_area(),
+            estimate,
+            (mesh.total_area() / (3f64.sqrt() / 4.0 * MAX_TRIANGLES)).sqrt()
+        )));
+    }
     let mut w = Work::build(mesh, label)?;
     let target = Target::new(mesh, label)?;
     let (low2, high2) = ((0.8 * l).powi(2), (4.0 / 3.0 * l).powi(2));

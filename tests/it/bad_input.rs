@@ -366,7 +366,22 @@ fn counts_limits_and_margins_out_of_range_are_refused() {
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let ct = s(&repo().join("sample_data/ct.nii.gz"));
     let out = d.join("out");
-    let cases: [(Vec<String>, &[&str]); 5] = [
+    let cases: [(Vec<String>, &[&str]); 7] = [
+        (
+            stage_args(
+                "surface",
+                &[
+                    ("mask", s(&repo().join("sample_data/truth_mask.nii.gz"))),
+                    ("out", s(&out.join("aorta.vtp"))),
+                    ("target-edge", "0.05 mm".into()),
+                ],
+            ),
+            &["--target-edge 0.05 mm", "triangles, more than 4e6"],
+        ),
+        (
+            stage_args("phantom", &[("out", s(&out)), ("noise", "1e300 HU".into())]),
+            &["noise = 1e300 HU is outside [0, 200] HU"],
+        ),
         (
             stage_args(
                 "segment",
