@@ -7,7 +7,7 @@
 # files); the committed seeds, small valid files of each format, are in
 # fuzz/seeds/<target>. A crash, leak, timeout or out-of-memory input is saved in
 # fuzz/artifacts/<target>/ (slow-unit-* files only report slowness) and must
-# become a regression test in tests/it/bad_input.rs.
+# become a regression test (tests/it/bad_input.rs, or a unit test of the reader).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 secs=${1:-60}

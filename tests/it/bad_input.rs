@@ -817,3 +817,17 @@ fn negative_quantities_are_values_and_bare_numbers_say_how_to_write_them() {
     );
     assert!(!out.exists());
 }
+
+/// Found by fuzzing: a DICOM element with no valid VR, read by the parser as
+/// UN with a 2 GB length, took 2.1 GB to refuse a 1 kB file. It is refused
+/// from its element headers, naming the file and the element.
+#[test]
+fn a_dicom_element_with_an_unknown_vr_is_refused_before_the_parser() {
+    let dir = repo().join("tests/data/dicom/damaged");
+    let o = coapt(&["info", dir.to_str().unwrap()]);
+    assert_bad_input(
+        &o,
+        &dir.join("unknown_vr.dcm"),
+        &["(0028,1053) claims 2145394737 bytes"],
+    );
+}
