@@ -49,4 +49,6 @@ mkdir -p $s
 { printf '\x07'; sed 's/max_iterations = 100/max_iterations = 20/; s/"300 s"/"1 s"/' "$c/close.toml"; } > $s/7_close_config
 { printf '\x08'; cat "$c/leaflets.vtp"; } > $s/8_close_leaflets
 { printf '\x09'; cat "$c/closed.vtp"; } > $s/9_report_closed
+{ printf '\x0a'; cat "$c/closure.json"; } > $s/10_report_closure_json
+{ printf '\x0b'; cat "$c/leaflets.json"; } > $s/11_report_leaflets_json
 ls -la seeds/dicom $s

@@ -33,7 +33,7 @@ fuzz_target!(|data: &[u8]| {
     let c = case();
     let f = |n: &str| c.join(n);
     let out = scratch::dir("out");
-    let _ = match pick % 10 {
+    let _ = match pick % 12 {
         0 => stage("segment", &[("ct", &with_header(bytes, &f("ct.nii"), "ct.nii"))], &[], &out),
         1 => stage(
             "segment",
@@ -64,7 +64,7 @@ fuzz_target!(|data: &[u8]| {
             &out,
         ),
         5 | 6 => {
-            let (valve, template) = if pick % 10 == 5 {
+            let (valve, template) = if pick % 12 == 5 {
                 (scratch::file("valve.json", bytes), f("template.toml"))
             } else {
                 (f("valve.json"), scratch::file("template.toml", bytes))
@@ -82,7 +82,7 @@ fuzz_target!(|data: &[u8]| {
             )
         }
         7 | 8 => {
-            let (leaflets, config) = if pick % 10 == 7 {
+            let (leaflets, config) = if pick % 12 == 7 {
                 // A config may ask for an hour; the harness keeps to seconds.
                 let Ok(text) = std::str::from_utf8(bytes) else {
                     return;
@@ -108,16 +108,25 @@ fuzz_target!(|data: &[u8]| {
                 &out,
             )
         }
-        _ => stage(
-            "report",
-            &[
-                ("closed", &scratch::file("closed.vtp", bytes)),
-                ("leaflets", &f("leaflets.vtp")),
-                ("valve", &f("valve.json")),
-                ("log", &f("closure.json")),
-            ],
-            &[],
-            &out,
-        ),
+        // The report on a mutated closed mesh, closure.json or leaflets.json.
+        n => {
+            let (closed, log, summary) = match n {
+                9 => (scratch::file("closed.vtp", bytes), f("closure.json"), f("leaflets.json")),
+                10 => (f("closed.vtp"), scratch::file("closure.json", bytes), f("leaflets.json")),
+                _ => (f("closed.vtp"), f("closure.json"), scratch::file("leaflets.json", bytes)),
+            };
+            stage(
+                "report",
+                &[
+                    ("closed", &closed),
+                    ("leaflets", &f("leaflets.vtp")),
+                    ("valve", &f("valve.json")),
+                    ("log", &log),
+                    ("summary", &summary),
+                ],
+                &[],
+                &out,
+            )
+        }
     };
 });

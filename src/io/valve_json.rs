@@ -30,8 +30,39 @@ pub fn read_frame(path: &Path) -> Result<ValveFrame> {
     {
         return Err(Error::bad_input(path, "valve_frame has non-finite numbers"));
     }
+    // Each commissure stands above the annulus on the root's wall: a frame
+    // whose commissures lie below the annulus, on the axis or metres away
+    // describes no root (leaflets would be placed by it all the same).
+    for (k, c) in f.commissures_mm.iter().enumerate() {
+        let d = c - f.origin_mm;
+        let h = d.dot(&f.axis);
+        let r = (d - f.axis * h).norm();
+        let (hr, rr) = (COMMISSURE_HEIGHT_MM, COMMISSURE_RADIUS_MM);
+        if !(h >= hr.0 && h <= hr.1 && r >= rr.0 && r <= rr.1) {
+            return Err(Error::bad_input(
+                path,
+                format!(
+                    "valve_frame: commissure C{} stands {} mm above the annulus, {} mm from the axis; a root's commissures stand {}–{} mm above it, {}–{} mm from it",
+                    k + 1,
+                    crate::units::short((h * 100.0).round() / 100.0),
+                    crate::units::short((r * 100.0).round() / 100.0),
+                    hr.0,
+                    hr.1,
+                    rr.0,
+                    rr.1
+                ),
+            ));
+        }
+    }
     Ok(f)
 }
+
+/// Commissure height above the annulus plane a `valve.json` may give (mm):
+/// adult roots measure 10–25 mm, a child's or a tilted annulus less.
+pub const COMMISSURE_HEIGHT_MM: (f64, f64) = (1.0, 60.0);
+
+/// Commissure distance from the valve axis (mm): root radii are 8–20 mm.
+pub const COMMISSURE_RADIUS_MM: (f64, f64) = (2.0, 50.0);
 
 /// Height of the sinotubular junction's plane above the annulus plane,
 /// along the valve axis, mm; `Ok(Err(why))` when `valve.json` does not say

@@ -699,6 +699,64 @@ fn landmarks_that_cannot_belong_to_the_scan_are_refused_by_name() {
     }
 }
 
+/// A valve.json whose commissure lies below the annulus or far off the axis
+/// describes no root: leaflets and report refuse it alike, naming the
+/// commissure, its height and its distance.
+#[test]
+fn a_valve_frame_with_a_commissure_off_the_root_is_refused() {
+    let d = tmpdir("commissure-off");
+    let surface = sample_valve_and_leaflets(&d, "pipelines/templates/ozaki_default.toml", &[]);
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let v = json(&d.join("valve.json"));
+    let f = &v["valve_frame"];
+    let get = |j: &serde_json::Value| -> [f64; 3] { serde_json::from_value(j.clone()).unwrap() };
+    let (o, a) = (get(&f["origin_mm"]), get(&f["axis"]));
+    for (name, c2, words) in [
+        // 5 mm below the annulus plane, on the axis's side.
+        (
+            "below.json",
+            [o[0] - 5.0 * a[0], o[1] - 5.0 * a[1], o[2] - 5.0 * a[2]],
+            "C2 stands -5 mm",
+        ),
+        ("far.json", [o[0] + 500.0, o[1], o[2]], "C2 stands"),
+    ] {
+        let mut bad_v = v.clone();
+        bad_v["valve_frame"]["commissures_mm"][1] = serde_json::json!(c2);
+        let bad = d.join(name);
+        std::fs::write(&bad, serde_json::to_string(&bad_v).unwrap()).unwrap();
+        let leaflets = s(&d.join("leaflets.vtp"));
+        for mut args in [
+            stage_args(
+                "leaflets",
+                &[
+                    ("valve", s(&bad)),
+                    ("paths", s(&d.join("paths.vtp"))),
+                    ("surface", s(&surface)),
+                    (
+                        "template",
+                        s(&repo().join("pipelines/templates/ozaki_default.toml")),
+                    ),
+                    ("out", s(&d.join("out/leaflets.vtp"))),
+                ],
+            ),
+            stage_args(
+                "report",
+                &[
+                    ("closed", leaflets.clone()),
+                    ("leaflets", leaflets),
+                    ("valve", s(&bad)),
+                    ("out", s(&d.join("out"))),
+                ],
+            ),
+        ] {
+            args.push("--quiet".into());
+            let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
+            assert_bad_input(&o, &bad, &[words, "a root's commissures stand"]);
+            assert!(!d.join("out").exists(), "{} wrote output", args[0]);
+        }
+    }
+}
+
 /// A scan too thin to hold a root (a 112 × 112 × 1 image made a one-slice
 /// "aorta" with exit 0) is refused as bad input, with its extent.
 #[test]
