@@ -141,7 +141,7 @@ fn bench_close_grid_refuses_bad_flags_with_exit_2() {
     let out = ["--csv", csv.as_str(), "--png", png.as_str()];
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec!["--grid", "--csv", &csv], "--png"),
-        (vec!["--grid", "--hs", "3,-1"], "positive"),
+        (vec!["--grid", "--hs", "3,-1"], "0.05 to 10 mm"),
         (vec!["--grid", "--hs", "3,x"], "x"),
         (vec!["--grid", "--models", "svk"], "svk"),
         (vec!["--grid", "--solvers", "euler"], "euler"),

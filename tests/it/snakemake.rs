@@ -1,6 +1,7 @@
 //! The cohort workflow (`pipelines/Snakefile`): two phantoms through every
-//! stage with `snakemake --cores 2`, and the same report.json metrics as
-//! `coapt run` on the same inputs. Snakemake comes from PyPI into a venv
+//! stage with `snakemake --cores 2`, a third whose landmarks coapt finds in
+//! the CT, and the same report.json metrics as `coapt run` on the same
+//! inputs, with and without a landmarks file. Snakemake comes from PyPI into a venv
 //! this test makes (`~/.cache/coapt-snakemake`); without Python or network
 //! it says that it skipped, unless `COAPT_REQUIRE_SNAKEMAKE=1`.
 
@@ -60,7 +61,7 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
     std::fs::write(
         d.join("cohort.yaml"),
         format!(
-            "coapt: {}\nout: cohort\ncases:\n  p1: {{phantom: {{preset: sample, seed: 1}}}}\n  p2: {{phantom: {{preset: sample, seed: 2}}}}\nvariants:\n  default: {{template: {template}, close: {close}}}\n",
+            "coapt: {}\nout: cohort\ncases:\n  p1: {{phantom: {{preset: sample, seed: 1}}}}\n  p2: {{phantom: {{preset: sample, seed: 2}}}}\n  p3: {{phantom: {{preset: sample, seed: 1}}, landmarks: detect}}\nvariants:\n  default: {{template: {template}, close: {close}}}\n",
             env!("CARGO_BIN_EXE_coapt")
         ),
     )
@@ -83,7 +84,7 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
         String::from_utf8_lossy(&o.stdout),
         String::from_utf8_lossy(&o.stderr)
     );
-    for case in ["p1", "p2"] {
+    for case in ["p1", "p2", "p3"] {
         let rep = json(&d.join(format!("cohort/{case}/default/report.json")));
         assert_eq!(rep["verdict"]["closed"], true, "{case}: {}", rep["verdict"]);
         assert!(
@@ -94,9 +95,16 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
     // The cohort's table: a header and a row per case, from its reports.
     let table = std::fs::read_to_string(d.join("cohort/cohort.csv")).unwrap();
     let lines: Vec<&str> = table.lines().collect();
-    assert_eq!(lines.len(), 3, "{table}");
+    assert_eq!(lines.len(), 4, "{table}");
     assert_eq!(lines[0], coapt::report::cohort_summary::COLUMNS.join(","));
     assert!(lines[1].starts_with("p1/default,") && lines[2].starts_with("p2/default,"));
+    assert!(lines[3].starts_with("p3/default,"));
+    // p3's points were found by `coapt landmarks`, and the report says so.
+    let found = json(&d.join("cohort/p3/landmarks.json"));
+    assert!(
+        found["points"].is_array() || found["points"].is_object(),
+        "{found}"
+    );
     // Snakemake's own metadata lives under `out` (its log where it was
     // started), not in the clone.
     assert!(d.join("cohort/.snakemake").is_dir());
@@ -112,6 +120,22 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
     assert_eq!(
         metrics(&json(&d.join("cohort/p2/default/report.json"))),
         metrics(&json(&d.join("run/report.json")))
+    );
+    // A CT alone through `coapt run` finds the same landmarks and valve.
+    std::fs::write(
+        d.join("detect.toml"),
+        format!("[run]\ndir = \"detect\"\n[inputs]\nct = \"cohort/p3/input/ct.nii.gz\"\ntemplate = \"{template}\"\nconfig = \"{close}\"\n"),
+    )
+    .unwrap();
+    let o = coapt(&["run", &s(&d.join("detect.toml")), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(d.join("cohort/p3/landmarks.mrk.json")).unwrap(),
+        std::fs::read(d.join("detect/landmarks.mrk.json")).unwrap()
+    );
+    assert_eq!(
+        metrics(&json(&d.join("cohort/p3/default/report.json"))),
+        metrics(&json(&d.join("detect/report.json")))
     );
     // Nothing changed: a dry run has nothing to do.
     let o = snakemake("--dry-run");
