@@ -261,8 +261,10 @@ impl PhantomParams {
             if v.is_finite() && (lo - slack..=hi + slack).contains(&v) {
                 Ok(())
             } else {
+                // The flag and the run-config key ([phantom] section) alike.
                 Err(Error::value(format!(
-                    "phantom {name} = {} {unit} is outside [{lo}, {hi}] {unit}",
+                    "--{} (phantom {name}) = {} {unit} is outside [{lo}, {hi}] {unit}",
+                    name.replace(' ', "-"),
                     crate::units::short(v)
                 )))
             }

@@ -380,7 +380,7 @@ fn counts_limits_and_margins_out_of_range_are_refused() {
         ),
         (
             stage_args("phantom", &[("out", s(&out)), ("noise", "1e300 HU".into())]),
-            &["noise = 1e300 HU is outside [0, 200] HU"],
+            &["--noise (phantom noise) = 1e300 HU is outside [0, 200] HU"],
         ),
         (
             stage_args(
