@@ -161,6 +161,27 @@ impl Walker<'_> {
         Ok(start + len as usize)
     }
 
+    /// A binary VR's value size, from the header (explicit VR) or the
+    /// dictionary (implicit VR).
+    fn binary_size(&self, tag: Tag, pos: usize) -> Option<(String, usize)> {
+        let vr = if self.explicit {
+            let b = &self.b[pos + 4..pos + 6];
+            String::from_utf8_lossy(b).into_owned()
+        } else {
+            match StandardDataDictionary.by_tag(tag)?.vr() {
+                VirtualVr::Exact(v) => v.to_string().to_string(),
+                _ => return None,
+            }
+        };
+        let size = match vr.as_str() {
+            "SS" | "US" | "OW" => 2,
+            "FL" | "SL" | "UL" | "AT" | "OF" | "OL" => 4,
+            "FD" | "OD" | "OV" | "SV" | "UV" => 8,
+            _ => return None,
+        };
+        Some((vr, size))
+    }
+
     fn is_sequence(&self, tag: Tag, pos: usize) -> bool {
         if self.explicit {
             &self.b[pos + 4..pos + 6] == b"SQ"
@@ -206,6 +227,16 @@ impl Walker<'_> {
                 pos = self.items(start, end, depth + 1, pixels, true)?;
             } else {
                 let value_end = self.value_end(tag, start, len, end)?;
+                if let Some((vr, size)) = self.binary_size(tag, pos) {
+                    if len as usize % size != 0 {
+                        // The parser reads whole numbers of such values and
+                        // loses its place by the rest: the next "header"
+                        // it reads (1.3 GB claimed, found by fuzzing).
+                        return Err(format!(
+                            "element {tag} ({vr}) holds {len} bytes, not a whole number of its {size}-byte values"
+                        ));
+                    }
+                }
                 if self.is_sequence(tag, pos) {
                     self.items(start, value_end, depth + 1, false, false)?;
                 }
@@ -273,5 +304,18 @@ mod tests {
         let file = include_bytes!("../../../tests/data/dicom/damaged/unknown_vr.dcm");
         let e = check(file, 1 << 30).unwrap_err();
         assert!(e.contains("(0028,1053) claims 2145394737 bytes"), "{e}");
+    }
+
+    /// Found by fuzzing: SamplesPerPixel as an FL of 2 bytes. The parser
+    /// reads whole 4-byte floats, loses its place by the 2 left over and
+    /// took the next bytes for a header claiming 1.3 GB.
+    #[test]
+    fn a_binary_value_of_a_broken_length_is_refused() {
+        let file = include_bytes!("../../../tests/data/dicom/damaged/fl_two_bytes.dcm");
+        let e = check(file, 1 << 30).unwrap_err();
+        assert!(
+            e.contains("(0028,0002) (FL) holds 2 bytes, not a whole number of its 4-byte values"),
+            "{e}"
+        );
     }
 }
