@@ -487,6 +487,47 @@ fn absurd_voxel_spacings_are_refused_at_read() {
     }
 }
 
+/// `leaflets`, `close` and `report` on the sample's files in `d` with
+/// `valve` as their valve.json, every output under `d/out`.
+fn stages_reading_valve(d: &Path, surface: &Path, valve: &Path) -> [Vec<String>; 3] {
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let leaflets = s(&d.join("leaflets.vtp"));
+    [
+        stage_args(
+            "leaflets",
+            &[
+                ("valve", s(valve)),
+                ("paths", s(&d.join("paths.vtp"))),
+                ("surface", s(surface)),
+                (
+                    "template",
+                    s(&repo().join("pipelines/templates/ozaki_default.toml")),
+                ),
+                ("out", s(&d.join("out/leaflets.vtp"))),
+            ],
+        ),
+        stage_args(
+            "close",
+            &[
+                ("leaflets", leaflets.clone()),
+                ("surface", s(surface)),
+                ("config", s(&repo().join("pipelines/close.toml"))),
+                ("valve", s(valve)),
+                ("out", s(&d.join("out/closed.vtp"))),
+            ],
+        ),
+        stage_args(
+            "report",
+            &[
+                ("closed", leaflets.clone()),
+                ("leaflets", leaflets),
+                ("valve", s(valve)),
+                ("out", s(&d.join("out"))),
+            ],
+        ),
+    ]
+}
+
 /// One reading of valve.json for every stage: a zero axis (leaflets moved
 /// them 7.45 mm with exit 0 where the report refused) is refused by
 /// leaflets, close and report alike; and `valve --hc 1000 mm` (72–90 mm
@@ -500,41 +541,7 @@ fn a_zero_valve_axis_and_an_absurd_hc_are_refused_everywhere() {
     v["valve_frame"]["axis"] = serde_json::json!([0.0, 0.0, 0.0]);
     let bad = d.join("zero.json");
     std::fs::write(&bad, serde_json::to_string(&v).unwrap()).unwrap();
-    let leaflets = s(&d.join("leaflets.vtp"));
-    let runs = [
-        stage_args(
-            "leaflets",
-            &[
-                ("valve", s(&bad)),
-                ("paths", s(&d.join("paths.vtp"))),
-                ("surface", s(&surface)),
-                (
-                    "template",
-                    s(&repo().join("pipelines/templates/ozaki_default.toml")),
-                ),
-                ("out", s(&d.join("out/leaflets.vtp"))),
-            ],
-        ),
-        stage_args(
-            "close",
-            &[
-                ("leaflets", leaflets.clone()),
-                ("surface", s(&surface)),
-                ("config", s(&repo().join("pipelines/close.toml"))),
-                ("valve", s(&bad)),
-                ("out", s(&d.join("out/closed.vtp"))),
-            ],
-        ),
-        stage_args(
-            "report",
-            &[
-                ("closed", leaflets.clone()),
-                ("leaflets", leaflets),
-                ("valve", s(&bad)),
-                ("out", s(&d.join("out"))),
-            ],
-        ),
-    ];
+    let runs = stages_reading_valve(&d, &surface, &bad);
     for mut args in runs {
         args.push("--quiet".into());
         let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
@@ -700,13 +707,12 @@ fn landmarks_that_cannot_belong_to_the_scan_are_refused_by_name() {
 }
 
 /// A valve.json whose commissure lies below the annulus or far off the axis
-/// describes no root: leaflets and report refuse it alike, naming the
+/// describes no root: leaflets, close and report refuse it alike, naming the
 /// commissure, its height and its distance.
 #[test]
 fn a_valve_frame_with_a_commissure_off_the_root_is_refused() {
     let d = tmpdir("commissure-off");
     let surface = sample_valve_and_leaflets(&d, "pipelines/templates/ozaki_default.toml", &[]);
-    let s = |p: &Path| p.to_str().unwrap().to_string();
     let v = json(&d.join("valve.json"));
     let f = &v["valve_frame"];
     let get = |j: &serde_json::Value| -> [f64; 3] { serde_json::from_value(j.clone()).unwrap() };
@@ -724,31 +730,7 @@ fn a_valve_frame_with_a_commissure_off_the_root_is_refused() {
         bad_v["valve_frame"]["commissures_mm"][1] = serde_json::json!(c2);
         let bad = d.join(name);
         std::fs::write(&bad, serde_json::to_string(&bad_v).unwrap()).unwrap();
-        let leaflets = s(&d.join("leaflets.vtp"));
-        for mut args in [
-            stage_args(
-                "leaflets",
-                &[
-                    ("valve", s(&bad)),
-                    ("paths", s(&d.join("paths.vtp"))),
-                    ("surface", s(&surface)),
-                    (
-                        "template",
-                        s(&repo().join("pipelines/templates/ozaki_default.toml")),
-                    ),
-                    ("out", s(&d.join("out/leaflets.vtp"))),
-                ],
-            ),
-            stage_args(
-                "report",
-                &[
-                    ("closed", leaflets.clone()),
-                    ("leaflets", leaflets),
-                    ("valve", s(&bad)),
-                    ("out", s(&d.join("out"))),
-                ],
-            ),
-        ] {
+        for mut args in stages_reading_valve(&d, &surface, &bad) {
             args.push("--quiet".into());
             let o = coapt(&args.iter().map(String::as_str).collect::<Vec<_>>());
             assert_bad_input(&o, &bad, &[words, "a root's commissures stand"]);
