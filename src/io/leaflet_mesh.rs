@@ -1,8 +1,8 @@
 //! The leaflet mesh artifact (`leaflets.vtp` from `coapt leaflets`,
 //! `closed.vtp` from `coapt close`): one reading of its arrays for every
-//! stage, so a file is accepted or refused alike by close, report and
-//! design (close once took `boundary` 7 and `leaflet` 0 that the report
-//! refused).
+//! stage, so a file is accepted or refused alike by close and report
+//! (and so by design, which runs them; close once took `boundary` 7 and
+//! `leaflet` 0 that the report refused).
 
 use crate::geom::TriMesh;
 
