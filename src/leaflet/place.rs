@@ -17,10 +17,27 @@ use super::seed001::Seed001;
 use super::template::Template;
 use crate::geom::{Point3, Vector3};
 
+/// How a template's attachment edge is spread over a shorter suture path.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Gathering {
+    /// Evenly: every piece of the edge shortened by the same ratio.
+    Uniform,
+    /// As Ozaki's running suture takes it (the seeds' group's
+    /// `onethirdCDF`, benchmarks/Sewing): 1 : 1 up both posts and 3 : 1 in
+    /// a middle stretch about the nadir, as wide as the excess needs. The
+    /// posts keep the template's length, the belly takes the excess.
+    Ozaki,
+}
+
 /// Arc-length parametrised 3-D polyline.
 pub struct Path3 {
     pts: Vec<Point3>,
     cum: Vec<f64>,
+    /// Path length over the attachment edge's (J₀ < 1) when the edge is
+    /// gathered onto the path the Ozaki way; `at` then takes fractions of
+    /// the edge, not of the path.
+    ozaki_j0: Option<f64>,
 }
 
 impl Path3 {
@@ -29,16 +46,63 @@ impl Path3 {
         for w in pts.windows(2) {
             cum.push(cum.last().unwrap() + (w[1] - w[0]).norm());
         }
-        Path3 { pts, cum }
+        Path3 {
+            pts,
+            cum,
+            ozaki_j0: None,
+        }
+    }
+
+    /// The path an attachment edge of `edge_mm` is sewn onto: `at(f)` is
+    /// where the point at fraction f of the edge goes. The Ozaki rule
+    /// needs 1 : 1 posts and at most 3 : 1 at the nadir, so it applies to
+    /// a path 34–97 % of the edge's length (the group's own bounds, 0.34 and
+    /// 0.97); outside them, and for a path longer than the edge, the edge
+    /// is spread evenly.
+    pub fn sewn(pts: Vec<Point3>, edge_mm: f64, gathering: Gathering) -> Path3 {
+        let mut p = Path3::new(pts);
+        let j0 = p.length() / edge_mm;
+        if gathering == Gathering::Ozaki && (0.34..=0.97).contains(&j0) {
+            p.ozaki_j0 = Some(j0);
+        }
+        p
     }
 
     pub fn length(&self) -> f64 {
         *self.cum.last().unwrap()
     }
 
-    /// Point at fraction f ∈ [0, 1] of the length.
+    /// The gathering `at` applies ("ozaki" only within its range).
+    pub fn gathering(&self) -> Gathering {
+        if self.ozaki_j0.is_some() {
+            Gathering::Ozaki
+        } else {
+            Gathering::Uniform
+        }
+    }
+
+    /// Fraction of the path at which fraction x of the edge is sewn.
+    fn gathered(&self, x: f64) -> f64 {
+        let Some(j0) = self.ozaki_j0 else {
+            return x;
+        };
+        // Three pieces: x/J₀ (1 : 1) up to 0.5 − d, slope 1/(3J₀) across
+        // the middle 2d, 1 : 1 again after; d = 3(1 − J₀)/4 makes the
+        // total come out at the path's length.
+        let d = 0.75 * (1.0 - j0);
+        if x < 0.5 - d {
+            x / j0
+        } else if x < 0.5 + d {
+            (1.0 - 2.0 * d + x) / (3.0 * j0)
+        } else {
+            (x - 4.0 * d / 3.0) / j0
+        }
+    }
+
+    /// Point at fraction f ∈ [0, 1] of the edge (of the path, unless
+    /// gathered the Ozaki way).
     pub fn at(&self, f: f64) -> Point3 {
-        let s = f.clamp(0.0, 1.0) * self.length();
+        let s = self.gathered(f.clamp(0.0, 1.0)) * self.length();
         let i = self
             .cum
             .partition_point(|&c| c <= s)
@@ -331,4 +395,63 @@ pub fn seed001_local(s: &Seed001, m: &FlatMesh) -> Vec<Point3> {
             Point3::new(c[0] + w * v[0], c[1] + w * v[1], c[2] + w * v[2])
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A straight path along x, so a point's x is its arc length.
+    fn line(len: f64) -> Vec<Point3> {
+        (0..=200)
+            .map(|k| Point3::new(len * k as f64 / 200.0, 0.0, 0.0))
+            .collect()
+    }
+
+    #[test]
+    fn the_ozaki_gathering_sews_the_posts_one_to_one_and_the_nadir_three_to_one() {
+        let (edge, path_len) = (70.0, 47.5);
+        let p = Path3::sewn(line(path_len), edge, Gathering::Ozaki);
+        let j0 = path_len / edge;
+        let d = 0.75 * (1.0 - j0);
+        let x = |f: f64| p.at(f).x;
+        // Up either post, a millimetre of edge takes a millimetre of path.
+        for f in [0.05, 0.1, 0.2, 0.5 - d - 0.01] {
+            let along = x(f + 0.005) - x(f);
+            assert!((along - 0.005 * edge).abs() < 1e-9, "f {f}: {along}");
+            let back = x(1.0 - f) - x(1.0 - f - 0.005);
+            assert!((back - 0.005 * edge).abs() < 1e-9, "f {f}: {back}");
+        }
+        // About the nadir, three millimetres of edge on one of path.
+        for f in [0.5 - d + 0.01, 0.5, 0.5 + d - 0.02] {
+            let along = x(f + 0.005) - x(f);
+            assert!((3.0 * along - 0.005 * edge).abs() < 1e-9, "f {f}: {along}");
+        }
+        // The whole edge covers the whole path, continuously and in order;
+        // symmetric, so the nadir of the edge lands on the path's middle.
+        assert_eq!(x(0.0), 0.0);
+        assert!((x(1.0) - path_len).abs() < 1e-9);
+        assert!((x(0.5) - path_len / 2.0).abs() < 1e-9);
+        let mut last = 0.0;
+        for k in 1..=1000 {
+            let f = k as f64 / 1000.0;
+            assert!(x(f) > last, "not increasing at {f}");
+            assert!(x(f) - last < 0.0011 * edge, "a jump at {f}");
+            last = x(f);
+        }
+    }
+
+    #[test]
+    fn the_ozaki_gathering_spreads_evenly_outside_its_range() {
+        // Past 3 : 1 all along (J₀ < 0.34), nearly equal (J₀ > 0.97) or a
+        // path longer than the edge: the even spread, as the group's code.
+        for path_len in [20.0, 68.5, 75.0] {
+            let even = Path3::sewn(line(path_len), 70.0, Gathering::Uniform);
+            let ozaki = Path3::sewn(line(path_len), 70.0, Gathering::Ozaki);
+            for f in [0.1, 0.3, 0.5, 0.8] {
+                assert_eq!(ozaki.at(f), even.at(f));
+                assert!((even.at(f).x - f * path_len).abs() < 1e-9);
+            }
+        }
+    }
 }

@@ -98,6 +98,12 @@ pub static SPEC: StageSpec = StageSpec {
             help: "hanging placement: how far off the axis each free edge's apex is put, into its own sector, so the leaflets start apart",
         },
         Param {
+            name: "gathering",
+            kind: ParamKind::Choice(&["ozaki", "uniform"]),
+            default: Some("uniform"),
+            help: "how an attachment edge longer than its suture path is gathered onto it: ozaki (1 : 1 up the posts, 3 : 1 about the nadir, as the running suture takes it; the seeds' group's onethirdCDF) or uniform (the same ratio all along); five-parameter templates are spread evenly (seed 001 eq. 2)",
+        },
+        Param {
             name: "fiber_angle",
             kind: ParamKind::Quantity(Kind::Angle),
             default: Some("0 deg"),
@@ -270,7 +276,15 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             .map_err(|e| Error::failed("leaflets", format!("leaflet {}: {e}", k + 1)))?;
         let mesh_ms = t0.elapsed().as_secs_f64() * 1e3;
         mesh_ms_all.push(mesh_ms);
-        let path = Path3::new(pd.lines[k].iter().map(|&i| pd.points[i as usize]).collect());
+        let gathering = match (params.choice("gathering"), t) {
+            ("ozaki", Template::Arc(_) | Template::Ozaki(_)) => place::Gathering::Ozaki,
+            _ => place::Gathering::Uniform,
+        };
+        let path = Path3::sewn(
+            pd.lines[k].iter().map(|&i| pd.points[i as usize]).collect(),
+            outline.length(Edge::Sutured),
+            gathering,
+        );
         commissures.push(path.at(0.0));
         let hanging = params.choice("placement") == "hanging" && !matches!(t, Template::Seed001(_));
         all_hanging &= hanging;
@@ -342,6 +356,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             "free_edge_mm": outline.length(Edge::Free),
             "path_mm": path.length(),
             "attachment_vs_path": (att - path.length()) / path.length(),
+            "gathering": path.gathering(),
             "omega_used_deg": om.map(f64::to_degrees),
             "hanging": hang_record,
             "outside_wall": {
