@@ -144,6 +144,12 @@ pub fn resample_i16(src: &Volume<i16>, grid: &LpsGrid, outside: i16) -> Result<V
     Volume::from_fortran_vec(grid.dims, affine, out)
 }
 
+/// Trilinear value of `src` at the world point `p`; `outside` beyond the
+/// grid's outermost sample centres.
+pub fn value_at(src: &Volume<i16>, p: &Point3, outside: i16) -> i16 {
+    sample(src.as_slice(), src.dims(), src.world_to_index(p), outside)
+}
+
 /// Trilinear value at a continuous source index; an index within 1e-6 of a
 /// sample plane is that plane, so samples are copied bit for bit.
 fn sample(data: &[i16], d: [usize; 3], q: [f64; 3], outside: i16) -> i16 {

@@ -29,6 +29,7 @@ use serde::Serialize;
 
 use super::angular::{self, SAMPLES};
 use super::lumen_rays::LumenProbe;
+use super::ostia::{self, NamedBy, Ostium, RootFrame};
 use crate::geom::{Point3, Vector3, Volume};
 
 /// Height of the commissures below the STJ (mm). The mean-radius minimum
@@ -123,7 +124,37 @@ pub struct Detection {
     /// The profile's zero angle: a unit vector ⟂ the axis.
     pub e1: Vector3,
     pub points: Vec<Found>,
+    /// N1, N2, N3's sinuses: their names and the coronary ostia seen.
+    pub sinuses: Vec<Sinus>,
+    pub sinus_naming: SinusNaming,
 }
+
+/// One sinus: its nadir's label, its name and its coronary ostium if the
+/// CT shows one.
+#[derive(Debug, Clone, Serialize)]
+pub struct Sinus {
+    pub nadir: String,
+    pub name: &'static str,
+    pub ostium: Option<Ostium>,
+}
+
+/// How the sinuses were named (see [`ostia`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct SinusNaming {
+    pub by: NamedBy,
+    pub confidence: f64,
+    pub agrees_with_position: bool,
+    /// Whether a CT was searched for ostia; its lumen's median HU and the
+    /// brightness threshold; patches that did not count as an ostium.
+    pub ct_searched: bool,
+    pub lumen_hu: Option<f64>,
+    pub threshold_hu: Option<f64>,
+    pub other_patches: usize,
+}
+
+/// Sinus names in the order the labels take them from the right-coronary
+/// sinus counter-clockwise about the axis (the phantom's sinus 1, 2, 3).
+pub const SINUS_NAMES: [&str; 3] = ["right_coronary", "left_coronary", "non_coronary"];
 
 /// Unit vectors (u, v) completing the unit `n` to a right-handed frame.
 fn basis(n: &Vector3) -> (Vector3, Vector3) {
@@ -256,8 +287,13 @@ fn levels(hs: &[f64], r: &[f64]) -> Option<Levels> {
     })
 }
 
-/// Detect C1–C3 and N1–N3 in `mask` above `plane`.
-pub fn detect(mask: &Volume<u8>, plane: &AnnulusPlane) -> Result<Detection, Failure> {
+/// Detect C1–C3 and N1–N3 in `mask` above `plane`; with the CT, name the
+/// sinuses by the coronary ostia it shows.
+pub fn detect(
+    mask: &Volume<u8>,
+    plane: &AnnulusPlane,
+    ct: Option<&Volume<i16>>,
+) -> Result<Detection, Failure> {
     let probe = LumenProbe::new(mask);
     let n0 = plane
         .normal
@@ -373,10 +409,11 @@ pub fn detect(mask: &Volume<u8>, plane: &AnnulusPlane) -> Result<Detection, Fail
         sinus_r[k] = rs[m];
         lobe_mm[k] = rs[m] - rs[a].max(rs[b]);
     }
-    // Which sector is the right-coronary sinus: the one facing anterior
-    // (−y in LPS) starts at C1 (the phantom's and the hand-placed
-    // landmarks' convention: sinus k lies between C_k and C_k+1).
-    let first = (0..3)
+    // Which sector is the right-coronary sinus starts at C1 (the phantom's
+    // and the hand-placed landmarks' convention: sinus k lies between C_k
+    // and C_k+1): the one whose sinus faces anterior (−y in LPS), unless
+    // the CT's coronary ostia say otherwise.
+    let anterior = (0..3)
         .min_by(|&a, &b| {
             dir(sinus_deg[a])
                 .y
@@ -384,6 +421,47 @@ pub fn detect(mask: &Volume<u8>, plane: &AnnulusPlane) -> Result<Detection, Fail
                 .unwrap_or(std::cmp::Ordering::Equal)
         })
         .unwrap_or(0);
+    let found_ostia = ct.map(|ct| {
+        let frame = RootFrame {
+            origin: o,
+            axis: n,
+            e1: u,
+        };
+        let pillars_deg = p.map(|k| k as f64);
+        ostia::search(
+            ct,
+            mask,
+            &frame,
+            (&plane.point_mm, &n0),
+            h_stj,
+            &pillars_deg,
+        )
+    });
+    let with_ostium = std::array::from_fn(|k| {
+        found_ostia
+            .as_ref()
+            .is_some_and(|f| f.per_sector[k].is_some())
+    });
+    let naming = ostia::name(with_ostium, anterior);
+    let first = naming.right_sector;
+    let sinuses = (0..3)
+        .map(|j| Sinus {
+            nadir: format!("N{}", j + 1),
+            name: SINUS_NAMES[j],
+            ostium: found_ostia
+                .as_ref()
+                .and_then(|f| f.per_sector[(first + j) % 3].clone()),
+        })
+        .collect();
+    let sinus_naming = SinusNaming {
+        by: naming.by,
+        confidence: naming.confidence,
+        agrees_with_position: naming.agrees_with_position,
+        ct_searched: found_ostia.is_some(),
+        lumen_hu: found_ostia.as_ref().map(|f| f.lumen_hu),
+        threshold_hu: found_ostia.as_ref().map(|f| f.threshold_hu),
+        other_patches: found_ostia.as_ref().map_or(0, |f| f.other_patches),
+    };
 
     let h_c = h_stj - COMMISSURE_BELOW_STJ_MM;
     let stj_narrowing = r[lv.sinus] - r[lv.stj];
@@ -482,5 +560,7 @@ pub fn detect(mask: &Volume<u8>, plane: &AnnulusPlane) -> Result<Detection, Fail
         angular_profile_mm: profile,
         e1: u,
         points,
+        sinuses,
+        sinus_naming,
     })
 }

@@ -9,7 +9,7 @@ use super::detect::{self, Detection};
 use crate::geom::bvh::Bvh;
 use crate::geom::closest_point::closest_point;
 use crate::geom::{Frame, Landmarks, Point3, TriMesh, Vector3};
-use crate::io::{Transaction, markups, nifti, vtp};
+use crate::io::{Transaction, markups, nifti, volume_file, vtp};
 use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
 use crate::{Error, Result};
 
@@ -17,6 +17,14 @@ pub static SPEC: StageSpec = StageSpec {
     name: "landmarks",
     about: "Find the commissures C1–C3 and nadirs N1–N3 in the segmented root (sinus lobes, STJ, annulus plane)",
     inputs: &[
+        Port {
+            name: "ct",
+            flag: "ct",
+            file: "ct.nii.gz",
+            kind: ArtifactKind::Volume,
+            required: false,
+            help: "the CT the mask was segmented from: the coronary ostia it shows name the sinuses (without it, or without two ostia, the sinus facing anterior is the right-coronary one)",
+        },
         Port {
             name: "mask",
             flag: "mask",
@@ -143,6 +151,18 @@ fn findings(det: &Detection, sources: &[Source], min_confidence: f64) -> Vec<Str
             det.stj_height_mm
         ));
     }
+    let naming = &det.sinus_naming;
+    let seen = det.sinuses.iter().filter(|s| s.ostium.is_some()).count();
+    if naming.ct_searched && seen != 2 {
+        out.push(format!(
+            "coronary ostia seen in {seen} sinuses, not two: the sinuses are named by position (the one facing anterior is the right-coronary sinus); check the names in the CT"
+        ));
+    }
+    if !naming.agrees_with_position {
+        out.push(
+            "the coronary ostia name another sinus the right-coronary one than its position (the sinus facing anterior) does; the ostia were followed: check the names in the CT".into(),
+        );
+    }
     for (p, s) in det.points.iter().zip(sources) {
         if p.confidence < min_confidence && *s == Source::Detected {
             out.push(format!(
@@ -182,7 +202,12 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let read_s = t0.elapsed().as_secs_f64();
     progress.set(0.2);
     let t1 = std::time::Instant::now();
-    let mut det = detect::detect(&mask, &plane).map_err(|e| Error::failed("landmarks", e))?;
+    let ct = match io.input("ct") {
+        Some(p) => Some(volume_file::read_ct(p)?),
+        None => None,
+    };
+    let mut det =
+        detect::detect(&mask, &plane, ct.as_ref()).map_err(|e| Error::failed("landmarks", e))?;
     let tris = mesh.wall_triangles();
     let x: Vec<Vector3> = mesh.vertices.iter().map(|p| p.coords).collect();
     let bvh = Bvh::build(&x, &tris);
@@ -276,7 +301,8 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::landmarks::detect::{AnnulusPlane, Found};
+    use crate::landmarks::detect::{AnnulusPlane, Found, SinusNaming};
+    use crate::landmarks::ostia::NamedBy;
 
     fn detection(conf: [f64; 2], stj_is_minimum: bool) -> Detection {
         let found = |label: &str, confidence: f64| Found {
@@ -304,6 +330,16 @@ mod tests {
             angular_profile_mm: Vec::new(),
             e1: Vector3::x(),
             points: vec![found("C1", conf[0]), found("N1", conf[1])],
+            sinuses: Vec::new(),
+            sinus_naming: SinusNaming {
+                by: NamedBy::Position,
+                confidence: 0.5,
+                agrees_with_position: true,
+                ct_searched: false,
+                lumen_hu: None,
+                threshold_hu: None,
+                other_patches: 0,
+            },
         }
     }
 

@@ -82,6 +82,8 @@ pub fn build(s: &Sources) -> Json {
                 }))
                 .collect::<Vec<_>>()),
             "findings": d["findings"],
+            "sinuses": d["sinuses"],
+            "sinus_naming": d["sinus_naming"],
         }),
         (None, Some(p)) => json!({"source": "given", "file": p.display().to_string()}),
         (None, None) => Json::Null,

@@ -252,6 +252,9 @@ fn case_header(h: &mut String, c: Option<&Value>) {
                     points.join(", ")
                 ),
             );
+            if let Some(text) = sinus_names(lm) {
+                row("Sinuses", text);
+            }
         }
         Some("given") => row(
             "Landmarks",
@@ -1335,6 +1338,44 @@ fn sorted(map: &Map<String, Value>) -> Vec<(&String, &Value)> {
     let mut v: Vec<_> = map.iter().collect();
     v.sort_by(|a, b| a.0.cmp(b.0));
     v
+}
+
+/// "N1 right coronary (ostium 20.7 mm above the annulus), …; named by the
+/// coronary ostia in the CT" from the landmarks stage's sinuses.
+fn sinus_names(lm: Option<&Value>) -> Option<String> {
+    let sinuses = array(lm.and_then(|l| l.get("sinuses")));
+    if sinuses.is_empty() {
+        return None;
+    }
+    let each: Vec<String> = sinuses
+        .iter()
+        .map(|s| {
+            let name = text_or(s.get("name"), DASH).replace('_', "-");
+            let mut t = format!("{} {}", esc(&text_or(s.get("nadir"), "?")), esc(&name));
+            if let Some(h) = num(s.get("ostium").and_then(|o| o.get("height_mm"))) {
+                let _ = write!(t, " (ostium {} mm above the annulus)", fixed(Some(h), 1));
+            }
+            t
+        })
+        .collect();
+    let naming = lm.and_then(|l| l.get("sinus_naming"));
+    let how = match naming.and_then(|n| n.get("by")).and_then(Value::as_str) {
+        Some("coronary_ostia") => "named by the coronary ostia seen in the CT",
+        _ if naming
+            .and_then(|n| n.get("ct_searched"))
+            .and_then(Value::as_bool)
+            == Some(true) =>
+        {
+            "named by position (the CT did not show two coronary ostia): the sinus facing anterior taken for the right-coronary one"
+        }
+        _ => {
+            "named by position (no CT searched for the coronary ostia): the sinus facing anterior taken for the right-coronary one"
+        }
+    };
+    Some(format!(
+        "{}; {how}; leaflet k is sewn in N<i>k</i>'s sinus",
+        each.join(", ")
+    ))
 }
 
 #[cfg(test)]
