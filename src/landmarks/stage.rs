@@ -6,6 +6,7 @@ use serde_json::{Value as Json, json};
 
 use super::annulus;
 use super::detect::{self, Detection};
+use super::ostia::NamedBy;
 use crate::geom::bvh::Bvh;
 use crate::geom::closest_point::closest_point;
 use crate::geom::{Frame, Landmarks, Point3, TriMesh, Vector3};
@@ -174,6 +175,40 @@ fn findings(det: &Detection, sources: &[Source], min_confidence: f64) -> Vec<Str
     out
 }
 
+/// The words 3D Slicer shows beside a point: what it is, whose sinus, and
+/// whether coapt found it or the user gave it. Sinus k lies between C_k and
+/// C_k+1, so commissure C_k parts sinus k−1 from sinus k.
+fn describe(label: &str, det: &Detection, sources: &[Source]) -> String {
+    let name = |k: usize| {
+        det.sinuses
+            .get(k)
+            .map_or("?".to_string(), |s| s.name.replace('_', "-"))
+    };
+    let k = label[1..].parse::<usize>().unwrap_or(1).clamp(1, 3) - 1;
+    let what = if label.starts_with('C') {
+        format!(
+            "commissure between the {} and {} sinuses",
+            name((k + 2) % 3),
+            name(k)
+        )
+    } else {
+        format!("nadir of the {} sinus", name(k))
+    };
+    let source = det
+        .points
+        .iter()
+        .zip(sources)
+        .find(|(p, _)| p.label == label)
+        .map_or("detected", |(_, s)| s.name());
+    format!(
+        "{what} ({source}; sinuses named by {})",
+        match det.sinus_naming.by {
+            NamedBy::CoronaryOstia => "the coronary ostia",
+            NamedBy::Position => "position",
+        }
+    )
+}
+
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let t0 = std::time::Instant::now();
     let mask_path = io.input("mask").expect("required input");
@@ -277,7 +312,9 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         );
     }
     let text = serde_json::to_string_pretty(&report).expect("report serialises") + "\n";
-    let mrk = markups::encode_mrk_json(&lm, Frame::Lps);
+    let mrk = markups::encode_mrk_json_described(&lm, Frame::Lps, |label| {
+        describe(label, &det, &sources)
+    });
     let mut tx = Transaction::new();
     tx.write_bytes(io.output("landmarks"), mrk.as_bytes())?;
     tx.write_bytes(io.output("landmarks_report"), text.as_bytes())?;
@@ -302,7 +339,6 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
 mod tests {
     use super::*;
     use crate::landmarks::detect::{AnnulusPlane, Found, SinusNaming};
-    use crate::landmarks::ostia::NamedBy;
 
     fn detection(conf: [f64; 2], stj_is_minimum: bool) -> Detection {
         let found = |label: &str, confidence: f64| Found {

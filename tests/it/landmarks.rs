@@ -252,6 +252,12 @@ fn run_on_a_ct_alone_reaches_a_report() {
     assert!(page.contains("N2 left-coronary (ostium "));
     assert!(page.contains("N3 non-coronary;"));
     assert!(page.contains("named by the coronary ostia seen in the CT"));
+    // 3D Slicer shows each point's sinus beside it; the file still reads.
+    let mrk = std::fs::read_to_string(run.join("landmarks.mrk.json")).unwrap();
+    assert!(mrk.contains(
+        "\"description\": \"nadir of the right-coronary sinus (detected; sinuses named by the coronary ostia)\""
+    ));
+    assert!(mrk.contains("commissure between the right-coronary and left-coronary sinuses"));
 }
 
 /// The sinuses were named by the CT's coronary ostia, each ostium lies

@@ -51,7 +51,7 @@ use crate::geom::{Frame, Landmarks, Point3};
 use crate::{Error, Result};
 
 pub use fcsv::{read_fcsv, write_fcsv};
-pub use mrk_json::{encode_mrk_json, read_mrk_json, write_mrk_json};
+pub use mrk_json::{encode_mrk_json, encode_mrk_json_described, read_mrk_json, write_mrk_json};
 pub use plain::{read_plain_json, write_plain_json};
 
 /// Read a landmark file, choosing the format from the name: `.mrk.json` →

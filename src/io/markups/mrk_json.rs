@@ -31,6 +31,17 @@ pub fn write_mrk_json(path: &Path, lm: &Landmarks, frame: Frame) -> Result<()> {
 /// The file text for `lm` in `frame`. Non-finite coordinates would become
 /// `null` (JSON has no NaN): check with `sanity_check` first, as the writer does.
 pub fn encode_mrk_json(lm: &Landmarks, frame: Frame) -> String {
+    encode_mrk_json_described(lm, frame, |_| String::new())
+}
+
+/// As [`encode_mrk_json`], each point with the description `describe`
+/// gives its label (3D Slicer shows it beside the point; readers here
+/// ignore it).
+pub fn encode_mrk_json_described(
+    lm: &Landmarks,
+    frame: Frame,
+    describe: impl Fn(&str) -> String,
+) -> String {
     let lm = lm.to_frame(frame);
     let control_points = lm
         .points
@@ -39,7 +50,7 @@ pub fn encode_mrk_json(lm: &Landmarks, frame: Frame) -> String {
         .map(|(i, (label, p))| ControlPoint {
             id: (i + 1).to_string(),
             label: label.clone(),
-            description: String::new(),
+            description: describe(label),
             associated_node_id: String::new(),
             position: [p.x, p.y, p.z],
             orientation: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
