@@ -98,7 +98,7 @@ pub struct Search {
 
 /// Which sector holds a direction at `deg`, the pillars at `pillars_deg`
 /// in increasing order (mod 360).
-fn sector_of(deg: f64, pillars_deg: &[f64; 3]) -> usize {
+pub fn sector_of(deg: f64, pillars_deg: &[f64; 3]) -> usize {
     (0..3)
         .find(|&k| {
             let a = pillars_deg[k];

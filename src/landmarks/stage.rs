@@ -6,7 +6,7 @@ use serde_json::{Value as Json, json};
 
 use super::annulus;
 use super::detect::{self, Detection};
-use super::ostia::NamedBy;
+use super::ostia::{self, NamedBy};
 use crate::geom::bvh::Bvh;
 use crate::geom::closest_point::closest_point;
 use crate::geom::{Frame, Landmarks, Point3, TriMesh, Vector3};
@@ -177,14 +177,54 @@ fn findings(det: &Detection, sources: &[Source], min_confidence: f64) -> Vec<Str
 
 /// The words 3D Slicer shows beside a point: what it is, whose sinus, and
 /// whether coapt found it or the user gave it. Sinus k lies between C_k and
-/// C_k+1, so commissure C_k parts sinus k−1 from sinus k.
+/// C_k+1, so commissure C_k parts sinus k−1 from sinus k. A given point is
+/// placed by where it lies (its angle about the detected axis among the
+/// detected commissures), not by its label: a user's file may number the
+/// sinuses otherwise.
 fn describe(label: &str, det: &Detection, sources: &[Source]) -> String {
     let name = |k: usize| {
         det.sinuses
             .get(k)
             .map_or("?".to_string(), |s| s.name.replace('_', "-"))
     };
-    let k = label[1..].parse::<usize>().unwrap_or(1).clamp(1, 3) - 1;
+    let found = det
+        .points
+        .iter()
+        .zip(sources)
+        .find(|(p, _)| p.label == label);
+    let source = found.map_or("detected", |(_, s)| s.name());
+    let by_label = label[1..].parse::<usize>().unwrap_or(1).clamp(1, 3) - 1;
+    let commissure_deg: Vec<f64> = ["C1", "C2", "C3"]
+        .iter()
+        .filter_map(|c| {
+            det.points
+                .iter()
+                .find(|p| p.label == *c)?
+                .evidence
+                .get("angle_deg")?
+                .as_f64()
+        })
+        .collect();
+    let k = match (found, commissure_deg.as_slice()) {
+        (Some((p, Source::Given { .. })), &[a, b, c]) => {
+            let r = p.point_mm - det.origin_mm;
+            let e2 = det.axis.cross(&det.e1);
+            let deg = r
+                .dot(&e2)
+                .atan2(r.dot(&det.e1))
+                .to_degrees()
+                .rem_euclid(360.0);
+            if label.starts_with('C') {
+                let off = |x: f64| ((deg - x + 540.0).rem_euclid(360.0) - 180.0).abs();
+                (0..3)
+                    .min_by(|&i, &j| off([a, b, c][i]).total_cmp(&off([a, b, c][j])))
+                    .unwrap_or(by_label)
+            } else {
+                ostia::sector_of(deg, &[a, b, c])
+            }
+        }
+        _ => by_label,
+    };
     let what = if label.starts_with('C') {
         format!(
             "commissure between the {} and {} sinuses",
@@ -194,12 +234,6 @@ fn describe(label: &str, det: &Detection, sources: &[Source]) -> String {
     } else {
         format!("nadir of the {} sinus", name(k))
     };
-    let source = det
-        .points
-        .iter()
-        .zip(sources)
-        .find(|(p, _)| p.label == label)
-        .map_or("detected", |(_, s)| s.name());
     format!(
         "{what} ({source}; sinuses named by {})",
         match det.sinus_naming.by {

@@ -543,4 +543,42 @@ fn real_ct_within_3_mm_of_the_hand_placed_points() {
         left.x > 0.0 && left.y > 0.0,
         "left ostium not left-posterior: {left:?}"
     );
+    // The hand-placed file numbers from the posterior sinus: its points,
+    // given back, are described by where they lie, not by their labels
+    // (its N1 lies in the left-coronary sinus, its N3 in the right).
+    let o = coapt(&[
+        "landmarks",
+        "--ct",
+        &s(&real.join("ct.nii.gz")),
+        "--mask",
+        &s(&mask),
+        "--surface",
+        &s(&surf),
+        "--segment-report",
+        &s(&seg),
+        "--given",
+        &s(&real.join("landmarks.mrk.json")),
+        "--out",
+        &s(&d.join("given.mrk.json")),
+        "--report",
+        &s(&d.join("given.json")),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let mrk = json(&d.join("given.mrk.json"));
+    let description = |label: &str| {
+        mrk["markups"][0]["controlPoints"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["label"] == label)
+            .unwrap()["description"]
+            .as_str()
+            .unwrap()
+            .to_string()
+    };
+    assert!(description("N1").starts_with("nadir of the left-coronary sinus (given"));
+    assert!(description("N2").starts_with("nadir of the non-coronary sinus (given"));
+    assert!(description("N3").starts_with("nadir of the right-coronary sinus (given"));
+    assert!(description("C1").contains("between the right-coronary and left-coronary"));
 }
