@@ -499,23 +499,33 @@ fn real_ct_within_3_mm_of_the_hand_placed_points() {
     // anterior, +x the patient's left). Measured: the right ostium 13.4 mm
     // anterior of the axis, 20.7 mm above the annulus; the left 10.7 mm
     // left and 11.5 mm posterior, 13.3 mm above.
-    let o = coapt(&[
-        "landmarks",
-        "--ct",
-        &s(&real.join("ct.nii.gz")),
-        "--mask",
-        &s(&mask),
-        "--surface",
-        &s(&surf),
-        "--segment-report",
-        &s(&seg),
-        "--out",
-        &s(&d.join("with-ct.mrk.json")),
-        "--report",
-        &s(&d.join("with-ct.json")),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let with_ct = |name: &str, more: &[&str]| {
+        let (ct, mask, surf, seg) = (s(&real.join("ct.nii.gz")), s(&mask), s(&surf), s(&seg));
+        let (out, report) = (
+            s(&d.join(format!("{name}.mrk.json"))),
+            s(&d.join(format!("{name}.json"))),
+        );
+        let mut args = vec![
+            "landmarks",
+            "--ct",
+            &ct,
+            "--mask",
+            &mask,
+            "--surface",
+            &surf,
+            "--segment-report",
+            &seg,
+            "--out",
+            &out,
+            "--report",
+            &report,
+            "--quiet",
+        ];
+        args.extend_from_slice(more);
+        let o = coapt(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    };
+    with_ct("with-ct", &[]);
     let rep = json(&d.join("with-ct.json"));
     assert_eq!(
         rep["sinus_naming"]["by"], "coronary_ostia",
@@ -546,25 +556,7 @@ fn real_ct_within_3_mm_of_the_hand_placed_points() {
     // The hand-placed file numbers from the posterior sinus: its points,
     // given back, are described by where they lie, not by their labels
     // (its N1 lies in the left-coronary sinus, its N3 in the right).
-    let o = coapt(&[
-        "landmarks",
-        "--ct",
-        &s(&real.join("ct.nii.gz")),
-        "--mask",
-        &s(&mask),
-        "--surface",
-        &s(&surf),
-        "--segment-report",
-        &s(&seg),
-        "--given",
-        &s(&real.join("landmarks.mrk.json")),
-        "--out",
-        &s(&d.join("given.mrk.json")),
-        "--report",
-        &s(&d.join("given.json")),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    with_ct("given", &["--given", &s(&real.join("landmarks.mrk.json"))]);
     let mrk = json(&d.join("given.mrk.json"));
     let description = |label: &str| {
         mrk["markups"][0]["controlPoints"]
