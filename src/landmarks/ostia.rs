@@ -15,8 +15,9 @@
 //!
 //! Names: the two sinuses with an ostium are the coronary sinuses, the
 //! third the non-coronary one; going counter-clockwise about the axis
-//! (looking from the aorta towards the ventricle: clockwise) the sinuses
-//! run right → left → non-coronary, so the sinus after the non-coronary
+//! (right-handed about ventricle → aorta, so counter-clockwise as seen
+//! from the aorta; anterior → left → posterior) the sinuses run right →
+//! left → non-coronary, so the sinus after the non-coronary
 //! one is the right. Without exactly two ostia the sinuses are named by
 //! position, as before: the one facing anterior is the right-coronary
 //! sinus.

@@ -90,6 +90,9 @@ pub struct Extras {
     pub native_cusps: bool,
     /// Tilt of the annulus (nadir) plane to the commissure plane.
     pub annulus_tilt_rad: f64,
+    /// Turn of the root about its axis away from the usual orientation
+    /// (the right-coronary sinus facing anterior), counter-clockwise.
+    pub root_rotation_rad: f64,
 }
 
 /// The aortic arch: a tapering tube along a half-ellipse in the vertical
@@ -348,10 +351,15 @@ impl Anatomy {
                 profile.sinus_centre(1) + ANNULUS_LOW_PAST_SINUS2_DEG * deg;
         }
 
-        // e1 such that the right-coronary sinus (sinus 1) faces anterior.
+        // e1 such that the right-coronary sinus (sinus 1) faces anterior,
+        // unless the root is turned.
         let anterior = -Vector3::y();
         let d_ant = (anterior - axis * anterior.dot(&axis)).normalize();
-        let e1 = rotate_about(&d_ant, &axis, -profile.sinus_centre(0) + d.e1_jitter);
+        let e1 = rotate_about(
+            &d_ant,
+            &axis,
+            -profile.sinus_centre(0) + d.e1_jitter + extras.root_rotation_rad,
+        );
 
         // --- Centreline: shrink the arc until the needed z-range fits ------
         let s1 = d.h_stj + d.s1_above_stj;

@@ -198,6 +198,9 @@ pub struct PhantomParams {
     pub native_cusps: bool,
     /// Tilt of the annulus (nadir) plane to the commissure plane.
     pub annulus_tilt_rad: f64,
+    /// Turn of the root about its axis (0: the right-coronary sinus faces
+    /// anterior, as in most patients).
+    pub root_rotation_rad: f64,
 }
 
 pub const DEFAULT_NOISE_HU: f64 = 25.0;
@@ -251,6 +254,7 @@ impl PhantomParams {
             } else {
                 0.0
             },
+            root_rotation_rad: 0.0,
         }
     }
 
@@ -279,6 +283,13 @@ impl PhantomParams {
             MAX_ANNULUS_TILT_DEG,
             "deg",
         )?;
+        check(
+            "root rotation",
+            self.root_rotation_rad.to_degrees(),
+            -180.0,
+            180.0,
+            "deg",
+        )?;
         if let Some(s) = self.spacing_mm {
             for v in s {
                 check("spacing", v, 0.2, 3.0, "mm")?;
@@ -302,6 +313,7 @@ impl PhantomParams {
             arch: self.arch,
             native_cusps: self.native_cusps,
             annulus_tilt_rad: self.annulus_tilt_rad,
+            root_rotation_rad: self.root_rotation_rad,
         }
     }
 
@@ -518,6 +530,8 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         la_aorta_gap_mm: an.la_aorta_gap(lumen_top_z),
         layers: scene.layers.iter().map(|l| l.name.clone()).collect(),
         definitions: truth::definitions(&extras),
+        root_rotation_deg: (params.root_rotation_rad != 0.0)
+            .then(|| params.root_rotation_rad.to_degrees()),
         annulus_tilt_deg: (params.annulus_tilt_rad != 0.0)
             .then(|| params.annulus_tilt_rad.to_degrees()),
         annulus_plane: (params.annulus_tilt_rad != 0.0).then(|| truth::PlaneTruth {

@@ -133,6 +133,12 @@ pub static SPEC: StageSpec = StageSpec {
             default: None,
             help: "tilt of the annulus (nadir) plane to the commissure plane, 0–35 deg [default: 0 deg; clinical 20 deg]",
         },
+        Param {
+            name: "root_rotation",
+            kind: ParamKind::Quantity(Kind::Angle),
+            default: Some("0 deg"),
+            help: "turn of the root about its axis, counter-clockwise seen from the aorta, −180–180 deg: 0 faces the right-coronary sinus anterior, as in most patients; other angles test what does not assume it",
+        },
     ],
     check: |p| params_from(p).map(|_| ()),
     run,
@@ -162,6 +168,7 @@ pub fn params_from(p: &Params) -> Result<PhantomParams> {
     if given("annulus_tilt") {
         pp.annulus_tilt_rad = p.quantity("annulus_tilt");
     }
+    pp.root_rotation_rad = p.quantity("root_rotation");
     pp.validate()?;
     Ok(pp)
 }

@@ -91,6 +91,10 @@ pub struct Truth {
     /// Tissue layers in painting order (later layers cover earlier ones).
     pub layers: Vec<String>,
     pub definitions: BTreeMap<String, String>,
+    /// Only with a turned root: the turn about its axis (counter-clockwise
+    /// seen from the aorta; 0: the right-coronary sinus faces anterior).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub root_rotation_deg: Option<f64>,
     /// Only with a tilted annulus: its tilt and both planes.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub annulus_tilt_deg: Option<f64>,

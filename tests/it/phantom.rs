@@ -118,4 +118,21 @@ fn annulus_tilt_out_of_range_is_refused() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("annulus tilt"), "{}", stderr(&o));
     assert!(!d.join("ct.nii.gz").exists());
+    let o = coapt(&[
+        "phantom",
+        "--root-rotation",
+        "200 deg",
+        "--out",
+        &s(&d),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(
+            "--root-rotation (phantom root rotation) = 200 deg is outside [-180, 180] deg"
+        ),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!d.join("ct.nii.gz").exists());
 }
