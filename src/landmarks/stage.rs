@@ -175,6 +175,55 @@ fn findings(det: &Detection, sources: &[Source], min_confidence: f64) -> Vec<Str
     out
 }
 
+/// The detected commissures' angles about the detected axis, C1 to C3
+/// (counter-clockwise, so they bound sectors 0, 1, 2).
+fn commissure_angles(det: &Detection) -> Option<[f64; 3]> {
+    let a: Vec<f64> = ["C1", "C2", "C3"]
+        .iter()
+        .filter_map(|c| {
+            det.points
+                .iter()
+                .find(|p| p.label == *c)?
+                .evidence
+                .get("angle_deg")?
+                .as_f64()
+        })
+        .collect();
+    a.try_into().ok()
+}
+
+/// Angle of `p` about the detected axis (degrees from `e1`).
+fn angle_about_axis(det: &Detection, p: &Point3) -> f64 {
+    let r = p - det.origin_mm;
+    let e2 = det.axis.cross(&det.e1);
+    r.dot(&e2)
+        .atan2(r.dot(&det.e1))
+        .to_degrees()
+        .rem_euclid(360.0)
+}
+
+fn point_of<'a>(det: &'a Detection, label: &str) -> Option<&'a Point3> {
+    det.points
+        .iter()
+        .find(|p| p.label == label)
+        .map(|p| &p.point_mm)
+}
+
+/// Per leaflet k (sewn between the final C_k and C_k+1), the name of the
+/// sinus it is sewn in: the detected sector holding the middle of the arc
+/// between its commissures, whoever placed them.
+fn leaflet_sinuses(det: &Detection) -> Option<Vec<&'static str>> {
+    let sectors = commissure_angles(det)?;
+    (0..3)
+        .map(|k| {
+            let a = angle_about_axis(det, point_of(det, &format!("C{}", k + 1))?);
+            let b = angle_about_axis(det, point_of(det, &format!("C{}", (k + 1) % 3 + 1))?);
+            let mid = a + 0.5 * (b - a).rem_euclid(360.0);
+            Some(det.sinuses.get(ostia::sector_of(mid, &sectors))?.name)
+        })
+        .collect()
+}
+
 /// The words 3D Slicer shows beside a point: what it is, whose sinus, and
 /// whether coapt found it or the user gave it. Sinus k lies between C_k and
 /// C_k+1, so commissure C_k parts sinus k−1 from sinus k. A given point is
@@ -194,33 +243,16 @@ fn describe(label: &str, det: &Detection, sources: &[Source]) -> String {
         .find(|(p, _)| p.label == label);
     let source = found.map_or("detected", |(_, s)| s.name());
     let by_label = label[1..].parse::<usize>().unwrap_or(1).clamp(1, 3) - 1;
-    let commissure_deg: Vec<f64> = ["C1", "C2", "C3"]
-        .iter()
-        .filter_map(|c| {
-            det.points
-                .iter()
-                .find(|p| p.label == *c)?
-                .evidence
-                .get("angle_deg")?
-                .as_f64()
-        })
-        .collect();
-    let k = match (found, commissure_deg.as_slice()) {
-        (Some((p, Source::Given { .. })), &[a, b, c]) => {
-            let r = p.point_mm - det.origin_mm;
-            let e2 = det.axis.cross(&det.e1);
-            let deg = r
-                .dot(&e2)
-                .atan2(r.dot(&det.e1))
-                .to_degrees()
-                .rem_euclid(360.0);
+    let k = match (found, commissure_angles(det)) {
+        (Some((p, Source::Given { .. })), Some(sectors)) => {
+            let deg = angle_about_axis(det, &p.point_mm);
             if label.starts_with('C') {
                 let off = |x: f64| ((deg - x + 540.0).rem_euclid(360.0) - 180.0).abs();
                 (0..3)
-                    .min_by(|&i, &j| off([a, b, c][i]).total_cmp(&off([a, b, c][j])))
+                    .min_by(|&i, &j| off(sectors[i]).total_cmp(&off(sectors[j])))
                     .unwrap_or(by_label)
             } else {
-                ostia::sector_of(deg, &[a, b, c])
+                ostia::sector_of(deg, &sectors)
             }
         }
         _ => by_label,
@@ -340,6 +372,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             }
         }
         m.insert("findings".into(), json!(found));
+        m.insert("leaflet_sinuses".into(), json!(leaflet_sinuses(&det)));
         m.insert(
             "timings_s".into(),
             json!({"read": read_s, "detect": detect_s}),

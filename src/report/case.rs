@@ -84,6 +84,7 @@ pub fn build(s: &Sources) -> Json {
             "findings": d["findings"],
             "sinuses": d["sinuses"],
             "sinus_naming": d["sinus_naming"],
+            "leaflet_sinuses": d["leaflet_sinuses"],
         }),
         (None, Some(p)) => json!({"source": "given", "file": p.display().to_string()}),
         (None, None) => Json::Null,

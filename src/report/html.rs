@@ -1372,10 +1372,19 @@ fn sinus_names(lm: Option<&Value>) -> Option<String> {
             "named by position (no CT searched for the coronary ostia): the sinus facing anterior taken for the right-coronary one"
         }
     };
-    Some(format!(
-        "{}; {how}; leaflet k is sewn in N<i>k</i>'s sinus",
-        each.join(", ")
-    ))
+    let leaflets: Vec<String> = array(lm.and_then(|l| l.get("leaflet_sinuses")))
+        .iter()
+        .map(|n| esc(&text_or(Some(n), DASH).replace('_', "-")))
+        .collect();
+    let sewn = if leaflets.len() == 3 {
+        format!(
+            "; leaflets 1 / 2 / 3 sewn in the {} sinuses",
+            leaflets.join(" / ")
+        )
+    } else {
+        String::new()
+    };
+    Some(format!("{}; {how}{sewn}", each.join(", ")))
 }
 
 #[cfg(test)]

@@ -251,6 +251,9 @@ fn run_on_a_ct_alone_reaches_a_report() {
     assert!(page.contains("<dt>Sinuses</dt><dd>N1 right-coronary (ostium "));
     assert!(page.contains("N2 left-coronary (ostium "));
     assert!(page.contains("N3 non-coronary;"));
+    assert!(page.contains(
+        "leaflets 1 / 2 / 3 sewn in the right-coronary / left-coronary / non-coronary sinuses"
+    ));
     assert!(page.contains("named by the coronary ostia seen in the CT"));
     // 3D Slicer shows each point's sinus beside it; the file still reads.
     let mrk = std::fs::read_to_string(run.join("landmarks.mrk.json")).unwrap();
@@ -613,4 +616,14 @@ fn real_ct_within_3_mm_of_the_hand_placed_points() {
     assert!(description("N2").starts_with("nadir of the non-coronary sinus (given"));
     assert!(description("N3").starts_with("nadir of the right-coronary sinus (given"));
     assert!(description("C1").contains("between the right-coronary and left-coronary"));
+    // Leaflet k is sewn between that file's C_k and C_k+1: its sinus by
+    // where they lie (with the detected points: right, left, non).
+    assert_eq!(
+        json(&d.join("given.json"))["leaflet_sinuses"],
+        serde_json::json!(["left_coronary", "non_coronary", "right_coronary"])
+    );
+    assert_eq!(
+        rep["leaflet_sinuses"],
+        serde_json::json!(["right_coronary", "left_coronary", "non_coronary"])
+    );
 }
