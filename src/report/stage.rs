@@ -534,6 +534,13 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         v,
         &coapt.node_mask,
     ));
+    // Only as wired by the runner or given: a landmarks.json left in the
+    // run directory by an earlier run without landmarks does not make
+    // given points "detected".
+    let detection = match io.input("landmarks_report") {
+        Some(p) => Some(read_json(p)?),
+        None => None,
+    };
     let ct_path = optional_input(io, run_dir, "ct");
     if let Some(ct_path) = &ct_path {
         let ct = volume_file::read_ct(ct_path)?;
@@ -541,10 +548,11 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             Some(p) => Some(nifti::read_u8(&p)?),
             None => None,
         };
-        let points: Vec<(String, Point3)> = match optional_input(io, run_dir, "landmarks") {
+        let mut points: Vec<(String, Point3)> = match optional_input(io, run_dir, "landmarks") {
             Some(p) => markups::read(&p)?.points,
             None => Vec::new(),
         };
+        points.extend(ostia_of(detection.as_ref()));
         let paths: Vec<Vec<Point3>> = match optional_input(io, run_dir, "paths") {
             Some(p) => {
                 let pd = vtp::read(&p)?;
@@ -663,13 +671,6 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         parameters: Json::Object(parameters),
     };
     let mut doc = document::build(&m, &crit, &verdict, &finds, &ctx);
-    // Only as wired by the runner or given: a landmarks.json left in the
-    // run directory by an earlier run without landmarks does not make
-    // given points "detected".
-    let detection = match io.input("landmarks_report") {
-        Some(p) => Some(read_json(p)?),
-        None => None,
-    };
     let case = case::build(&case::Sources {
         run_dir,
         landmarks: optional_input(io, run_dir, "landmarks").as_deref(),
@@ -702,4 +703,50 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         "refined_triangles": coapt.refined_triangles,
         "figures": figs.len(),
     }))
+}
+
+/// The coronary ostia the landmarks stage found, as labelled points for the
+/// CT figure ("RCA", "LCA").
+fn ostia_of(detection: Option<&Json>) -> Vec<(String, Point3)> {
+    let Some(sinuses) = detection.and_then(|d| d["sinuses"].as_array()) else {
+        return Vec::new();
+    };
+    sinuses
+        .iter()
+        .filter_map(|s| {
+            let label = match s["name"].as_str()? {
+                "right_coronary" => "RCA",
+                "left_coronary" => "LCA",
+                _ => return None,
+            };
+            let p: Vec<f64> = s["ostium"]["point_mm"]
+                .as_array()?
+                .iter()
+                .filter_map(Json::as_f64)
+                .collect();
+            (p.len() == 3).then(|| (label.to_string(), Point3::new(p[0], p[1], p[2])))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The CT figure gets a point per ostium found, named by its artery;
+    /// no ostium, no sinuses or no landmarks report gives none.
+    #[test]
+    fn ostia_become_labelled_points_of_the_ct_figure() {
+        let det = json!({"sinuses": [
+            {"nadir": "N1", "name": "right_coronary", "ostium": {"point_mm": [1.0, 2.0, 3.0]}},
+            {"nadir": "N2", "name": "left_coronary", "ostium": null},
+            {"nadir": "N3", "name": "non_coronary", "ostium": null},
+        ]});
+        assert_eq!(
+            ostia_of(Some(&det)),
+            vec![("RCA".to_string(), Point3::new(1.0, 2.0, 3.0))]
+        );
+        assert!(ostia_of(Some(&json!({"points": []}))).is_empty());
+        assert!(ostia_of(None).is_empty());
+    }
 }

@@ -97,7 +97,8 @@ pub fn ct_check(
         "CT (window {} to {} HU) on three planes through the valve at mid-height between the annulus and the \
          commissures: short axis seen from the aorta (C1 up), and long axes through C1 and perpendicular to it \
          (flow axis up). Yellow: segmentation contour; green: suture paths (solid within ±{SLAB_MM} mm of \
-         the plane, thin beyond); pink: landmarks; blue dashes: the annulus plane and the other planes.",
+         the plane, thin beyond); pink: landmarks (and the coronary ostia, RCA and \
+         LCA, where coapt found them); blue dashes: the annulus plane and the other planes.",
         WINDOW.0, WINDOW.1
     );
     if mask.is_none() {
