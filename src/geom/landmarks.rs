@@ -3,6 +3,11 @@
 use super::{Frame, Point3};
 use crate::{Error, Result};
 
+/// Sinus names, in the order sinus k lies between commissures C_k and
+/// C_k+1 (counter-clockwise about the valve axis seen from the aorta): the
+/// phantom's convention, and the one the landmarks stage labels by.
+pub const SINUS_NAMES: [&str; 3] = ["right_coronary", "left_coronary", "non_coronary"];
+
 /// Labelled points in one frame. Readers return them in LPS.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Landmarks {

@@ -30,6 +30,7 @@ use serde::Serialize;
 use super::angular::{self, SAMPLES};
 use super::lumen_rays::LumenProbe;
 use super::ostia::{self, NamedBy, Ostium, RootFrame};
+use crate::geom::landmarks::SINUS_NAMES;
 use crate::geom::{Point3, Vector3, Volume};
 
 /// Height of the commissures below the STJ (mm). The mean-radius minimum
@@ -151,10 +152,6 @@ pub struct SinusNaming {
     pub threshold_hu: Option<f64>,
     pub other_patches: usize,
 }
-
-/// Sinus names in the order the labels take them from the right-coronary
-/// sinus counter-clockwise about the axis (the phantom's sinus 1, 2, 3).
-pub const SINUS_NAMES: [&str; 3] = ["right_coronary", "left_coronary", "non_coronary"];
 
 /// Unit vectors (u, v) completing the unit `n` to a right-handed frame.
 fn basis(n: &Vector3) -> (Vector3, Vector3) {

@@ -13,9 +13,7 @@ use crate::geom::{Matrix3, Point3, Vector3};
 use crate::rng::SplitMix64;
 use crate::{Error, Result};
 
-/// Sinus names, in the order sinus k lies between commissures C_k and C_{k+1}
-/// (counter-clockwise about the valve axis seen from the aorta).
-pub const SINUS_NAMES: [&str; 3] = ["right_coronary", "left_coronary", "non_coronary"];
+pub use crate::geom::landmarks::SINUS_NAMES;
 
 /// Nominal annulus centre in world LPS (mm): a typical scanner position of
 /// the aortic valve, deliberately far from the origin.
