@@ -36,7 +36,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::geom::{Landmarks, Point3, Volume, resample};
+use crate::geom::{Landmarks, Point3, Vector3, Volume, resample};
 use crate::{Error, Result};
 use hough::HoughParams;
 use track::{TrackPoint, annulus_values, median, slice_f32};
@@ -161,6 +161,13 @@ const ASCENDING_ABOVE_MM: f64 = 40.0;
 /// Height above the highest commissure (mm, head–feet) where the region of
 /// interest ends when the commissures are known.
 const ASCENDING_TOP_MM: f64 = 60.0;
+/// Without commissure landmarks they are taken this far above the VAJ
+/// plane (mm, head–feet): adult commissures stand 15–22 mm above the
+/// annulus.
+const COMMISSURES_ABOVE_VAJ_MM: f64 = 20.0;
+/// A point this far up the VAJ plane's normal from its centre is in the
+/// root (mm): the kept voxel nearest to it holds the part that stays.
+const ROOT_PROBE_MM: f64 = 5.0;
 /// How far the lumen is followed from the commissures' anchor (mm of path):
 /// the ascending aorta is 50–90 mm long before the arch.
 const ANCHORED_REACH_MM: f64 = 90.0;
@@ -261,6 +268,10 @@ pub struct Topology {
     pub euler: i64,
     pub trimmed_above_commissures_mm: Option<f64>,
     pub euler_after_trim: Option<i64>,
+    /// Without commissures: the height (LPS z, mm) above which the lumen
+    /// was cut, where a mask from the landmarks ends (the arch and the
+    /// descending aorta of a chest CT are not the root's).
+    pub cut_above_z_mm: Option<f64>,
 }
 
 /// The mask against a tube of the tracked radius, for `segment.json`.
@@ -655,27 +666,73 @@ pub fn segment(
         let sub = morphology::SubBox::around(m, dims, [1, 1, 1]);
         euler::euler_characteristic(&sub.extract(m, dims), sub.dims())
     };
+    // The voxel that holds the part kept when the lumen is cut above the
+    // root: the seed may lie above the cut (without landmarks it is found on
+    // an axial level below the arch, 80 mm above the clinical phantom's VAJ).
+    let root_voxel = |keep: &[bool], pl: &vaj::Plane| {
+        let probe = Point3::from(pl.point_mm) + Vector3::from(pl.normal) * ROOT_PROBE_MM;
+        (0..n).filter(|&v| keep[v]).min_by(|&a, &b| {
+            (world(a) - probe)
+                .norm_squared()
+                .total_cmp(&(world(b) - probe).norm_squared())
+                .then(a.cmp(&b))
+        })
+    };
     let mut topology = Topology {
         euler: euler_of(&keep),
         trimmed_above_commissures_mm: None,
         euler_after_trim: None,
+        cut_above_z_mm: None,
     };
     // Without commissures they are taken 20 mm above the VAJ plane (adult
     // commissures stand 15–22 mm above the annulus).
     let commissure_top = match (&commissures3, vaj_report.plane.as_ref()) {
         (Some(c), _) => Some(c.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max)),
-        (None, Some(pl)) => Some(pl.point_mm[2] + 20.0),
+        (None, Some(pl)) => Some(pl.point_mm[2] + COMMISSURES_ABOVE_VAJ_MM),
         (None, None) => None,
     };
     if let (Some(top), true) = (commissure_top, topology.euler != 1) {
+        let from = vaj_report
+            .plane
+            .as_ref()
+            .and_then(|pl| root_voxel(&keep, pl))
+            .filter(|&v| world(v).z <= top + TRIM_ABOVE_MM)
+            .unwrap_or(ground);
         for (v, kv) in keep.iter_mut().enumerate() {
             if *kv && world(v).z > top + TRIM_ABOVE_MM {
                 *kv = false;
             }
         }
-        keep = morphology::flood_fill(&keep, dims, ground);
+        keep = morphology::flood_fill(&keep, dims, from);
         topology.trimmed_above_commissures_mm = Some(TRIM_ABOVE_MM);
         topology.euler_after_trim = Some(euler_of(&keep));
+    }
+    // Without commissures the lumen holds all the threshold reached: on a
+    // chest CT the arch and the descending aorta (clinical phantom: 132 ml,
+    // where the root and ascending aorta are 43 ml), whose far side a plane
+    // through the annulus also cuts, so the landmarks stage found the
+    // annulus centre between the root and the descending aorta. It is cut
+    // where a mask from the landmarks ends (the work box stops
+    // [`ASCENDING_TOP_MM`] above the highest commissure), with the
+    // commissures taken [`COMMISSURES_ABOVE_VAJ_MM`] above the VAJ, and what
+    // the cut parts from the root is dropped.
+    if let (None, Some(pl), Some(top)) = (&commissures3, vaj_report.plane.as_ref(), commissure_top)
+    {
+        let cut = top + ASCENDING_TOP_MM;
+        if let Some(root) = root_voxel(&keep, pl).filter(|&v| world(v).z < cut)
+            && keep
+                .iter()
+                .enumerate()
+                .any(|(v, &kv)| kv && world(v).z > cut)
+        {
+            for (v, kv) in keep.iter_mut().enumerate() {
+                if *kv && world(v).z > cut {
+                    *kv = false;
+                }
+            }
+            keep = morphology::flood_fill(&keep, dims, root);
+            topology.cut_above_z_mm = Some(cut);
+        }
     }
     let final_n = keep.iter().filter(|&&v| v).count();
     vaj_report.removed_ml = (opened_n.saturating_sub(final_n)) as f64 * vox_ml;

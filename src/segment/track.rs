@@ -254,6 +254,32 @@ fn judge_level(ct: &Volume<i16>, k: usize, hp: &HoughParams) -> Level {
     }
 }
 
+fn near_bone(w: &Point3, bone: &[(f64, f64)]) -> bool {
+    bone.iter()
+        .any(|&(x, y)| (w.x - x).hypot(w.y - y) <= SAME_VESSEL_MM)
+}
+
+/// Takes out of `level`'s lumens those at a place judged bone-rimmed on
+/// some level, and says so in their candidates' verdicts.
+fn drop_bone_columns(level: &mut Level, bone: &[(f64, f64)]) {
+    let (keep, gone): (Vec<_>, Vec<_>) = level
+        .lumens
+        .drain(..)
+        .partition(|(w, _)| !near_bone(w, bone));
+    level.lumens = keep;
+    for (w, _) in gone {
+        if let Some(c) = level
+            .candidates
+            .iter_mut()
+            .find(|c| c.centre_mm == [w.x, w.y, w.z])
+        {
+            c.verdict =
+                "bright inside, but bone-rimmed at this place on another level: a vertebral body"
+                    .into();
+        }
+    }
+}
+
 /// Find the ascending aorta on the highest axial level that shows it and
 /// track it toward the root.
 ///
@@ -281,9 +307,31 @@ pub fn find_aorta(ct: &Volume<i16>, hp: &HoughParams) -> Result<Found> {
     let mut first_at = 0;
     let mut chosen: Option<(Level, usize, String)> = None;
     let mut n = 0;
+    // Where a circle was judged bone-rimmed: a vertebral body's inside
+    // (cancellous bone, 200–400 HU) passes for contrast on levels where its
+    // cortical rim is thin, and it lies at the same place on every level.
+    let mut bone: Vec<(f64, f64)> = Vec::new();
     while let Some(k) = level_k(n) {
         n += 1;
-        let level = judge_level(ct, k, hp);
+        let mut level = judge_level(ct, k, hp);
+        bone.extend(
+            level
+                .candidates
+                .iter()
+                .filter(|c| c.verdict.contains("bone"))
+                .map(|c| (c.centre_mm[0], c.centre_mm[1])),
+        );
+        drop_bone_columns(&mut level, &bone);
+        if first
+            .as_ref()
+            .is_some_and(|one| near_bone(&one.lumens[0].0, &bone))
+        {
+            // The single lumen above was a vertebral body after all: look
+            // on, as if it had not been seen.
+            let mut one = first.take().expect("checked");
+            drop_bone_columns(&mut one, &bone);
+            searched.push(one);
+        }
         if let Some(one) = &first {
             if k.abs_diff(one.k) > lookahead {
                 searched.push(level);

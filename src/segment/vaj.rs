@@ -140,6 +140,8 @@ pub(super) const KNEE_SPAN: usize = 2;
 const MIN_STATIONS: usize = 15;
 /// A sinus must rise at least this much above the plateau to be believed.
 pub(super) const SINUS_RISE: f64 = 0.15;
+/// Relative dip the walk up to the sinus' top crosses (see [`judge`]).
+const SHELF: f64 = 0.01;
 /// The march stops where a section falls below this share of the median so
 /// far (the end of the region) or after this length.
 const END_FRACTION: f64 = 0.5;
@@ -367,10 +369,14 @@ pub fn judge(area: &[f64], w: f64) -> Option<(Option<usize>, f64)> {
         });
     let top = match rise {
         // The sinus' top: up from the rise while the lumen widens (5-station
-        // mean, so section noise does not stop the walk on the flank).
+        // mean, so section noise does not stop the walk on the flank), over
+        // shelves flat to within [`SHELF`]: the clinical phantom's LVOT
+        // narrows again 2–7 mm below the annulus, and the walk stopped on
+        // the flat top of that step (402.6 against 402.8 mm²), so the knee
+        // was read below it, 11 mm under the annulus.
         Some(rise) => {
             let mut top = rise;
-            while top > s0 && wide[top - 1] >= wide[top] {
+            while top > s0 && wide[top - 1] >= wide[top] * (1.0 - SHELF) {
                 top -= 1;
             }
             top

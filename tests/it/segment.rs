@@ -106,10 +106,11 @@ fn a_volume_without_a_bright_circle_is_refused() {
 /// The clinical phantom (1.5 mm, arch and descending aorta in view, native
 /// cusps closed, annulus tilted 20°): from its landmarks the root is found
 /// (Dice ≥ 0.98 against the truth, which ends below the arch), and without
-/// them the only circular lumen on the axial levels is the descending
-/// aorta beside the spine: refused, never segmented as the aorta.
+/// them too (Dice ≥ 0.96): the vertebral body, whose inside passes for
+/// contrast on the levels where its rim is thin, is not taken for a lumen,
+/// and the arch and descending aorta the lumen reaches are cut off.
 #[test]
-fn clinical_phantom_from_landmarks_and_no_wrong_vessel_without() {
+fn clinical_phantom_with_and_without_landmarks() {
     let d = tmpdir("segment-clinical");
     let p = d.join("p");
     let o = coapt(&[
@@ -137,29 +138,32 @@ fn clinical_phantom_from_landmarks_and_no_wrong_vessel_without() {
     let top = json(&p.join("truth.json"))["top_cap_z_mm"]
         .as_f64()
         .unwrap();
-    let mask = nifti::read_u8(&out).unwrap();
-    // Dice on the truth's grid below the plane where its region ends.
-    let dt = truth.dims();
-    let (mut both, mut a, mut b) = (0usize, 0usize, 0usize);
-    for k in 0..dt[2] {
-        for j in 0..dt[1] {
-            for i in 0..dt[0] {
-                let w = truth.index_to_world([i as f64, j as f64, k as f64]);
-                if w.z > top {
-                    continue;
+    // Dice on the truth's grid below the plane where its region ends (the
+    // descending aorta runs on below it: a mask holding it scores low).
+    let dice_below_top = |mask: &Volume<u8>| {
+        let dt = truth.dims();
+        let (mut both, mut a, mut b) = (0usize, 0usize, 0usize);
+        for k in 0..dt[2] {
+            for j in 0..dt[1] {
+                for i in 0..dt[0] {
+                    let w = truth.index_to_world([i as f64, j as f64, k as f64]);
+                    if w.z > top {
+                        continue;
+                    }
+                    let q = mask.world_to_index(&w).map(|x| x.round());
+                    let md = mask.dims();
+                    let m = (0..3).all(|x| q[x] >= 0.0 && q[x] < md[x] as f64)
+                        && mask[[q[0] as usize, q[1] as usize, q[2] as usize]] > 0;
+                    let t = truth[[i, j, k]] > 0;
+                    both += (m && t) as usize;
+                    a += t as usize;
+                    b += m as usize;
                 }
-                let q = mask.world_to_index(&w).map(|x| x.round());
-                let md = mask.dims();
-                let m = (0..3).all(|x| q[x] >= 0.0 && q[x] < md[x] as f64)
-                    && mask[[q[0] as usize, q[1] as usize, q[2] as usize]] > 0;
-                let t = truth[[i, j, k]] > 0;
-                both += (m && t) as usize;
-                a += t as usize;
-                b += m as usize;
             }
         }
-    }
-    let below = 2.0 * both as f64 / (a + b) as f64;
+        2.0 * both as f64 / (a + b) as f64
+    };
+    let below = dice_below_top(&nifti::read_u8(&out).unwrap());
     assert!(below >= 0.98, "Dice {below:.4} below the truth's end plane");
     let free = d.join("free.nii.gz");
     let o = coapt(&[
@@ -170,16 +174,10 @@ fn clinical_phantom_from_landmarks_and_no_wrong_vessel_without() {
         &s(&free),
         "--quiet",
     ]);
-    if o.status.code() == Some(0) {
-        let m = nifti::read_u8(&free).unwrap();
-        let dc = dice(&m, &truth);
-        assert!(
-            dc >= 0.9,
-            "segmented without landmarks with Dice {dc:.3}: the wrong vessel"
-        );
-    } else {
-        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-        assert!(stderr(&o).contains("descending aorta"), "{}", stderr(&o));
-        assert!(!free.exists());
-    }
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let below = dice_below_top(&nifti::read_u8(&free).unwrap());
+    assert!(
+        below >= 0.96,
+        "without landmarks: Dice {below:.4} below the truth's end plane"
+    );
 }
