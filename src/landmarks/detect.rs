@@ -65,6 +65,18 @@ const AXIS_ITERS: usize = 8;
 /// left the real CT's mask through that staircase 4–10 mm short of the
 /// wall.
 const NADIR_LIFT_MM: f64 = 1.0;
+/// How far the wall at a nadir's angle widens between [`NADIR_LIFT_MM`]
+/// and this height above the annulus plane (mm) says whether the sinus
+/// begins there. At a nadir the sinus bulge starts: 1.5–3.5 mm on the
+/// sample and standard phantoms from their CT (nadirs within 1.2 mm of
+/// the plane). Where the plane lies under the sinus floor the wall there
+/// is still the LVOT's and widens 0–0.5 mm: on the clinical phantom from
+/// its CT alone, whose VAJ plane is square to the aorta but whose nadirs
+/// are tilted 20° to it, the nadirs 2.6–6.1 mm above the plane.
+const FLOOR_PROBE_MM: f64 = 4.0;
+/// A widening of this much (mm) up to [`FLOOR_PROBE_MM`] is a sure sinus
+/// floor; less lowers the nadir's confidence in proportion.
+const FLOOR_RISE_MM: f64 = 1.5;
 /// The annulus centre is the centroid of the lumen between these heights
 /// above the annulus plane (mm), put back onto the plane: the first
 /// millimetre alone, cut in steps by a tilted plane, put the real CT's
@@ -522,9 +534,15 @@ pub fn detect(
             sinus_deg[k]
         ))?;
         let off_mid = ((sinus_deg[k] - mid + 540.0).rem_euclid(360.0) - 180.0).abs();
+        let floor_rise = probe
+            .exit(&(o + n0 * FLOOR_PROBE_MM), &dp, REACH_MM)
+            .map(|r4| r4 - rr);
         // A clear lobe (≥ 1.5 mm over its pillars) whose maximum lies near
-        // the middle of its sector is a sure sinus; a lopsided one less so.
-        let conf = (lobe_mm[k] / 1.5).clamp(0.0, 1.0) * (1.0 - off_mid / 45.0).clamp(0.0, 1.0);
+        // the middle of its sector is a sure sinus; a lopsided one less so;
+        // and a wall that does not widen above the point is no sinus floor.
+        let conf = (lobe_mm[k] / 1.5).clamp(0.0, 1.0)
+            * (1.0 - off_mid / 45.0).clamp(0.0, 1.0)
+            * floor_rise.map_or(0.0, |w| (w / FLOOR_RISE_MM).clamp(0.0, 1.0));
         points.push(Found {
             label: format!("N{}", j + 1),
             point_mm: o + dp * rr,
@@ -535,6 +553,7 @@ pub fn detect(
                 "off_middle_deg": off_mid,
                 "lobe_mm": lobe_mm[k],
                 "radius_mm": rr,
+                "floor_rise_mm": floor_rise,
             }),
         });
     }

@@ -248,6 +248,17 @@ fn run_on_a_ct_alone_reaches_a_report() {
     let found = json(&run.join("landmarks.json"));
     let truth = json(&sd.join("truth.json"));
     ostia_match_truth(&found, &truth, 1.0);
+    // Every nadir sits on a sinus floor (the wall widens 2.0–2.1 mm in the
+    // first 3 mm above it): no point is flagged.
+    assert!(
+        !found["findings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|f| f.as_str().unwrap().contains("low confidence")),
+        "{}",
+        found["findings"]
+    );
     assert!(page.contains("<dt>Sinuses</dt><dd>N1 right-coronary (ostium "));
     assert!(page.contains("N2 left-coronary (ostium "));
     assert!(page.contains("N3 non-coronary;"));
@@ -332,7 +343,7 @@ fn landmarks_of_phantom(d: &Path, args: &[&str]) -> (serde_json::Value, serde_js
 /// untilted phantoms' bounds (measured: commissures 2.0–2.9 mm, nadirs
 /// 1.4–5.3 mm): segment's VAJ plane is square to the marched centreline,
 /// 20° from the nadirs' plane, so the nadirs sit 3.5 mm below to 5.1 mm
-/// above it.
+/// above it; the one far above it is flagged.
 #[test]
 fn clinical_phantom_ct_alone_reaches_a_report() {
     let d = tmpdir("lm-run-clinical");
@@ -371,6 +382,28 @@ fn clinical_phantom_ct_alone_reaches_a_report() {
         let bound = if l.starts_with('C') { 3.5 } else { 6.0 };
         assert!(*e <= bound, "{l}: {e:.2} mm > {bound} mm ({dist:?})");
     }
+    // N1, 5.1 mm above that plane in truth, is read on the LVOT's straight
+    // wall (measured: it widens 0.0 mm up to 4 mm above the plane), and
+    // says so: a finding, not a silent guess.
+    let lm = json(&run.join("landmarks.json"));
+    let n1 = lm["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["label"] == "N1")
+        .unwrap();
+    assert!(
+        n1["evidence"]["floor_rise_mm"].as_f64().unwrap() < 0.75,
+        "{n1}"
+    );
+    assert!(
+        lm["findings"].as_array().unwrap().iter().any(|f| f
+            .as_str()
+            .unwrap()
+            .starts_with("N1 detected with low confidence")),
+        "{}",
+        lm["findings"]
+    );
 }
 
 /// The clinical phantom (arch, native cusps, tilted annulus) of seed 2,
