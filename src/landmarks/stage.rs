@@ -165,6 +165,12 @@ fn findings(det: &Detection, sources: &[Source], min_confidence: f64) -> Vec<Str
         );
     }
     for (p, s) in det.points.iter().zip(sources) {
+        if let (Some(h), Source::Detected) = (p.evidence["lifted_mm"].as_f64(), s) {
+            out.push(format!(
+                "{} lies {h:.1} mm above the annulus plane: the wall at its angle widens into the sinus only from there, so the annulus is tilted to that plane (segment's VAJ plane, or the mask's lowest cut); check N1–N3 in 3D Slicer",
+                p.label
+            ));
+        }
         if p.confidence < min_confidence && *s == Source::Detected {
             out.push(format!(
                 "{} detected with low confidence {:.2} (< {min_confidence}): check it in 3D Slicer ({})",

@@ -341,9 +341,10 @@ fn landmarks_of_phantom(d: &Path, args: &[&str]) -> (serde_json::Value, serde_js
 /// segment finds the root, cuts off the arch and the descending aorta, and
 /// the chain reaches an honest report. The points are not within the
 /// untilted phantoms' bounds (measured: commissures 2.0–2.9 mm, nadirs
-/// 1.4–5.3 mm): segment's VAJ plane is square to the marched centreline,
+/// 1.4–4.3 mm): segment's VAJ plane is square to the marched centreline,
 /// 20° from the nadirs' plane, so the nadirs sit 3.5 mm below to 5.1 mm
-/// above it; the one far above it is flagged.
+/// above it; the one far above goes up onto its sinus floor, the one below
+/// stays on the cut.
 #[test]
 fn clinical_phantom_ct_alone_reaches_a_report() {
     let d = tmpdir("lm-run-clinical");
@@ -379,12 +380,13 @@ fn clinical_phantom_ct_alone_reaches_a_report() {
     let dist = distances(&truth, &found);
     eprintln!("clinical CT alone: {dist:?}");
     for (l, e) in &dist {
-        let bound = if l.starts_with('C') { 3.5 } else { 6.0 };
+        let bound = if l.starts_with('C') { 3.5 } else { 4.5 };
         assert!(*e <= bound, "{l}: {e:.2} mm > {bound} mm ({dist:?})");
     }
-    // N1, 5.1 mm above that plane in truth, is read on the LVOT's straight
-    // wall (measured: it widens 0.0 mm up to 4 mm above the plane), and
-    // says so: a finding, not a silent guess.
+    // N1, 5.1 mm above that plane in truth, would be read on the LVOT's
+    // straight wall (measured: it widens 0.0 mm up to 4 mm above the
+    // plane); it goes up onto its sinus floor (measured 4.0 mm up, 1.87 mm
+    // from the truth) and says so: a finding, not a silent guess.
     let lm = json(&run.join("landmarks.json"));
     let n1 = lm["points"]
         .as_array()
@@ -396,11 +398,14 @@ fn clinical_phantom_ct_alone_reaches_a_report() {
         n1["evidence"]["floor_rise_mm"].as_f64().unwrap() < 0.75,
         "{n1}"
     );
+    let lifted = n1["evidence"]["lifted_mm"].as_f64().unwrap();
+    assert!((2.5..=6.0).contains(&lifted), "{n1}");
     assert!(
-        lm["findings"].as_array().unwrap().iter().any(|f| f
-            .as_str()
+        lm["findings"]
+            .as_array()
             .unwrap()
-            .starts_with("N1 detected with low confidence")),
+            .iter()
+            .any(|f| f.as_str().unwrap().starts_with("N1 lies")),
         "{}",
         lm["findings"]
     );
