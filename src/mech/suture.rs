@@ -304,6 +304,22 @@ impl Wall {
 /// b points out of the leaflet: along the wall tangent ⊥ e away from the
 /// middle of the leaflet's lug corners (the leaflet hangs from its suture
 /// line towards the chord between its commissures).
+///
+/// That test alone is marginal on a real root: where the suture line
+/// crosses a tilted or bumpy stretch of wall, b runs nearly square to the
+/// way to the lugs (real CT, default template: |b_in · lugs| median 0.27
+/// over the 312 sutured triangles), and 48 of them got the b of the other
+/// side. Sewing turns a triangle onto whichever side its b names, so most
+/// of them were laid on the wall folded back; one, where the wall normal
+/// stood 52° off the radius, could not be and held max sin φ at 0.76
+/// through ten doublings of K (Algorithm 1 stalled after 22 s of a 35 s
+/// closure). A leaflet is one oriented sheet, so sewn onto the wall its
+/// triangles all face the same way: the sewn normal ê × b_in has one sign
+/// against the (consistently oriented) wall normal along the whole suture
+/// line. Each leaflet's sign is the lug test's vote weighted by how
+/// clearly it decides, and the triangles against it take the other b (on
+/// the real CT the suturing then meets ε_sew in 8 s; on the sample no b
+/// changes).
 pub fn sutured_triangles(l: &Leaflets, wall: &Wall) -> Result<Vec<SuturedTri>, String> {
     let n_leaflets = l.leaflet.iter().map(|&k| k as usize + 1).max().unwrap_or(0);
     let corners = closure::corners(l);
@@ -319,7 +335,9 @@ pub fn sutured_triangles(l: &Leaflets, wall: &Wall) -> Result<Vec<SuturedTri>, S
         m.0 += l.x[c as usize];
         m.1 += 1.0;
     }
-    let mut out = Vec::new();
+    // Per candidate: (leaflet, a, b, c, b_in, sign of the sewn face, how
+    // clearly the lugs chose b_in).
+    let mut found = Vec::new();
     for (t, tri) in l.tris.iter().enumerate() {
         let sut = tri.map(|i| l.boundary[i as usize] == 1);
         if sut.iter().filter(|&&s| s).count() != 2 {
@@ -348,7 +366,22 @@ pub fn sutured_triangles(l: &Leaflets, wall: &Wall) -> Result<Vec<SuturedTri>, S
             ));
         }
         b_in = b_in.normalize();
-        if b_in.dot(&(sum / count - m)) < 0.0 {
+        let lugs = (sum / count - m).normalize();
+        if b_in.dot(&lugs) < 0.0 {
+            b_in = -b_in;
+        }
+        let face = e.cross(&b_in).dot(&nw) > 0.0;
+        found.push((l.leaflet[t] as usize, a, b, c, b_in, face, b_in.dot(&lugs)));
+    }
+    // Weighted by how clearly the lugs decide: on a sinus floor that the
+    // wall reaches nearly flat, b runs almost square to the way to the lugs.
+    let mut votes = vec![0.0; n_leaflets];
+    for f in &found {
+        votes[f.0] += if f.5 { f.6 } else { -f.6 };
+    }
+    let mut out = Vec::with_capacity(found.len());
+    for (leaf, a, b, c, mut b_in, face, _) in found {
+        if face != (votes[leaf] >= 0.0) {
             b_in = -b_in;
         }
         let mut st = SuturedTri {

@@ -458,6 +458,17 @@ fn real_ct_chain_runs_to_an_honest_report() {
         (annulus - 27.0).abs() <= 2.0,
         "annulus {annulus:.1} mm across"
     );
+    // Each leaflet is sewn facing one way along its suture line (suture.rs
+    // `sutured_triangles`): with b read off the lugs alone, 48 of its 312
+    // sutured triangles were turned the other way and Algorithm 1 stalled
+    // at max sin φ 0.76.
+    let log = json(&run.join("closure.json"));
+    assert_eq!(
+        log["suturing"]["status"].as_str(),
+        Some("sewn"),
+        "{}",
+        log["suturing"]["reason"]
+    );
     assert_honest_verdict(&run);
 }
 
