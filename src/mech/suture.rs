@@ -300,6 +300,20 @@ impl Wall {
     }
 }
 
+/// A sutured triangle before its leaflet's vote: edge a → b as the mesh
+/// runs it, b_in from the lug test alone.
+struct Candidate {
+    leaflet: usize,
+    a: u32,
+    b: u32,
+    c: u32,
+    b_in: V3,
+    /// The sewn normal ê × b_in points along the wall normal.
+    faces_out: bool,
+    /// b_in · (unit way to the lugs' middle): how clearly the lugs decide.
+    clarity: f64,
+}
+
 /// The sutured triangles of the leaflets: two sutured nodes and a free one.
 /// b points out of the leaflet: along the wall tangent ⊥ e away from the
 /// middle of the leaflet's lug corners (the leaflet hangs from its suture
@@ -335,9 +349,7 @@ pub fn sutured_triangles(l: &Leaflets, wall: &Wall) -> Result<Vec<SuturedTri>, S
         m.0 += l.x[c as usize];
         m.1 += 1.0;
     }
-    // Per candidate: (leaflet, a, b, c, b_in, sign of the sewn face, how
-    // clearly the lugs chose b_in).
-    let mut found = Vec::new();
+    let mut found: Vec<Candidate> = Vec::new();
     for (t, tri) in l.tris.iter().enumerate() {
         let sut = tri.map(|i| l.boundary[i as usize] == 1);
         if sut.iter().filter(|&&s| s).count() != 2 {
@@ -370,24 +382,31 @@ pub fn sutured_triangles(l: &Leaflets, wall: &Wall) -> Result<Vec<SuturedTri>, S
         if b_in.dot(&lugs) < 0.0 {
             b_in = -b_in;
         }
-        let face = e.cross(&b_in).dot(&nw) > 0.0;
-        found.push((l.leaflet[t] as usize, a, b, c, b_in, face, b_in.dot(&lugs)));
-    }
-    // Weighted by how clearly the lugs decide: on a sinus floor that the
-    // wall reaches nearly flat, b runs almost square to the way to the lugs.
-    let mut votes = vec![0.0; n_leaflets];
-    for f in &found {
-        votes[f.0] += if f.5 { f.6 } else { -f.6 };
-    }
-    let mut out = Vec::with_capacity(found.len());
-    for (leaf, a, b, c, mut b_in, face, _) in found {
-        if face != (votes[leaf] >= 0.0) {
-            b_in = -b_in;
-        }
-        let mut st = SuturedTri {
+        found.push(Candidate {
+            leaflet: l.leaflet[t] as usize,
             a,
             b,
             c,
+            b_in,
+            faces_out: e.cross(&b_in).dot(&nw) > 0.0,
+            clarity: b_in.dot(&lugs),
+        });
+    }
+    let mut votes = vec![0.0; n_leaflets];
+    for f in &found {
+        votes[f.leaflet] += if f.faces_out { f.clarity } else { -f.clarity };
+    }
+    let mut out = Vec::with_capacity(found.len());
+    for f in found {
+        let b_in = if f.faces_out == (votes[f.leaflet] >= 0.0) {
+            f.b_in
+        } else {
+            -f.b_in
+        };
+        let mut st = SuturedTri {
+            a: f.a,
+            b: f.b,
+            c: f.c,
             b_out: -b_in,
         };
         if st.sin_phi(&l.x) < 0.0 {
