@@ -301,17 +301,14 @@ impl Wall {
 }
 
 /// A sutured triangle before its leaflet's vote: edge a → b as the mesh
-/// runs it, b_in from the lug test alone.
+/// runs it, and b_in = n_wall × ê, on the side where the sewn triangle
+/// faces along the wall normal.
 struct Candidate {
     leaflet: usize,
     a: u32,
     b: u32,
     c: u32,
     b_in: V3,
-    /// The sewn normal ê × b_in points along the wall normal.
-    faces_out: bool,
-    /// b_in · (unit way to the lugs' middle): how clearly the lugs decide.
-    clarity: f64,
 }
 
 /// The sutured triangles of the leaflets: two sutured nodes and a free one.
@@ -330,8 +327,9 @@ struct Candidate {
 /// closure). A leaflet is one oriented sheet, so sewn onto the wall its
 /// triangles all face the same way: the sewn normal ê × b_in has one sign
 /// against the (consistently oriented) wall normal along the whole suture
-/// line. Each leaflet's sign is the lug test's vote weighted by how
-/// clearly it decides, and the triangles against it take the other b (on
+/// line. Every triangle takes that side of n_wall × ê, and each leaflet's
+/// side is the sum of its triangles' lug tests, each as sure as it is
+/// large (on
 /// the real CT the suturing then meets ε_sew in 8 s; on the sample no b
 /// changes).
 pub fn sutured_triangles(l: &Leaflets, wall: &Wall) -> Result<Vec<SuturedTri>, String> {
@@ -350,6 +348,7 @@ pub fn sutured_triangles(l: &Leaflets, wall: &Wall) -> Result<Vec<SuturedTri>, S
         m.1 += 1.0;
     }
     let mut found: Vec<Candidate> = Vec::new();
+    let mut votes = vec![0.0; n_leaflets];
     for (t, tri) in l.tris.iter().enumerate() {
         let sut = tri.map(|i| l.boundary[i as usize] == 1);
         if sut.iter().filter(|&&s| s).count() != 2 {
@@ -371,34 +370,27 @@ pub fn sutured_triangles(l: &Leaflets, wall: &Wall) -> Result<Vec<SuturedTri>, S
             .normal(&m)
             .ok_or_else(|| format!("no wall near the sutured edge at {m:?}"))?;
         let e = (pb - pa).normalize();
-        let mut b_in = nw.cross(&e);
+        let b_in = nw.cross(&e);
         if !(b_in.norm() > 1e-6) {
             return Err(format!(
                 "sutured edge at {m:?} runs along the wall normal: no tangent to sew it to"
             ));
         }
-        b_in = b_in.normalize();
-        let lugs = (sum / count - m).normalize();
-        if b_in.dot(&lugs) < 0.0 {
-            b_in = -b_in;
-        }
+        let b_in = b_in.normalize();
+        // Each triangle's lug test, b_in · (unit way to the lugs), is its
+        // vote, as sure as it is large.
+        votes[l.leaflet[t] as usize] += b_in.dot(&(sum / count - m).normalize());
         found.push(Candidate {
             leaflet: l.leaflet[t] as usize,
             a,
             b,
             c,
             b_in,
-            faces_out: e.cross(&b_in).dot(&nw) > 0.0,
-            clarity: b_in.dot(&lugs),
         });
-    }
-    let mut votes = vec![0.0; n_leaflets];
-    for f in &found {
-        votes[f.leaflet] += if f.faces_out { f.clarity } else { -f.clarity };
     }
     let mut out = Vec::with_capacity(found.len());
     for f in found {
-        let b_in = if f.faces_out == (votes[f.leaflet] >= 0.0) {
+        let b_in = if votes[f.leaflet] >= 0.0 {
             f.b_in
         } else {
             -f.b_in
