@@ -581,8 +581,7 @@ pub fn close_watched(
         stop: stop.clone(),
         max_step_mm: MAX_STEP_MM,
         max_rejections: 12,
-        ptc: false,
-        reuse_factor: false,
+        ..NewtonOptions::default()
     };
     let suturing = match (sutured, cfg.suture.mode) {
         (Some(s), _) => Some(s.clone()),

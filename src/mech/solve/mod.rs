@@ -7,7 +7,7 @@ mod newton;
 mod relax;
 
 pub use combined::combined;
-pub use newton::{MAX_STEP_GROWTH, NewtonOptions, newton, newton_reusing};
+pub use newton::{MAX_STEP_GROWTH, NONMONOTONE, NewtonOptions, newton, newton_reusing};
 pub use relax::{RelaxOptions, relax};
 
 use serde::Serialize;
