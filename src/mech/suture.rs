@@ -987,6 +987,7 @@ mod tests {
             max_rejections: 12,
             ptc: false,
             reuse_factor: false,
+            nonmonotone: 1,
         };
         let wall = Wall::Cylinder(axis);
         let out = suture(&l, &s, &axis, &wall, &stop, &nopt, None, None).unwrap();

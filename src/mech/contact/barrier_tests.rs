@@ -341,6 +341,7 @@ fn a_pressed_sheet_settles_at_the_closed_form_gap() {
             max_rejections: 12,
             ptc: false,
             reuse_factor: false,
+            nonmonotone: 1,
         },
     );
     assert!(o.converged, "{}", o.reason);

@@ -371,6 +371,7 @@ fn an_edge_pushed_onto_an_edge_is_held_by_the_edge_pair() {
                     max_rejections: 12,
                     ptc: false,
                     reuse_factor: false,
+                    nonmonotone: 1,
                 },
             );
             assert!(o.converged, "{}", o.reason);
