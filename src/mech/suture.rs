@@ -435,9 +435,10 @@ pub enum Status {
 }
 
 /// A stall: three doublings of K that lower max sin φ_T by less than this
-/// fraction. Healthy doublings lower it by 10–30 % each, and three of them
-/// by at least 9 % where the sewing slows on the peer cylinder (h 0.35–1
-/// mm) and 24 % on the sample and the real CT. On a wall bumpy at the
+/// fraction. Most doublings lower it by 10–30 %; where the sewing slows on
+/// the peer cylinder (h 0.35–1 mm) one may lower it by only 3 %, but three
+/// lower it by at least 9 % there and by 24 % on the sample and the real
+/// CT, and the sewing then speeds up again to ε_sew. On a wall bumpy at the
 /// triangle scale (the real CT resampled to 1 mm, its wall meshed at
 /// 0.85 mm) two sutured triangles that share their free node are asked to
 /// lie in tangent planes 20° apart, which no node can do: max sin φ sits at
