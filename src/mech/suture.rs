@@ -468,6 +468,15 @@ pub struct Sutured {
     pub warm_linear_solves: SolveStats,
 }
 
+/// A warm round's Newton may take this many times the first round's
+/// iterations. Warm rounds take 1–15 iterations on the sample, the
+/// phantoms and the real CT, and up to 42 (2.1 times the first round) where
+/// the real CT resampled to 1 and 2 mm reaches its plateau; on the phantom
+/// of `pipelines/phantom.toml` at seed 4 a round at K = 2048 N/mm crept at 7–11 N with steps cut
+/// to 1e-3 for all 300 iterations (81 s of a 112 s pre-stage) before its
+/// fallback ran, and one at 512 N/mm took 169.
+const WARM_NEWTON_PER_FIRST: usize = 3;
+
 fn force_of(tris: &[SuturedTri], k: f64) -> SutureForce {
     SutureForce::new(tris.to_vec(), k)
 }
@@ -480,6 +489,8 @@ fn force_of(tris: &[SuturedTri], k: f64) -> SutureForce {
 /// doubling the solver cannot follow is a stall and the last converged
 /// state is kept (on the real CT resampled to 2 mm, a round at K = 3.4e7
 /// N/mm ran its fallback 300 iterations, 64 s, and did not converge).
+/// The warm Newton itself gets [`WARM_NEWTON_PER_FIRST`] times the first
+/// round's iterations.
 fn solve_round(
     sys: &mut System,
     x: &mut Vec<V3>,
@@ -490,6 +501,7 @@ fn solve_round(
 ) -> Outcome {
     let t0 = Instant::now();
     let mut fallback = stop.clone();
+    let mut tried = 0;
     if let Some(first_iterations) = first {
         let start = x.clone();
         closure::set_projected(sys, false);
@@ -498,7 +510,12 @@ fn solve_round(
             sys,
             x,
             &NewtonOptions {
-                stop: stop.clone(),
+                stop: Stop {
+                    max_iterations: stop
+                        .max_iterations
+                        .min(WARM_NEWTON_PER_FIRST * first_iterations.max(1)),
+                    ..stop.clone()
+                },
                 reuse_factor: true,
                 ..nopt.clone()
             },
@@ -508,6 +525,7 @@ fn solve_round(
             return o;
         }
         *x = start;
+        tried = o.iterations;
         fallback.max_iterations = fallback.max_iterations.min(first_iterations);
     }
     // The fallback gets what the first attempt left of the round's time,
@@ -516,7 +534,10 @@ fn solve_round(
         max_seconds: (stop.max_seconds - t0.elapsed().as_secs_f64()).max(0.0),
         ..fallback
     };
-    closure::newton_with_continuation(sys, x, &left, nopt)
+    // The round's count includes the Newton attempt that failed.
+    let mut o = closure::newton_with_continuation(sys, x, &left, nopt);
+    o.iterations += tried;
+    o
 }
 
 /// ‖R‖ (N) of the auxiliary problem at `x`, `None` when `x` is not
