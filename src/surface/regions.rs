@@ -14,6 +14,17 @@ pub const BORDER_CAP: u8 = 2;
 /// a voxel staircase leaves on the wall (plateaus at the grid-aligned poles)
 /// keep the wall's curvature after smoothing and are refused.
 const MAX_CAP_CURVATURE: f64 = 0.02;
+/// A cut meets the wall at an edge; a flat facet of the wall blends into
+/// it. [`RIM_STEPS`] triangles out from a candidate cap, the wall's normals
+/// lie within about 60–70° of a cut's normal (|cos| 0.33–0.47 on the
+/// real CT's arch cut and the phantoms' VAJ planes, the cut rounded by
+/// smoothing), and within 30° of a facet's (|cos| 0.85–0.90: the flattened
+/// sinus of the phantom of `pipelines/phantom.toml` at seed 7, which ran
+/// from 2 mm above its annulus to its commissures, and two patches of the
+/// real CT's ascending aorta). A facet taken for a cut is not wall: suture paths crossing it
+/// fell back to the nearest wall point and wandered 23° past a commissure.
+const RIM_STEPS: usize = 3;
+const FACET_RIM_COS: f64 = 0.7;
 
 /// Label the triangles of a (smoothed) surface. `on_border` marks vertices
 /// made on edges into the padding; `h` is the voxel size in mm.
@@ -122,6 +133,7 @@ pub fn label(mesh: &TriMesh, on_border: &[bool], h: f64) -> Vec<u8> {
         // Regrow against the plane, across the seeds' 12° limit, so the
         // whole cap up to its rounded rim is labelled.
         let mut stack: Vec<usize> = members.clone();
+        let mut cap = members.clone();
         for &t in &members {
             region[t] = CUT_CAP;
         }
@@ -134,11 +146,50 @@ pub fn label(mesh: &TriMesh, on_border: &[bool], h: f64) -> Vec<u8> {
                     region[u] = CUT_CAP;
                     seen[u] = true;
                     stack.push(u);
+                    cap.push(u);
                 }
+            }
+        }
+        if rim_cos(&cap, &region, &normals, &n, neighbours) > FACET_RIM_COS {
+            for &t in &cap {
+                region[t] = WALL;
             }
         }
     }
     region
+}
+
+/// Mean |n_u · n| over the wall triangles u [`RIM_STEPS`] steps across
+/// edges from the patch `cap` (0 when there are none): near 1 where the
+/// wall carries on in the patch's plane.
+fn rim_cos<I: Iterator<Item = usize>>(
+    cap: &[usize],
+    region: &[u8],
+    normals: &[Vector3],
+    n: &Vector3,
+    neighbours: impl Fn(usize) -> I,
+) -> f64 {
+    let mut step = vec![usize::MAX; region.len()];
+    for &t in cap {
+        step[t] = 0;
+    }
+    let mut front = cap.to_vec();
+    for k in 1..=RIM_STEPS {
+        let mut next = Vec::new();
+        for &t in &front {
+            for u in neighbours(t) {
+                if step[u] == usize::MAX && region[u] == WALL {
+                    step[u] = k;
+                    next.push(u);
+                }
+            }
+        }
+        front = next;
+    }
+    if front.is_empty() {
+        return 0.0;
+    }
+    front.iter().map(|&u| normals[u].dot(n).abs()).sum::<f64>() / front.len() as f64
 }
 
 /// Area-weighted centroid and mean normal of a patch.

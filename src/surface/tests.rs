@@ -442,6 +442,61 @@ fn caps_are_labelled_where_the_mask_was_cut() {
 }
 
 #[test]
+fn a_flat_facet_of_the_wall_is_wall_not_a_cut() {
+    // The tube of the test above with its side flattened, 6 mm off the
+    // axis (r 7 mm), over 8 mm of its length: flat, round and tight like a
+    // cut, but the wall carries on past its rim in nearly its plane (a
+    // sinus flattened against a neighbour on the phantom at seed 7, whose
+    // suture path then fell back off the "cap" and wandered past a
+    // commissure).
+    let h = 0.5;
+    let (nx, nz) = (40usize, 50usize);
+    let axis_c = Point3::new(0.5 * (nx - 1) as f64 * h, 0.5 * (nx - 1) as f64 * h, 0.0);
+    let normal = Vector3::new(0.35, -0.2, -1.0).normalize();
+    let on_plane = Point3::new(axis_c.x, axis_c.y, 6.0);
+    let (radius, flat, z_flat) = (7.0, 6.0, (12.0, 20.0));
+    let vol = sampled([nx, nx, nz], scaled(h), |p| {
+        let d = p - axis_c;
+        let flattened = p.z > z_flat.0 && p.z < z_flat.1 && d.x > flat;
+        let inside = d.x.hypot(d.y) < radius && !flattened && (p - on_plane).dot(&normal) < 0.0;
+        inside as u8 as f64
+    })
+    .map(|&x| x as u8);
+    let (m, _) = surface_from_mask(&vol, &SurfaceParams::default()).unwrap();
+    let region = region_of(&m);
+    let normals = m.face_normals();
+    let (mut facet, mut facet_cap, mut cut) = (0.0, 0.0, 0.0);
+    for t in 0..m.triangles.len() {
+        let a = m.area(t);
+        let n = normals[t].normalize();
+        let ctr = m.corners(t).iter().map(|p| p.coords).sum::<Vector3>() / 3.0;
+        let on_facet = n.x > 0.95
+            && (ctr.x - axis_c.x - flat).abs() < h
+            && ctr.z > z_flat.0 + 1.0
+            && ctr.z < z_flat.1 - 1.0;
+        if on_facet {
+            facet += a;
+            if region[t] != regions::WALL {
+                facet_cap += a;
+            }
+        }
+        if region[t] == regions::CUT_CAP {
+            cut += a;
+        }
+    }
+    let ellipse = std::f64::consts::PI * radius * radius / normal.z.abs();
+    assert!(facet > 20.0, "the facet is {facet} mm²");
+    assert!(
+        facet_cap == 0.0,
+        "{facet_cap} of the facet's {facet} mm² labelled a cap"
+    );
+    assert!(
+        (cut - ellipse).abs() < 0.15 * ellipse,
+        "the oblique cut is still a cap: {cut} mm² against {ellipse}"
+    );
+}
+
+#[test]
 fn output_is_bit_identical_with_one_or_two_threads() {
     let (mask, _) = ball_mask(5.0, 0.6);
     let run = |n: usize| {
