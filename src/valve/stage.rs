@@ -193,6 +193,11 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         params,
     )
     .map_err(|e| Error::failed("valve", e))?;
+    for f in r.json["findings"].as_array().into_iter().flatten() {
+        if let Some(f) = f.as_str() {
+            tracing::warn!("valve: {f}");
+        }
+    }
     let mut out = r.json;
     out["landmarks_snapped"] = Json::Object(snapped);
     if let Some(l) = nadir_labels {
@@ -299,6 +304,7 @@ pub fn compute(
             relative_mismatch: target.map(|t| (len - t) / t),
             depth_mm: depth,
             adjusted,
+            past_commissures_deg: suture::past_commissures_deg(&cyl, &spec, &path),
         });
         paths.push(path);
     }
@@ -373,6 +379,12 @@ const PATH_STRETCH_REFUSE: f64 = 0.30;
 /// posts; an Ozaki template's edge is 1.3–1.5 times its path on the
 /// sample). Denser than 3 : 1 all along, no suture gathers it.
 const PATH_GATHER_REFUSE: f64 = 2.0 / 3.0;
+/// A path straying this far (degrees) past its commissures is reported.
+/// Healthy paths stay within them (0° on the sample, phantom seeds 1–20,
+/// the real CT and nine of its copies; 1.7° on the copy resampled to
+/// 1 mm); where a flat patch of the wall was taken for a cut cap, one ran
+/// 23.9° past (phantom of `pipelines/phantom.toml`, seed 7).
+const PATH_PAST_COMMISSURES_DEG: f64 = 5.0;
 
 pub(super) fn path_findings(matches: &[LengthMatch]) -> std::result::Result<Vec<String>, String> {
     let mut out = Vec::new();
@@ -403,6 +415,17 @@ pub(super) fn path_findings(matches: &[LengthMatch]) -> std::result::Result<Vec<
         }
         if r.abs() > PATH_FINDING {
             out.push(what);
+        }
+    }
+    for (k, m) in matches.iter().enumerate() {
+        if m.past_commissures_deg > PATH_PAST_COMMISSURES_DEG {
+            out.push(format!(
+                "leaflet {} (C{} → C{}): its suture path strays {:.1}° past its commissures about the axis: rays from the axis met no wall there and the nearest wall point was taken, so the leaflet placed on it overlaps its neighbour; check the surface's wall (region 0) around that sinus",
+                k + 1,
+                k + 1,
+                (k + 1) % 3 + 1,
+                m.past_commissures_deg
+            ));
         }
     }
     Ok(out)

@@ -183,6 +183,29 @@ pub struct LengthMatch {
     pub relative_mismatch: Option<f64>,
     pub depth_mm: f64,
     pub adjusted: bool,
+    /// How far (degrees about the cylinder's axis) the path strays past
+    /// the angles of its two commissures; 0 on every healthy path.
+    pub past_commissures_deg: f64,
+}
+
+/// How far (degrees) the points of `path` stray outside the angular range
+/// from `spec`'s commissure a to b about the cylinder's axis. The curve
+/// itself never leaves it, and a radial projection keeps each point's
+/// angle, so a stray point is one where the ray from the axis met no wall
+/// and the nearest wall point was taken.
+pub fn past_commissures_deg(cyl: &CommissureCylinder, spec: &PathSpec, path: &[Point3]) -> f64 {
+    let (lo, hi) = (
+        spec.angle_a.min(spec.angle_b),
+        spec.angle_a.max(spec.angle_b),
+    );
+    let mid = 0.5 * (lo + hi);
+    path.iter()
+        .map(|p| {
+            let a = mid + super::frame::wrap(cyl.height_angle(p).1 - mid);
+            (lo - a).max(a - hi).max(0.0)
+        })
+        .fold(0.0, f64::max)
+        .to_degrees()
 }
 
 /// Secant on the depth H_b until the path length equals `target` within

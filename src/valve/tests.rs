@@ -338,6 +338,7 @@ fn a_path_may_gather_the_edge_but_not_stretch_it() {
             relative_mismatch: Some((path_mm - edge) / edge),
             depth_mm: 10.0,
             adjusted: false,
+            past_commissures_deg: 0.0,
         }]
     };
     assert_eq!(path_findings(&one(72.0)).unwrap(), Vec::<String>::new());
@@ -355,5 +356,50 @@ fn a_path_may_gather_the_edge_but_not_stretch_it() {
     assert!(
         e.contains("67 % shorter") && e.contains("more than 67 %"),
         "{e}"
+    );
+}
+
+/// A radially projected path keeps each point's angle, so it stays between
+/// its commissures; a point taken off the ray (no wall on it) strays past
+/// them, and past 5° that is a finding.
+#[test]
+fn a_path_straying_past_its_commissures_is_a_finding() {
+    use super::frame::CommissureCylinder;
+    use crate::geom::{Point3, Vector3};
+    let cyl = CommissureCylinder {
+        centre: Point3::origin(),
+        axis: Vector3::z(),
+        e1: Vector3::x(),
+        radius: 12.0,
+    };
+    let (ca, cb) = (
+        Point3::new(12.0 * 0.3f64.cos(), 12.0 * 0.3f64.sin(), 0.0),
+        Point3::new(12.0 * 2.3f64.cos(), 12.0 * 2.3f64.sin(), 0.0),
+    );
+    let spec = suture::PathSpec::between(&cyl, &ca, &cb, 4.0, 8.0);
+    let mut path = spec.on_cylinder(14.0);
+    assert!(suture::past_commissures_deg(&cyl, &spec, &path) < 1e-9);
+    let stray = 2.3 + 12f64.to_radians();
+    path[3000] = Point3::new(13.0 * stray.cos(), 13.0 * stray.sin(), -5.0);
+    let past = suture::past_commissures_deg(&cyl, &spec, &path);
+    assert!((past - 12.0).abs() < 1e-9, "{past}");
+    let m = suture::LengthMatch {
+        path_mm: 50.0,
+        on_cylinder_mm: 50.0,
+        target_mm: Some(52.0),
+        relative_mismatch: Some(-2.0 / 52.0),
+        depth_mm: 8.0,
+        adjusted: false,
+        past_commissures_deg: past,
+    };
+    let within = suture::LengthMatch {
+        past_commissures_deg: 4.9,
+        ..m.clone()
+    };
+    let f = path_findings(&[m, within]).unwrap();
+    assert_eq!(f.len(), 1, "{f:?}");
+    assert!(
+        f[0].starts_with("leaflet 1 (C1 → C2)") && f[0].contains("12.0° past"),
+        "{f:?}"
     );
 }
