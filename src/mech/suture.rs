@@ -470,11 +470,12 @@ pub struct Sutured {
 
 /// A warm round's Newton may take this many times the first round's
 /// iterations. Warm rounds take 1–15 iterations on the sample, the
-/// phantoms and the real CT, and up to 42 (2.1 times the first round) where
-/// the real CT resampled to 1 and 2 mm reaches its plateau; on the phantom
-/// of `pipelines/phantom.toml` at seed 4 a round at K = 2048 N/mm crept at 7–11 N with steps cut
-/// to 1e-3 for all 300 iterations (81 s of a 112 s pre-stage) before its
-/// fallback ran, and one at 512 N/mm took 169.
+/// phantoms and the real CT, and up to 54 (2.7 times the first round)
+/// where the real CT resampled to 1 and 2 mm reaches its plateau. On the
+/// phantom of `pipelines/phantom.toml` at seed 4 (its surface before flat
+/// facets stopped being cut caps) a round at K = 2048 N/mm crept at 7–11 N
+/// with steps cut to 1e-3 for all 300 iterations (81 s of a 112 s
+/// pre-stage) before its fallback ran, and one at 512 N/mm took 169.
 const WARM_NEWTON_PER_FIRST: usize = 3;
 
 fn force_of(tris: &[SuturedTri], k: f64) -> SutureForce {

@@ -21,8 +21,9 @@ const MAX_CAP_CURVATURE: f64 = 0.02;
 /// smoothing), and within 30° of a facet's (|cos| 0.85–0.90: the flattened
 /// sinus of the phantom of `pipelines/phantom.toml` at seed 7, which ran
 /// from 2 mm above its annulus to its commissures, and two patches of the
-/// real CT's ascending aorta). A facet taken for a cut is not wall: suture paths crossing it
-/// fell back to the nearest wall point and wandered 23° past a commissure.
+/// real CT's ascending aorta). A facet taken for a cut is not wall: suture
+/// paths crossing it fell back to the nearest wall point and wandered 23°
+/// past a commissure.
 const RIM_STEPS: usize = 3;
 const FACET_RIM_COS: f64 = 0.7;
 
