@@ -450,18 +450,10 @@ fn a_flat_facet_of_the_wall_is_wall_not_a_cut() {
     // suture path then fell back off the "cap" and wandered past a
     // commissure).
     let h = 0.5;
-    let (nx, nz) = (40usize, 50usize);
-    let axis_c = Point3::new(0.5 * (nx - 1) as f64 * h, 0.5 * (nx - 1) as f64 * h, 0.0);
-    let normal = Vector3::new(0.35, -0.2, -1.0).normalize();
-    let on_plane = Point3::new(axis_c.x, axis_c.y, 6.0);
-    let (radius, flat, z_flat) = (7.0, 6.0, (12.0, 20.0));
-    let vol = sampled([nx, nx, nz], scaled(h), |p| {
-        let d = p - axis_c;
-        let flattened = p.z > z_flat.0 && p.z < z_flat.1 && d.x > flat;
-        let inside = d.x.hypot(d.y) < radius && !flattened && (p - on_plane).dot(&normal) < 0.0;
-        inside as u8 as f64
-    })
-    .map(|&x| x as u8);
+    let (flat, z_flat) = (6.0, (12.0, 20.0));
+    let (vol, normal, on_plane, _) =
+        cut_tube_without(|d| d.z > z_flat.0 && d.z < z_flat.1 && d.x > flat);
+    let axis_c = Point3::new(on_plane.x, on_plane.y, 0.0);
     let (m, _) = surface_from_mask(&vol, &SurfaceParams::default()).unwrap();
     let region = region_of(&m);
     let normals = m.face_normals();
@@ -484,7 +476,7 @@ fn a_flat_facet_of_the_wall_is_wall_not_a_cut() {
             cut += a;
         }
     }
-    let ellipse = std::f64::consts::PI * radius * radius / normal.z.abs();
+    let ellipse = std::f64::consts::PI * TUBE_R * TUBE_R / normal.z.abs();
     assert!(facet > 20.0, "the facet is {facet} mm²");
     assert!(
         facet_cap == 0.0,
@@ -728,6 +720,14 @@ fn remeshed_torus_keeps_genus_one() {
 
 /// The tube of `caps_are_labelled_where_the_mask_was_cut`.
 fn cut_tube() -> (Volume<u8>, Vector3, Point3, f64) {
+    cut_tube_without(|_| false)
+}
+
+/// A tube of radius [`TUBE_R`] along z on a 0.5 mm grid, cut by an oblique
+/// plane (normal, point on it, on the axis) at the bottom and by the grid
+/// top (at `top`), less the points where `removed` holds (offset from the
+/// axis point at the same z).
+fn cut_tube_without(removed: impl Fn(Vector3) -> bool) -> (Volume<u8>, Vector3, Point3, f64) {
     let h = 0.5;
     let (nx, nz) = (40usize, 50usize);
     let axis_c = Point3::new(0.5 * (nx - 1) as f64 * h, 0.5 * (nx - 1) as f64 * h, 0.0);
@@ -735,12 +735,14 @@ fn cut_tube() -> (Volume<u8>, Vector3, Point3, f64) {
     let on_plane = Point3::new(axis_c.x, axis_c.y, 6.0);
     let vol = sampled([nx, nx, nz], scaled(h), |p| {
         let d = p - axis_c;
-        (d.x.hypot(d.y) < 7.0 && (p - on_plane).dot(&normal) < 0.0) as u8 as f64
+        (d.x.hypot(d.y) < TUBE_R && (p - on_plane).dot(&normal) < 0.0 && !removed(d)) as u8 as f64
     })
     .map(|&x| x as u8);
     let top = (nz - 1) as f64 * h + 0.5 * h;
     (vol, normal, on_plane, top)
 }
+
+const TUBE_R: f64 = 7.0;
 
 fn region_of(m: &TriMesh) -> Vec<u8> {
     match &m.cell_data.get("region").unwrap().values {
