@@ -44,6 +44,35 @@ pub fn refine(r: &[f64], i: usize) -> f64 {
     i as f64 + off
 }
 
+/// Centre of the trough about the minimum at `i`: the midpoint of the two
+/// angles where the profile climbs back to `level` on either side
+/// (interpolated; degrees, may be outside 0–360), searching at most
+/// `reach` samples each way. A sinus lobe meets its neighbour at a pillar
+/// that may be flat-bottomed (a smooth root, a ragged 1.5 mm mask): its
+/// lowest sample then lies anywhere along the flat, while the flanks
+/// still say where the trough is.
+pub fn trough_centre(r: &[f64], i: usize, level: f64, reach: usize) -> f64 {
+    let n = r.len();
+    if level <= r[i] {
+        return refine(r, i);
+    }
+    let at = |k: isize| r[k.rem_euclid(n as isize) as usize];
+    let crossing = |dir: isize| {
+        let mut k = 0isize;
+        while k < reach as isize && at(i as isize + dir * (k + 1)) < level {
+            k += 1;
+        }
+        let (inner, outer) = (at(i as isize + dir * k), at(i as isize + dir * (k + 1)));
+        let f = if outer > inner {
+            ((level - inner) / (outer - inner)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        dir as f64 * (k as f64 + f)
+    };
+    i as f64 + 0.5 * (crossing(-1) + crossing(1))
+}
+
 /// Angular distance from `a` forward to `b` in samples.
 pub fn forward(a: usize, b: usize, n: usize) -> usize {
     (b + n - a) % n
@@ -90,6 +119,27 @@ pub fn sector_max(r: &[f64], a: usize, b: usize, margin: usize) -> Option<usize>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A flat-bottomed trough with a ripple on its floor: the lowest sample
+    /// lies 12° off the trough's centre, the flanks' midpoint on it.
+    #[test]
+    fn a_flat_trough_is_centred_by_its_flanks() {
+        let centre = 100.0f64;
+        let r: Vec<f64> = (0..SAMPLES)
+            .map(|i| {
+                let d = (i as f64 - centre).abs();
+                let floor = if d < 20.0 { 0.0 } else { 0.1 * (d - 20.0) };
+                let ripple = if i == 112 { -0.05 } else { 0.0 };
+                12.0 + floor.min(3.0) + ripple
+            })
+            .collect();
+        let lowest = (0..SAMPLES).min_by(|&a, &b| r[a].total_cmp(&r[b])).unwrap();
+        assert_eq!(lowest, 112);
+        let c = trough_centre(&r, lowest, 12.0 + 0.4 * 3.0, 90);
+        assert!((c - centre).abs() < 0.01, "{c}");
+        // At or below the minimum it falls back to the parabola.
+        assert_eq!(trough_centre(&r, lowest, 11.0, 90), refine(&r, lowest));
+    }
 
     /// Three lobes of unequal depth and sectors, plus a dent inside one
     /// sinus deeper than a true pillar: the dent is not taken.

@@ -15,8 +15,9 @@
 //!    (averaged over ±2 mm of height, smoothed over 9°): its three deepest
 //!    minima at least 75° apart are the commissural pillars; in each
 //!    sector the maximum of the profile smoothed over 21° is the sinus.
-//! 3. **Points.** Commissures on the wall at the pillar angles
-//!    [`COMMISSURE_BELOW_STJ_MM`] below the STJ; nadirs on the wall in the
+//! 3. **Points.** Commissures on the wall at the centres of the pillars'
+//!    troughs, [`COMMISSURE_ABOVE_KNEE_MM`] above the knee of the
+//!    narrowing (not above the STJ); nadirs on the wall in the
 //!    annulus plane, halfway between each sinus maximum's angle and the
 //!    middle of its sector.
 //!
@@ -33,11 +34,31 @@ use super::ostia::{self, NamedBy, Ostium, RootFrame};
 use crate::geom::landmarks::SINUS_NAMES;
 use crate::geom::{Point3, Vector3, Volume};
 
-/// Height of the commissures below the STJ (mm). The mean-radius minimum
-/// lies about 1 mm below the end of the sinus lobes on the phantoms (whose
-/// commissures stand 1–2 mm below it), and 0–3 mm above the hand-placed
-/// commissures of `../shared/real/`; 1 mm suits both.
-pub const COMMISSURE_BELOW_STJ_MM: f64 = 1.0;
+/// Height of the commissures above the knee of the narrowing (mm): the
+/// level where the mean radius has come within [`KNEE_SHARE`] of the
+/// narrowing's depth (at least [`KNEE_MIN_MM`]) of its value at the STJ.
+/// The STJ itself, the first minimum above the sinuses, is no height to
+/// hang the commissures from where the ascending aorta is as narrow as
+/// the STJ: the mean radius is then flat for several millimetres and its
+/// lowest sample lies anywhere on the flat (sample-preset phantom seed 13:
+/// 14.32–14.36 mm from 16 to 22 mm, the minimum at 20.5 mm, the
+/// commissures at 16.5). Over the 19 sample-preset phantom seeds from
+/// their CT, the clinical phantom's three truth masks and the real CT,
+/// the commissures stood 0.60 mm above the knee on average (SD 0.53 mm,
+/// −0.40 to +1.74 mm; the STJ minimum: 1.07 mm above, SD 0.99, −0.73 to
+/// +4.04).
+pub const COMMISSURE_ABOVE_KNEE_MM: f64 = 0.5;
+/// The knee: this share of the narrowing from mid-sinus to the STJ is left.
+const KNEE_SHARE: f64 = 0.05;
+const KNEE_MIN_MM: f64 = 0.03;
+/// A pillar's angle is the centre of its trough at this share of its depth
+/// (the shallower neighbouring lobe over the pillar's floor); see
+/// [`angular::trough_centre`]. On the clinical phantom's truth masks the
+/// lowest sample of the 9°-smoothed profile lay up to 11° off the true
+/// commissure (a 1.5 mm mask of a pillar whose lobes meet with zero slope);
+/// the trough's centre at 40 % of its depth lies within 3.8° on every
+/// phantom case measured (mean 1.4°, against 2.5°).
+const PILLAR_LEVEL: f64 = 0.4;
 /// Heights read along the axis (mm above the annulus centre) and their step.
 const H_MIN_MM: f64 = 1.0;
 const H_MAX_MM: f64 = 45.0;
@@ -82,6 +103,13 @@ const FLOOR_RISE_MM: f64 = 1.5;
 /// tilt of the nadirs to a plane square to the root puts them up to 8 mm
 /// above its centre.
 const FLOOR_SEARCH_MM: f64 = 10.0;
+/// A nadir goes up only when its wall widens less than this share of the
+/// widest-rising nadir's. Sample-preset phantom seeds 11, 16 and 17 from
+/// their CT widen 1.07–1.35 mm at nadirs on their plane (their sinuses
+/// begin slowly), where the lift took them 1.5–3 mm up and 1.7–3.2 mm off;
+/// the clinical phantom's missed nadirs widen −0.03–0.61 mm beside 1.7–2.1
+/// at the nadir its plane meets.
+const TILTED_RISE_SHARE: f64 = 0.5;
 /// Confidence factor of a nadir lifted onto its sinus floor: found, but off
 /// the plane the other points stand on (a finding; see the stage).
 const LIFTED_CONFIDENCE: f64 = 0.7;
@@ -147,6 +175,9 @@ pub struct Detection {
     pub annulus_tilt_deg: f64,
     pub sinus_height_mm: f64,
     pub stj_height_mm: f64,
+    /// Where the narrowing above the sinuses is all but done (the
+    /// commissures' reference; see [`COMMISSURE_ABOVE_KNEE_MM`]).
+    pub knee_height_mm: f64,
     /// Mean radius at mid-sinus and at the STJ (mm).
     pub sinus_mean_radius_mm: f64,
     pub stj_mean_radius_mm: f64,
@@ -290,6 +321,9 @@ pub type Failure = String;
 struct Levels {
     sinus: usize,
     stj: usize,
+    /// The first level from mid-sinus up whose mean radius lies within
+    /// [`KNEE_SHARE`] of the narrowing of its value at the STJ.
+    knee: usize,
     is_min: bool,
 }
 
@@ -314,9 +348,12 @@ fn levels(hs: &[f64], r: &[f64]) -> Option<Levels> {
         }
         k += 1;
     }
+    let left = (KNEE_SHARE * (r[sinus] - r[k])).max(KNEE_MIN_MM);
+    let knee = (sinus..=k).find(|&i| r[i] <= r[k] + left).unwrap_or(k);
     Some(Levels {
         sinus,
         stj: k,
+        knee,
         is_min,
     })
 }
@@ -497,7 +534,26 @@ pub fn detect(
         other_patches: found_ostia.as_ref().map_or(0, |f| f.other_patches),
     };
 
-    let h_c = h_stj - COMMISSURE_BELOW_STJ_MM;
+    let h_c = (hs[lv.knee] + COMMISSURE_ABOVE_KNEE_MM).min(h_stj);
+    // Each pillar's angle: the centre of its trough (a flat floor's lowest
+    // sample says little), and its depth below the shallower lobe beside it.
+    let pillar_depth = |k: usize| {
+        let prev = (k + 2) % 3;
+        (sinus_r[k].min(sinus_r[prev]) - rp[p[k]]).max(0.0)
+    };
+    let pillar_deg: [f64; 3] = std::array::from_fn(|k| {
+        let gap = angular::forward(p[(k + 2) % 3], p[k], SAMPLES).min(angular::forward(
+            p[k],
+            p[(k + 1) % 3],
+            SAMPLES,
+        ));
+        angular::trough_centre(
+            &rp,
+            p[k],
+            rp[p[k]] + PILLAR_LEVEL * pillar_depth(k),
+            gap / 2,
+        )
+    });
     let stj_narrowing = r[lv.sinus] - r[lv.stj];
     let stj_factor = if lv.is_min {
         (stj_narrowing / 0.5).clamp(0.0, 1.0)
@@ -507,7 +563,7 @@ pub fn detect(
     let mut points = Vec::new();
     for j in 0..3 {
         let k = (first + j) % 3;
-        let ang = angular::refine(&rp, p[k]);
+        let ang = pillar_deg[k];
         let d = dir(ang);
         let from = o + n * h_c;
         let rr = probe.exit(&from, &d, REACH_MM).ok_or(format!(
@@ -516,7 +572,7 @@ pub fn detect(
         // How clearly the pillar stands out: the shallower of its two
         // neighbouring lobes over it (mm); 1.5 mm and more is a clear pillar.
         let prev = (k + 2) % 3;
-        let depth = (sinus_r[k].min(sinus_r[prev]) - rp[p[k]]).max(0.0);
+        let depth = pillar_depth(k);
         let gaps = [
             angular::forward(p[prev], p[k], SAMPLES),
             angular::forward(p[k], p[(k + 1) % 3], SAMPLES),
@@ -542,7 +598,17 @@ pub fn detect(
             }),
         });
     }
-    // Nadirs: in the annulus plane, at each sinus maximum's angle.
+    // Nadirs: in the annulus plane, at each sinus maximum's angle. First
+    // where each one's wall meets the plane and how much it widens above.
+    #[derive(Clone, Copy)]
+    struct OnPlane {
+        k: usize,
+        mid: f64,
+        dp: Vector3,
+        rr: f64,
+        floor_rise: Option<f64>,
+    }
+    let mut on_plane = Vec::with_capacity(3);
     for j in 0..3 {
         let k = (first + j) % 3;
         let (a, b) = (p[k] as f64, p[(k + 1) % 3] as f64);
@@ -558,15 +624,36 @@ pub fn detect(
             "no wall in the annulus plane at the sinus angle {:.1}°",
             sinus_deg[k]
         ))?;
-        let off_mid = ((sinus_deg[k] - mid + 540.0).rem_euclid(360.0) - 180.0).abs();
         let floor_rise = probe
             .exit(&(o + n0 * FLOOR_PROBE_MM), &dp, REACH_MM)
             .map(|r4| r4 - rr);
-        // Where the wall does not widen above the plane the sinus floor
-        // lies higher: the plane is tilted to the nadirs. The nadir goes up
-        // onto the floor, and says so.
+        on_plane.push(OnPlane {
+            k,
+            mid,
+            dp,
+            rr,
+            floor_rise,
+        });
+    }
+    let widest_rise = on_plane
+        .iter()
+        .filter_map(|q| q.floor_rise)
+        .fold(0.0f64, f64::max);
+    for (j, q) in on_plane.iter().enumerate() {
+        let OnPlane {
+            k,
+            mid,
+            dp,
+            rr,
+            floor_rise,
+        } = *q;
+        let off_mid = ((sinus_deg[k] - mid + 540.0).rem_euclid(360.0) - 180.0).abs();
+        // Where the wall does not widen above the plane while another
+        // nadir's does, the sinus floor lies higher: the plane is tilted to
+        // the nadirs. The nadir goes up onto the floor, and says so. A root
+        // whose three floors all widen slowly is not tilted.
         let lifted = floor_rise
-            .filter(|&w| w < FLOOR_RISE_MM)
+            .filter(|&w| w < FLOOR_RISE_MM && w < TILTED_RISE_SHARE * widest_rise)
             .and_then(|_| floor_above(&probe, &o, &n0, &dp));
         // A clear lobe (≥ 1.5 mm over its pillars) whose maximum lies near
         // the middle of its sector is a sure sinus; a lopsided one less so;
@@ -609,6 +696,7 @@ pub fn detect(
         annulus_tilt_deg: n.dot(&n0).clamp(-1.0, 1.0).acos().to_degrees(),
         sinus_height_mm: h_sinus,
         stj_height_mm: h_stj,
+        knee_height_mm: hs[lv.knee],
         sinus_mean_radius_mm: r[lv.sinus],
         stj_mean_radius_mm: r[lv.stj],
         stj_is_minimum: lv.is_min,
@@ -620,4 +708,39 @@ pub fn detect(
         sinuses,
         sinus_naming,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Sample seed 13's shape: the sinus narrows onto a flat as wide as the
+    /// STJ, whose lowest sample (a 0.01 mm ripple) lies 6 mm up the flat.
+    /// The STJ is that minimum; the knee is where the narrowing ends.
+    #[test]
+    fn the_knee_is_where_the_narrowing_ends_not_the_flat_minimum() {
+        let hs: Vec<f64> = (0..60).map(|i| H_MIN_MM + i as f64 * H_STEP_MM).collect();
+        let r: Vec<f64> = hs
+            .iter()
+            .map(|&h| {
+                // Widest at 9 mm, narrowing by 0.8 mm until 16 mm, then flat.
+                let fall = ((h - 9.0) / 7.0).clamp(0.0, 1.0);
+                let sinus = if h < 9.0 {
+                    15.1 - 0.02 * (9.0 - h).powi(2)
+                } else {
+                    15.1
+                };
+                let ripple = if (h - 22.0).abs() < 0.1 { -0.01 } else { 0.0 };
+                sinus - 0.8 * (1.0 - (1.0 - fall).powi(3)) + ripple
+            })
+            .collect();
+        let lv = levels(&hs, &r).expect("levels");
+        assert_eq!(hs[lv.sinus], 9.0);
+        assert_eq!(hs[lv.stj], 22.0, "the STJ is the flat's lowest sample");
+        assert!(lv.is_min);
+        // Within 5 % of the 0.81 mm narrowing (0.04 mm) of the STJ's 14.29:
+        // 0.8 (1 − fall)³ ≤ 0.03, fall ≥ 0.664, 13.65 mm; the first level
+        // of the half-millimetre grid past it.
+        assert_eq!(hs[lv.knee], 14.0);
+    }
 }

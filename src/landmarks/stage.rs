@@ -364,8 +364,8 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         m.insert("frame".into(), json!(Frame::Lps.name()));
         m.insert("annulus_plane_source".into(), json!(plane_source));
         m.insert(
-            "commissure_below_stj_mm".into(),
-            json!(detect::COMMISSURE_BELOW_STJ_MM),
+            "commissure_above_knee_mm".into(),
+            json!(detect::COMMISSURE_ABOVE_KNEE_MM),
         );
         m.insert("min_confidence".into(), json!(min_conf));
         if let Some(Json::Array(points)) = m.get_mut("points") {
@@ -431,6 +431,7 @@ mod tests {
             annulus_tilt_deg: 0.0,
             sinus_height_mm: 9.0,
             stj_height_mm: 18.0,
+            knee_height_mm: 16.5,
             sinus_mean_radius_mm: 14.0,
             stj_mean_radius_mm: 13.0,
             stj_is_minimum,
