@@ -77,6 +77,14 @@ const BAND_MM: f64 = 2.0;
 /// Smoothing widths of the angular profile (degrees): pillars, sinuses.
 const PILLAR_SMOOTH: usize = 9;
 const SINUS_SMOOTH: usize = 21;
+/// Most the wall's slope between 1 and 2 mm above the annulus plane may
+/// move a nadir in or out when carried down to the plane (mm). From the
+/// CT alone the plane lies 0.6–1.2 mm above the true nadirs and the sinus
+/// wall there already leans out: read 1 mm above, the nadirs of sample
+/// seeds 1–20 lay 0.8–1.5 mm too far out (12 of 60 over 1.5 mm; carried
+/// down, 5); a full 1 mm carry pushed one truth-mask nadir 1.5 mm inside
+/// the wall.
+const PLANE_CARRY_MAX_MM: f64 = 0.5;
 /// Stop turning the axis below this turn (degrees) or after this many turns.
 const AXIS_TOL_DEG: f64 = 0.2;
 const AXIS_ITERS: usize = 8;
@@ -103,6 +111,14 @@ const FLOOR_RISE_MM: f64 = 1.5;
 /// tilt of the nadirs to a plane square to the root puts them up to 8 mm
 /// above its centre.
 const FLOOR_SEARCH_MM: f64 = 10.0;
+/// A nadir goes up onto a sinus floor higher up only when its wall widens
+/// less than this (mm) above the plane, and less than
+/// [`TILTED_RISE_SHARE`] of the widest-rising nadir's. The nadirs a tilted
+/// plane missed on the clinical phantom from its CT widen −0.03–0.61 mm;
+/// nadirs on their plane that merely begin slowly, 1.07–1.37 mm (sample
+/// seeds 8, 11, 16, 17 from their CT; seed 8's N2 went up 7.5 mm, 8.4 mm
+/// off).
+const LIFT_BELOW_RISE_MM: f64 = 1.0;
 /// A nadir goes up only when its wall widens less than this share of the
 /// widest-rising nadir's. Sample-preset phantom seeds 11, 16 and 17 from
 /// their CT widen 1.07–1.35 mm at nadirs on their plane (their sinuses
@@ -606,6 +622,7 @@ pub fn detect(
         mid: f64,
         dp: Vector3,
         rr: f64,
+        r_plane: f64,
         floor_rise: Option<f64>,
     }
     let mut on_plane = Vec::with_capacity(3);
@@ -627,11 +644,20 @@ pub fn detect(
         let floor_rise = probe
             .exit(&(o + n0 * FLOOR_PROBE_MM), &dp, REACH_MM)
             .map(|r4| r4 - rr);
+        // The wall where it meets the plane: read 1 and 2 mm above it (a
+        // mask cut at the plane is ragged) and carried down the line
+        // through them.
+        let r_plane = probe
+            .exit(&(o + n0 * (2.0 * NADIR_LIFT_MM)), &dp, REACH_MM)
+            .map_or(rr, |r2| {
+                rr - (r2 - rr).clamp(-PLANE_CARRY_MAX_MM, PLANE_CARRY_MAX_MM)
+            });
         on_plane.push(OnPlane {
             k,
             mid,
             dp,
             rr,
+            r_plane,
             floor_rise,
         });
     }
@@ -645,6 +671,7 @@ pub fn detect(
             mid,
             dp,
             rr,
+            r_plane,
             floor_rise,
         } = *q;
         let off_mid = ((sinus_deg[k] - mid + 540.0).rem_euclid(360.0) - 180.0).abs();
@@ -653,7 +680,7 @@ pub fn detect(
         // the nadirs. The nadir goes up onto the floor, and says so. A root
         // whose three floors all widen slowly is not tilted.
         let lifted = floor_rise
-            .filter(|&w| w < FLOOR_RISE_MM && w < TILTED_RISE_SHARE * widest_rise)
+            .filter(|&w| w < LIFT_BELOW_RISE_MM && w < TILTED_RISE_SHARE * widest_rise)
             .and_then(|_| floor_above(&probe, &o, &n0, &dp));
         // A clear lobe (≥ 1.5 mm over its pillars) whose maximum lies near
         // the middle of its sector is a sure sinus; a lopsided one less so;
@@ -668,7 +695,7 @@ pub fn detect(
             * floor_factor;
         let point_mm = match lifted {
             Some((h, r)) => o + n0 * h + dp * r,
-            None => o + dp * rr,
+            None => o + dp * r_plane,
         };
         points.push(Found {
             label: format!("N{}", j + 1),
