@@ -18,9 +18,10 @@
 //! 3. **Points.** Commissures on the wall at the centres of the pillars'
 //!    troughs, [`COMMISSURE_ABOVE_KNEE_MM`] above the knee of the
 //!    narrowing (not above the STJ, nor less than
-//!    [`COMMISSURE_BELOW_WAIST_MM`] below a clear waist); nadirs on the wall in the
-//!    annulus plane, halfway between each sinus maximum's angle and the
-//!    middle of its sector.
+//!    [`COMMISSURE_BELOW_WAIST_MM`] below a clear waist); nadirs on the
+//!    wall where it meets the annulus plane, halfway between each sinus
+//!    maximum's angle and the middle of its sector, or up on their sinus
+//!    floor where the plane is tilted to them.
 //!
 //! Everything is in world LPS millimetres; one thread, so the result does
 //! not depend on the thread count.
@@ -131,12 +132,11 @@ const FLOOR_SEARCH_MM: f64 = 10.0;
 /// seeds 8, 11, 16, 17 from their CT; seed 8's N2 went up 7.5 mm, 8.4 mm
 /// off).
 const LIFT_BELOW_RISE_MM: f64 = 1.0;
-/// A nadir goes up only when its wall widens less than this share of the
-/// widest-rising nadir's. Sample-preset phantom seeds 11, 16 and 17 from
-/// their CT widen 1.07–1.35 mm at nadirs on their plane (their sinuses
-/// begin slowly), where the lift took them 1.5–3 mm up and 1.7–3.2 mm off;
-/// the clinical phantom's missed nadirs widen −0.03–0.61 mm beside 1.7–2.1
-/// at the nadir its plane meets.
+/// A plane tilted to the nadirs meets some of them on their sinus floor
+/// and misses others: on the clinical phantom from its CT the wall widens
+/// 1.7–2.1 mm at the nadirs it meets. A nadir goes up only when its wall
+/// widens less than this share of the widest-rising nadir's; a root whose
+/// three floors all widen slowly is not tilted.
 const TILTED_RISE_SHARE: f64 = 0.5;
 /// Confidence factor of a nadir lifted onto its sinus floor: found, but off
 /// the plane the other points stand on (a finding; see the stage).
