@@ -649,7 +649,9 @@ pub fn detect(
     let mut on_plane = Vec::with_capacity(3);
     for j in 0..3 {
         let k = (first + j) % 3;
-        let (a, b) = (p[k] as f64, p[(k + 1) % 3] as f64);
+        // The sector between the commissures as placed (the troughs'
+        // centres), not between the pillars' lowest samples.
+        let (a, b) = (pillar_deg[k], pillar_deg[(k + 1) % 3]);
         let mid = a + 0.5 * ((b - a).rem_euclid(360.0));
         let dd = sinus_deg[k]
             + SECTOR_MIDDLE_WEIGHT * ((mid - sinus_deg[k] + 540.0).rem_euclid(360.0) - 180.0);
