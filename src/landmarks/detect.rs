@@ -578,12 +578,16 @@ pub fn detect(
         let prev = (k + 2) % 3;
         (sinus_r[k].min(sinus_r[prev]) - rp[p[k]]).max(0.0)
     };
+    // The sectors on either side of pillar k (degrees).
+    let sectors_beside = |k: usize| {
+        [
+            angular::forward(p[(k + 2) % 3], p[k], SAMPLES),
+            angular::forward(p[k], p[(k + 1) % 3], SAMPLES),
+        ]
+    };
     let pillar_deg: [f64; 3] = std::array::from_fn(|k| {
-        let gap = angular::forward(p[(k + 2) % 3], p[k], SAMPLES).min(angular::forward(
-            p[k],
-            p[(k + 1) % 3],
-            SAMPLES,
-        ));
+        let [before, after] = sectors_beside(k);
+        let gap = before.min(after);
         angular::trough_centre(
             &rp,
             p[k],
@@ -608,12 +612,8 @@ pub fn detect(
         ))?;
         // How clearly the pillar stands out: the shallower of its two
         // neighbouring lobes over it (mm); 1.5 mm and more is a clear pillar.
-        let prev = (k + 2) % 3;
         let depth = pillar_depth(k);
-        let gaps = [
-            angular::forward(p[prev], p[k], SAMPLES),
-            angular::forward(p[k], p[(k + 1) % 3], SAMPLES),
-        ];
+        let gaps = sectors_beside(k);
         let gap_factor = if gaps.iter().all(|&g| (80..=160).contains(&g)) {
             1.0
         } else {
