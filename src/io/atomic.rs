@@ -140,12 +140,10 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::scratch::{Scratch, scratch};
 
-    fn tmpdir(tag: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("coapt-atomic-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
+    fn tmpdir(tag: &str) -> Scratch {
+        scratch(&format!("atomic-{tag}"))
     }
 
     #[test]

@@ -144,6 +144,7 @@ fn encode(w: &mut impl Write, mesh: &TriMesh) -> io::Result<()> {
 mod tests {
     use super::*;
     use crate::geom::Point3;
+    use crate::io::scratch::scratch;
 
     fn mesh() -> TriMesh {
         let v = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.5]];
@@ -179,17 +180,12 @@ mod tests {
         m
     }
 
-    fn tmp(name: &str) -> std::path::PathBuf {
-        let d = std::env::temp_dir().join(format!("coapt-ply-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        d.join(name)
-    }
-
     #[test]
     fn header_and_records() {
         let mut m = mesh();
         m.frame = Frame::Ras;
-        let p = tmp("m.ply");
+        let d = scratch("ply");
+        let p = d.join("m.ply");
         write(&p, &m).unwrap();
         let b = std::fs::read(&p).unwrap();
         let end = b.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
@@ -225,7 +221,8 @@ mod tests {
     fn refuses_bad_mesh() {
         let mut m = mesh();
         m.vertices[2].z = f64::NAN;
-        let p = tmp("bad.ply");
+        let d = scratch("ply");
+        let p = d.join("bad.ply");
         assert!(write(&p, &m).is_err());
         assert!(!p.exists());
     }

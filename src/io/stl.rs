@@ -86,24 +86,20 @@ fn encode(w: &mut impl Write, mesh: &TriMesh) -> io::Result<()> {
 mod tests {
     use super::*;
     use crate::geom::trimesh::tests::octahedron;
+    use crate::io::scratch::scratch;
 
     fn f32_at(b: &[u8], at: usize) -> f32 {
         f32::from_le_bytes(b[at..at + 4].try_into().unwrap())
-    }
-
-    fn tmp(name: &str) -> std::path::PathBuf {
-        let d = std::env::temp_dir().join(format!("coapt-stl-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        d.join(name)
     }
 
     #[test]
     fn layout_normals_and_frame() {
         let mut m = octahedron();
         m.vertices[0].y = 0.25; // make the RAS → LPS flip visible
+        let d = scratch("stl");
         for frame in [Frame::Lps, Frame::Ras] {
             m.frame = frame;
-            let p = tmp(&format!("o-{frame}.stl"));
+            let p = d.join(format!("o-{frame}.stl"));
             write(&p, &m).unwrap();
             let b = std::fs::read(&p).unwrap();
             assert_eq!(b.len(), 84 + 50 * 8);
@@ -140,7 +136,8 @@ mod tests {
     fn refuses_bad_mesh() {
         let mut m = octahedron();
         m.triangles[3] = [0, 1, 6];
-        let p = tmp("bad.stl");
+        let d = scratch("stl");
+        let p = d.join("bad.stl");
         assert!(write(&p, &m).is_err());
         assert!(!p.exists());
     }

@@ -368,7 +368,10 @@ mod tests {
             return;
         };
         let keep = std::env::var_os("COAPT_KEEP_VARIANTS").map(PathBuf::from);
-        let out = keep.clone().unwrap_or_else(|| tmpdir("real-ct-variants"));
+        let scratch = keep.is_none().then(|| tmpdir("real-ct-variants"));
+        let out = keep
+            .clone()
+            .unwrap_or_else(|| scratch.as_deref().unwrap().to_path_buf());
         let vs = write_variants(&real, &out);
         let ct = nifti::read_i16(&real.join("ct.nii.gz")).unwrap();
         let pts = points(&real);

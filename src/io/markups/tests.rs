@@ -1,13 +1,11 @@
 use std::path::{Path, PathBuf};
 
 use super::*;
+use crate::io::scratch::{Scratch, scratch};
 use crate::rng::SplitMix64;
 
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("coapt-markups-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmpdir(tag: &str) -> Scratch {
+    scratch(&format!("markups-{tag}"))
 }
 
 fn fixture(name: &str) -> PathBuf {
@@ -473,10 +471,12 @@ fn writers_refuse_what_they_cannot_write_faithfully() {
 /// Without it, does the same on a temporary directory.
 #[test]
 fn writes_landmarks_for_the_python_cross_check() {
+    let scratch;
     let dir = match std::env::var_os("COAPT_MRK_XCHECK_DIR") {
         Some(d) => PathBuf::from(d),
         None => {
-            let d = tmpdir("xcheck");
+            scratch = tmpdir("xcheck");
+            let d = scratch.to_path_buf();
             write_plain_json(
                 &d.join("landmarks_lps.json"),
                 &random_landmarks(7, Frame::Lps),

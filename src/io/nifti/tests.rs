@@ -9,20 +9,14 @@ use super::*;
 use crate::Error;
 use crate::geom::Point3;
 use crate::geom::volume::affine_from_parts;
+use crate::io::scratch::{Scratch, scratch};
 use crate::rng::SplitMix64;
 
 static COUNTER: AtomicU64 = AtomicU64::new(0);
 
 /// A fresh, empty directory for one test.
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "coapt-nifti-{tag}-{}-{}",
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmpdir(tag: &str) -> Scratch {
+    scratch(&format!("nifti-{tag}"))
 }
 
 fn random_rotation(rng: &mut SplitMix64) -> Matrix3<f64> {

@@ -3,7 +3,7 @@
 //! writer) reads back with the same values and affine as the NIfTI.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use flate2::Compression;
 use flate2::write::{GzEncoder, ZlibEncoder};
@@ -12,12 +12,10 @@ use nalgebra::{Rotation3, Unit, Vector3};
 use super::*;
 use crate::geom::volume::affine_from_parts;
 use crate::geom::{Matrix3, Point3};
+use crate::io::scratch::{Scratch, scratch};
 
-fn tmp(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("coapt-vf-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp(tag: &str) -> Scratch {
+    scratch(&format!("vf-{tag}"))
 }
 
 /// 7×6×5 int16, rotated about an oblique axis, spacings 0.4/0.7/1.3 mm, the

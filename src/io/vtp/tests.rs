@@ -2,12 +2,10 @@ use std::path::{Path, PathBuf};
 
 use super::*;
 use crate::geom::{Attributes, DataArray, DataValues, Frame, Point3};
+use crate::io::scratch::{Scratch, scratch};
 
-fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("coapt-vtp-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmpdir(tag: &str) -> Scratch {
+    scratch(&format!("vtp-{tag}"))
 }
 
 /// Points, two polylines, triangles, and arrays of every type coapt writes.
