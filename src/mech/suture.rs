@@ -1011,6 +1011,7 @@ mod tests {
             ptc: false,
             reuse_factor: false,
             nonmonotone: 1,
+            stagnation: None,
         };
         let wall = Wall::Cylinder(axis);
         let out = suture(&l, &s, &axis, &wall, &stop, &nopt, None, None).unwrap();

@@ -36,6 +36,31 @@ fn neo_hookean_sphere_matches_the_table_and_converges_quadratically() {
     );
 }
 
+/// The stagnation rule hands a phase over only when it stalls: a Newton
+/// that makes progress (here 1.29-fold inflation, residual falling) ends
+/// where it ends without the rule, to the bit, and a rule no step can
+/// meet stops the phase after its n steps, saying so.
+#[test]
+fn stagnation_stops_only_a_newton_that_stalls() {
+    let p = 80.0 * MMHG;
+    let nh = || Box::new(NeoHookean { mu: MU });
+    let free = inflate_cylinder_stagnating(nh(), R0, H, 40, p, None);
+    let ruled = inflate_cylinder_stagnating(nh(), R0, H, 40, p, Some((3, 0.9)));
+    assert!(free.outcome.converged && ruled.outcome.converged);
+    assert_eq!(free.lambda.to_bits(), ruled.lambda.to_bits());
+    assert_eq!(free.outcome.iterations, ruled.outcome.iterations);
+    assert!(free.outcome.iterations > 3, "{}", free.outcome.iterations);
+    let stopped = inflate_cylinder_stagnating(nh(), R0, H, 40, p, Some((2, 0.0))).outcome;
+    assert!(!stopped.converged);
+    assert_eq!(stopped.stopped_by, super::solve::Stopped::IterationLimit);
+    assert_eq!(stopped.iterations, 2);
+    assert!(
+        stopped.reason.starts_with("stagnated: 2 steps"),
+        "{}",
+        stopped.reason
+    );
+}
+
 #[test]
 fn neo_hookean_cylinder_matches_the_table() {
     let p = 80.0 * MMHG;

@@ -342,6 +342,7 @@ fn a_pressed_sheet_settles_at_the_closed_form_gap() {
             ptc: false,
             reuse_factor: false,
             nonmonotone: 1,
+            stagnation: None,
         },
     );
     assert!(o.converged, "{}", o.reason);

@@ -372,6 +372,7 @@ fn an_edge_pushed_onto_an_edge_is_held_by_the_edge_pair() {
                     ptc: false,
                     reuse_factor: false,
                     nonmonotone: 1,
+                    stagnation: None,
                 },
             );
             assert!(o.converged, "{}", o.reason);

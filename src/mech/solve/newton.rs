@@ -36,6 +36,9 @@ pub struct NewtonOptions {
     /// Non-symmetric steps are accepted against the largest ‖R‖ of the
     /// last this many iterates (1: monotone; see [`NONMONOTONE`]).
     pub nonmonotone: usize,
+    /// (n, f): stop once n steps have left the residual above f times
+    /// where it started (a phase that hands over when it stagnates).
+    pub stagnation: Option<(usize, f64)>,
 }
 
 /// How far the step cap may grow over [`NewtonOptions::max_step_mm`]. A
@@ -72,6 +75,7 @@ impl Default for NewtonOptions {
             ptc: false,
             reuse_factor: false,
             nonmonotone: 1,
+            stagnation: None,
         }
     }
 }
@@ -149,6 +153,18 @@ pub fn newton_reusing(
                 opt.stop.max_seconds, rn
             );
             break;
+        }
+        if let Some((n, keep)) = opt.stagnation {
+            if out.iterations >= n && rn > keep * out.initial_residual_n {
+                out.stopped_by = Stopped::IterationLimit;
+                out.reason = format!(
+                    "stagnated: {} steps left the residual at {:.3e} N, {:.0} % of its start",
+                    out.iterations,
+                    rn,
+                    100.0 * rn / out.initial_residual_n
+                );
+                break;
+            }
         }
         out.iterations += 1;
         if recent.len() >= opt.nonmonotone.max(1) {
