@@ -14,8 +14,7 @@ pub mod nrrd;
 pub mod ply;
 pub mod png;
 pub mod raw_voxels;
-#[cfg(test)]
-pub(crate) mod scratch;
+pub mod scratch;
 pub mod sha256;
 pub mod stl;
 pub mod toml_error;

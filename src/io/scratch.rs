@@ -1,6 +1,6 @@
-//! Scratch directories for the readers' and writers' unit tests: unique
-//! per call, removed when the test passes and kept when it fails (its files
-//! are the evidence).
+//! Scratch directories for tests (the readers' and writers' unit tests,
+//! `tests/it`): removed when the test passes and kept when it fails (its
+//! files are the evidence).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -8,22 +8,26 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 static COUNTER: AtomicUsize = AtomicUsize::new(0);
 
 /// A fresh, empty directory `coapt-{tag}-{pid}-{n}` under the system's
-/// temporary directory.
+/// temporary directory, unique per call.
 pub fn scratch(tag: &str) -> Scratch {
-    let d = std::env::temp_dir().join(format!(
+    Scratch::at(std::env::temp_dir().join(format!(
         "coapt-{tag}-{}-{}",
         std::process::id(),
         COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    Scratch(d)
+    )))
 }
 
 /// See [`scratch`].
 pub struct Scratch(PathBuf);
 
 impl Scratch {
+    /// `dir` emptied (or made), to be removed when the test passes.
+    pub fn at(dir: PathBuf) -> Scratch {
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        Scratch(dir)
+    }
+
     pub fn as_path(&self) -> &Path {
         &self.0
     }

@@ -2,38 +2,12 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use coapt::geom::Volume;
+use coapt::io::scratch::Scratch;
 
 /// A fresh, empty directory for one test, removed when the test passes
 /// and kept when it fails (its files are the evidence).
 pub fn tmpdir(tag: &str) -> Scratch {
-    let d = std::env::temp_dir().join(format!("coapt-it-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    Scratch(d)
-}
-
-/// See [`tmpdir`].
-pub struct Scratch(PathBuf);
-
-impl std::ops::Deref for Scratch {
-    type Target = Path;
-    fn deref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl AsRef<Path> for Scratch {
-    fn as_ref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        if !std::thread::panicking() {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
+    Scratch::at(std::env::temp_dir().join(format!("coapt-it-{tag}-{}", std::process::id())))
 }
 
 pub fn repo() -> PathBuf {
