@@ -34,6 +34,42 @@ const EXACT_NEWTON_ITERATIONS: usize = 30;
 /// second, at 1.5e-6 N.
 const EXACT_NEWTON_STAGNATION: usize = 12;
 
+/// When continuation on the projected tangent hands over (issue 22, the
+/// 5 s close). Projecting each element's Hessian onto its PSD part drops
+/// the negative curvature of compressed and wrinkled triangles, so near
+/// equilibrium its full steps converge only linearly: on the sample the
+/// residual fell 0.63–0.93-fold per step from 8.4e-3 to 2.1e-3 N, and the
+/// exact phase that followed needed 11 steps cut by the line search before
+/// its quadratic ones (39 iterations). Two such steps in a row, below a
+/// tenth of the start, hand over.
+const CREEP: solve::Creep = solve::Creep {
+    below: 0.1,
+    ratio: 0.5,
+    steps: 2,
+};
+
+/// The unprojected phase hands over to the exact one as soon as a full
+/// step gains less than fourfold: without the follower load's tangent its
+/// steps converge only linearly, at 0.3–0.4 per step on the real CT from
+/// 2e-5 N, where the exact phase converges in one.
+const UNPROJECTED_CREEP: solve::Creep = solve::Creep {
+    below: 0.1,
+    ratio: 0.25,
+    steps: 1,
+};
+
+/// The unprojected phase's first shift: it starts near equilibrium, where
+/// the projected phase left its shift at 1e-12, but on a tangent that may
+/// be indefinite (each failed factorisation raises the shift tenfold).
+const UNPROJECTED_SHIFT: f64 = 1e-6;
+
+/// An unprojected phase still above 90 % of its start after this many
+/// steps gives up, and the exact phase starts where the projected one left
+/// off. Its residual rises before it falls: on the sample it stood at 4.7
+/// times its start after 3 steps and at 0.26 after 6. A pure membrane's
+/// (the peer case without bending) stagnates at once.
+const UNPROJECTED_STAGNATION: usize = 6;
+
 /// Leaflets as the mechanics sees them (all in mm, LPS).
 #[derive(Debug, Clone)]
 pub struct Leaflets {
@@ -349,17 +385,20 @@ fn failure_cause(
 }
 
 /// The follower load has no potential (the free edge moves), so Newton
-/// alternates two phases until the residual meets `stop` or the iterations
+/// alternates phases until the residual meets `stop` or the iterations
 /// run out: pseudo-transient continuation on the PSD part of the tangent
 /// (robust from the unloaded, out-of-plane-floppy state, and where the exact
-/// tangent is nearly singular) until the residual has dropped 100-fold, then
-/// Newton with the exact, non-symmetric tangent (GMRES or LU), quadratic near the
-/// end; when that stalls, continuation takes over again.
+/// tangent is nearly singular) until the residual has dropped 100-fold;
+/// with `unprojected`, a continuation that creeps first (see [`CREEP`])
+/// goes on with whole steps on the unprojected symmetric tangent; then
+/// Newton with the exact, non-symmetric tangent (GMRES or LU), quadratic
+/// near the end; when that stalls, continuation takes over again.
 pub(super) fn newton_with_continuation(
     sys: &mut System,
     x: &mut Vec<V3>,
     stop: &Stop,
     nopt: &NewtonOptions,
+    unprojected: bool,
 ) -> Outcome {
     let mut all: Option<Outcome> = None;
     let mut notes = Vec::new();
@@ -399,6 +438,7 @@ pub(super) fn newton_with_continuation(
                     max_seconds: seconds_left().max(0.0),
                     ..stop.clone()
                 },
+                creep: unprojected.then_some(CREEP),
                 ..nopt.clone()
             },
         );
@@ -406,7 +446,9 @@ pub(super) fn newton_with_continuation(
             r.phase = "continuation";
         }
         notes.push(format!("round {round}: continuation: {}", p1.reason));
+        let handed_over = p1.stopped_by == Stopped::HandedOver;
         let mut merged = merge(all.take(), p1);
+        merged.converged |= handed_over;
         // Reaching the absolute tolerance in continuation is convergence too.
         if merged.residual_n <= stop.abs_n
             || !merged.converged && merged.iterations >= stop.max_iterations
@@ -417,6 +459,58 @@ pub(super) fn newton_with_continuation(
         if !merged.converged {
             merged.reason = notes.join("; ");
             return merged;
+        }
+        // Only a creeping continuation goes on unprojected: one that made
+        // its 100-fold drop is in the exact phase's quadratic basin (the
+        // peer case with bending: 2 exact steps from 7e-4 N, where whole
+        // unprojected steps converge linearly and took 4).
+        if handed_over {
+            let (start, r_start) = (x.clone(), merged.residual_n);
+            set_projected(sys, false);
+            let mut pu = solve::newton(
+                sys,
+                x,
+                &NewtonOptions {
+                    ptc: true,
+                    initial_shift: UNPROJECTED_SHIFT,
+                    stop: Stop {
+                        rel: target(&merged),
+                        max_iterations: stop
+                            .max_iterations
+                            .saturating_sub(merged.iterations)
+                            .clamp(1, EXACT_NEWTON_ITERATIONS),
+                        max_seconds: seconds_left().max(0.0),
+                        ..stop.clone()
+                    },
+                    creep: Some(UNPROJECTED_CREEP),
+                    stagnation: Some((UNPROJECTED_STAGNATION, 0.9)),
+                    ..nopt.clone()
+                },
+            );
+            for r in pu.history.iter_mut() {
+                r.phase = "unprojected";
+            }
+            notes.push(format!("unprojected: {}", pu.reason));
+            let ok = pu.converged || pu.stopped_by == Stopped::HandedOver;
+            merged = merge(Some(merged), pu);
+            merged.converged = true;
+            if !ok {
+                // Its steps stay on record; the exact phase starts where
+                // the projected one left off.
+                *x = start;
+                merged.residual_n = r_start;
+                notes.push("back to where continuation left off".into());
+            }
+            if merged.residual_n <= stop.abs_n {
+                merged.reason = notes.join("; ");
+                return merged;
+            }
+            if merged.iterations >= stop.max_iterations {
+                merged.converged = false;
+                merged.stopped_by = Stopped::IterationLimit;
+                merged.reason = notes.join("; ");
+                return merged;
+            }
         }
         set_projected(sys, false);
         sys.pressure_tangent = true;
@@ -792,6 +886,12 @@ pub fn close_watched(
         stop: stop.clone(),
         ..nopt
     };
+    // A pure membrane has no stiffness in its wrinkles, so its unprojected
+    // tangent is what the projection is there for: on the peer case without
+    // bending every unprojected phase stagnated (h 0.5–0.7 mm), and on
+    // `bench stress-close --plausible` the cases without bending converged
+    // 28 times instead of 31 (with bending 41 both ways).
+    let unprojected = cfg.bending;
     let outcome = match cfg.solver {
         SolverKind::Newton if cfg.reference_steps > 1 => {
             // The reference walks from the sutured state to the one asked
@@ -817,7 +917,7 @@ pub fn close_watched(
                     max_seconds: (stop.max_seconds - t1.elapsed().as_secs_f64()).max(0.0),
                     ..stop.clone()
                 };
-                let o = newton_with_continuation(&mut sys, &mut x, &left, &nopt);
+                let o = newton_with_continuation(&mut sys, &mut x, &left, &nopt, unprojected);
                 notes.push(format!("reference {s:.2} of the way: {}", o.reason));
                 all = Some(merge(all, o));
                 if left.max_seconds <= 0.0 {
@@ -828,7 +928,7 @@ pub fn close_watched(
             o.reason = notes.join("; ");
             o
         }
-        SolverKind::Newton => newton_with_continuation(&mut sys, &mut x, &stop, &nopt),
+        SolverKind::Newton => newton_with_continuation(&mut sys, &mut x, &stop, &nopt, unprojected),
         SolverKind::Relax => {
             // An explicit step costs about a hundredth of a Newton step, so
             // `max_iterations` counts hundreds of them here.

@@ -536,7 +536,7 @@ fn solve_round(
         ..fallback
     };
     // The round's count includes the Newton attempt that failed.
-    let mut o = closure::newton_with_continuation(sys, x, &left, nopt);
+    let mut o = closure::newton_with_continuation(sys, x, &left, nopt, false);
     o.iterations += tried;
     o
 }
@@ -1012,6 +1012,8 @@ mod tests {
             reuse_factor: false,
             nonmonotone: 1,
             stagnation: None,
+            creep: None,
+            initial_shift: 1.0,
         };
         let wall = Wall::Cylinder(axis);
         let out = suture(&l, &s, &axis, &wall, &stop, &nopt, None, None).unwrap();

@@ -44,13 +44,14 @@ fn neo_hookean_sphere_matches_the_table_and_converges_quadratically() {
 fn stagnation_stops_only_a_newton_that_stalls() {
     let p = 80.0 * MMHG;
     let nh = || Box::new(NeoHookean { mu: MU });
-    let free = inflate_cylinder_stagnating(nh(), R0, H, 40, p, None);
-    let ruled = inflate_cylinder_stagnating(nh(), R0, H, 40, p, Some((3, 0.9)));
+    let free = inflate_cylinder_with(nh(), R0, H, 40, p, |_| {});
+    let ruled = inflate_cylinder_with(nh(), R0, H, 40, p, |o| o.stagnation = Some((3, 0.9)));
     assert!(free.outcome.converged && ruled.outcome.converged);
     assert_eq!(free.lambda.to_bits(), ruled.lambda.to_bits());
     assert_eq!(free.outcome.iterations, ruled.outcome.iterations);
     assert!(free.outcome.iterations > 3, "{}", free.outcome.iterations);
-    let stopped = inflate_cylinder_stagnating(nh(), R0, H, 40, p, Some((2, 0.0))).outcome;
+    let stopped =
+        inflate_cylinder_with(nh(), R0, H, 40, p, |o| o.stagnation = Some((2, 0.0))).outcome;
     assert!(!stopped.converged);
     assert_eq!(stopped.stopped_by, super::solve::Stopped::IterationLimit);
     assert_eq!(stopped.iterations, 2);
@@ -58,6 +59,56 @@ fn stagnation_stops_only_a_newton_that_stalls() {
         stopped.reason.starts_with("stagnated: 2 steps"),
         "{}",
         stopped.reason
+    );
+}
+
+/// The creep rule hands a continuation over only after `steps` full steps
+/// in a row at the shift's floor that each lowered the residual by less
+/// than `ratio`: a rule no step can meet (a step that lowers the residual
+/// yet leaves it above where it was) changes nothing, to the bit; one every
+/// such step meets hands over after exactly `steps` of them.
+#[test]
+fn creep_hands_over_only_a_continuation_that_creeps() {
+    use super::solve::{Creep, Stopped};
+    let p = 80.0 * MMHG;
+    let nh = || Box::new(NeoHookean { mu: MU });
+    let ptc = |creep: Option<Creep>| {
+        move |o: &mut super::solve::NewtonOptions| {
+            o.ptc = true;
+            o.initial_shift = 1e-12;
+            o.creep = creep;
+        }
+    };
+    let free = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(None)).outcome;
+    assert!(free.converged, "{}", free.reason);
+    assert!(free.iterations > 3, "{}", free.iterations);
+    let never = Creep {
+        below: 1.0,
+        ratio: 1.0,
+        steps: 1,
+    };
+    let ruled = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(Some(never)));
+    let free_again = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(None));
+    assert_eq!(free_again.lambda.to_bits(), ruled.lambda.to_bits());
+    assert_eq!(free.iterations, ruled.outcome.iterations);
+    let always = Creep {
+        below: 1.0,
+        ratio: 0.0,
+        steps: 2,
+    };
+    let o = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(Some(always))).outcome;
+    assert_eq!(o.stopped_by, Stopped::HandedOver, "{}", o.reason);
+    assert!(!o.converged);
+    assert!(
+        o.reason.starts_with("creeping: 2 full steps"),
+        "{}",
+        o.reason
+    );
+    // Every step so far was full and lowered the residual.
+    assert_eq!(o.iterations, 2);
+    assert!(o.history.iter().all(|r| r.step == 1.0));
+    assert!(
+        o.residual_n < o.history[1].residual_n && o.history[1].residual_n < o.initial_residual_n
     );
 }
 

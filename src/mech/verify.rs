@@ -196,17 +196,18 @@ pub fn inflate_sphere(mat: Box<dyn Membrane>, r0: f64, h: f64, level: u32, p: f6
 /// coordinate fixed (axial stretch 1) and in-plane rigid modes pinned by
 /// symmetric constraints; follower pressure, LU Newton.
 pub fn inflate_cylinder(mat: Box<dyn Membrane>, r0: f64, h: f64, nt: usize, p: f64) -> Inflation {
-    inflate_cylinder_stagnating(mat, r0, h, nt, p, None)
+    inflate_cylinder_with(mat, r0, h, nt, p, |_| {})
 }
 
-/// [`inflate_cylinder`] with Newton's [`NewtonOptions::stagnation`] rule.
-pub fn inflate_cylinder_stagnating(
+/// [`inflate_cylinder`] with Newton's options changed by `tune` (the
+/// stagnation and creep rules' tests).
+pub fn inflate_cylinder_with(
     mat: Box<dyn Membrane>,
     r0: f64,
     h: f64,
     nt: usize,
     p: f64,
-    stagnation: Option<(usize, f64)>,
+    tune: impl FnOnce(&mut NewtonOptions),
 ) -> Inflation {
     assert!(nt % 4 == 0);
     let dl = std::f64::consts::TAU * r0 / nt as f64;
@@ -238,7 +239,7 @@ pub fn inflate_cylinder_stagnating(
     opt.stop.abs_n = 1e-11;
     opt.stop.rel = 1e-11;
     opt.max_step_mm = r0;
-    opt.stagnation = stagnation;
+    tune(&mut opt);
     let outcome = newton(&mut sys, &mut x, &opt);
     let (mean, spread) = radii(&x, true);
     Inflation {

@@ -343,6 +343,8 @@ fn a_pressed_sheet_settles_at_the_closed_form_gap() {
             reuse_factor: false,
             nonmonotone: 1,
             stagnation: None,
+            creep: None,
+            initial_shift: 1.0,
         },
     );
     assert!(o.converged, "{}", o.reason);

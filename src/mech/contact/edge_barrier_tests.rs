@@ -373,6 +373,8 @@ fn an_edge_pushed_onto_an_edge_is_held_by_the_edge_pair() {
                     reuse_factor: false,
                     nonmonotone: 1,
                     stagnation: None,
+                    creep: None,
+                    initial_shift: 1.0,
                 },
             );
             assert!(o.converged, "{}", o.reason);

@@ -7,7 +7,7 @@ mod newton;
 mod relax;
 
 pub use combined::combined;
-pub use newton::{MAX_STEP_GROWTH, NONMONOTONE, NewtonOptions, newton, newton_reusing};
+pub use newton::{Creep, MAX_STEP_GROWTH, NONMONOTONE, NewtonOptions, newton, newton_reusing};
 pub use relax::{RelaxOptions, relax};
 
 use serde::Serialize;
@@ -77,6 +77,9 @@ pub enum Stopped {
     /// Not stopped: no step was taken yet.
     NotStarted,
     Converged,
+    /// A phase of a staged solve ended to let the next phase go on (its
+    /// tangent made it creep; see `NewtonOptions::creep`).
+    HandedOver,
     IterationLimit,
     TimeLimit,
     /// The line search refused `max_rejections` steps in a row.

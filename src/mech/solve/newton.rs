@@ -39,7 +39,32 @@ pub struct NewtonOptions {
     /// (n, f): stop once n steps have left the residual above f times
     /// where it started (a phase that hands over when it stagnates).
     pub stagnation: Option<(usize, f64)>,
+    /// Continuation only: hand over ([`Stopped::HandedOver`]) once its
+    /// tangent, not the shift, limits it (see [`Creep`]).
+    pub creep: Option<Creep>,
+    /// Continuation's first shift (relative to the diagonal). 1 from a
+    /// state far from equilibrium; a phase that starts near one (after
+    /// another phase) starts small, as the last phase ended.
+    pub initial_shift: f64,
 }
+
+/// A continuation phase creeps when `steps` full steps in a row at the
+/// shift's floor each lower the residual, but to no less than `ratio` times
+/// where it was, once it is below `below` times its start: the step is then Newton's on
+/// this phase's tangent, and its linear rate is that tangent's error, which
+/// no shift can mend. (A step that raises the residual is the nonlinearity
+/// continuation is there for: a pure membrane's residual bounces for dozens
+/// of steps before it falls.)
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Creep {
+    pub below: f64,
+    pub ratio: f64,
+    pub steps: usize,
+}
+
+/// The shift counted as at its floor for [`Creep`] (continuation lowers
+/// it to 1e-12).
+const CREEP_SHIFT: f64 = 1e-9;
 
 /// How far the step cap may grow over [`NewtonOptions::max_step_mm`]. A
 /// closing leaflet moves 6 mm; at a fixed 0.5 mm cap, eight of the peer
@@ -76,6 +101,8 @@ impl Default for NewtonOptions {
             reuse_factor: false,
             nonmonotone: 1,
             stagnation: None,
+            creep: None,
+            initial_shift: 1.0,
         }
     }
 }
@@ -106,6 +133,10 @@ pub fn newton_reusing(
     // ‖R‖ of the last accepted iterates, newest last (nonmonotone
     // acceptance of non-symmetric steps).
     let mut recent: Vec<f64> = Vec::with_capacity(opt.nonmonotone.max(1));
+    // ‖R‖ before the last step, when that step was a full one at the
+    // shift's floor (for `creep`).
+    let mut full_from: Option<f64> = None;
+    let mut crept = 0usize;
     loop {
         for term in sys.terms.iter_mut() {
             term.update(x);
@@ -166,6 +197,22 @@ pub fn newton_reusing(
                 break;
             }
         }
+        if let Some(c) = opt.creep {
+            let creeping = full_from.is_some_and(|before| {
+                rn <= c.below * out.initial_residual_n && rn > c.ratio * before && rn < before
+            });
+            crept = if creeping { crept + 1 } else { 0 };
+            if crept >= c.steps {
+                out.stopped_by = Stopped::HandedOver;
+                out.reason = format!(
+                    "creeping: {} full steps lowered the residual only to {:.3e} N ({:.0} % of the step before)",
+                    crept,
+                    rn,
+                    100.0 * rn / full_from.unwrap_or(rn)
+                );
+                break;
+            }
+        }
         out.iterations += 1;
         if recent.len() >= opt.nonmonotone.max(1) {
             recent.remove(0);
@@ -216,7 +263,7 @@ pub fn newton_reusing(
         let rhs = sys.pack(&r);
         let symmetric = opt.ptc || (sys.symmetric() && sys.terms.iter().all(|t| t.has_potential()));
         if opt.ptc && out.iterations == 1 {
-            shift = 1.0;
+            shift = opt.initial_shift;
         }
         // Factorise, raising the shift until the factorisation succeeds.
         let before = pat.stats;
@@ -384,6 +431,8 @@ pub fn newton_reusing(
             Some(xn) => {
                 *x = xn;
                 rec.step = alpha * limit;
+                full_from = (opt.ptc && alpha == 1.0 && limit >= 1.0 && rec.shift <= CREEP_SHIFT)
+                    .then_some(rn);
                 rejections = 0;
                 stalled = alpha < 1.0 || limit < 1.0;
                 if alpha == 1.0 && capped {
@@ -396,6 +445,7 @@ pub fn newton_reusing(
                 }
             }
             None => {
+                full_from = None;
                 rejections += 1;
                 stalled = true;
                 cap = (0.5 * cap).max(opt.max_step_mm);
