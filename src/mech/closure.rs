@@ -66,7 +66,7 @@ const UNPROJECTED_SHIFT: f64 = 1e-6;
 /// An unprojected phase still above 90 % of its start after this many
 /// steps gives up, and the exact phase starts where the projected one left
 /// off. Its residual rises before it falls: on the sample it stood at 4.7
-/// times its start after 3 steps and at 0.26 after 6. A pure membrane's
+/// times its start after 3 steps and at 0.26 after 5. A pure membrane's
 /// (the peer case without bending) stagnates at once.
 const UNPROJECTED_STAGNATION: usize = 6;
 
