@@ -889,8 +889,9 @@ pub fn close_watched(
     // A pure membrane has no stiffness in its wrinkles, so its unprojected
     // tangent is what the projection is there for: on the peer case without
     // bending every unprojected phase stagnated (h 0.5–0.7 mm), and on
-    // `bench stress-close --plausible` the cases without bending converged
-    // 28 times instead of 31 (with bending 41 both ways).
+    // `bench stress-close --plausible` a first version that also ran it
+    // without bending converged 28 of those cases instead of 31 (the ones
+    // with bending: 41 both ways).
     let unprojected = cfg.bending;
     let outcome = match cfg.solver {
         SolverKind::Newton if cfg.reference_steps > 1 => {
