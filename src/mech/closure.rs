@@ -38,7 +38,7 @@ const EXACT_NEWTON_STAGNATION: usize = 12;
 /// 5 s close). Projecting each element's Hessian onto its PSD part drops
 /// the negative curvature of compressed and wrinkled triangles, so near
 /// equilibrium its full steps converge only linearly: on the sample the
-/// residual fell 0.63–0.93-fold per step from 8.4e-3 to 2.1e-3 N, and the
+/// residual fell 0.63–0.94-fold per step from 8.4e-3 to 2.1e-3 N, and the
 /// exact phase that followed needed 11 steps cut by the line search before
 /// its quadratic ones (39 iterations). Two such steps in a row, below a
 /// tenth of the start, hand over.
