@@ -1007,13 +1007,7 @@ mod tests {
         let nopt = NewtonOptions {
             stop: stop.clone(),
             max_step_mm: 0.5,
-            max_rejections: 12,
-            ptc: false,
-            reuse_factor: false,
-            nonmonotone: 1,
-            stagnation: None,
-            creep: None,
-            initial_shift: 1.0,
+            ..NewtonOptions::default()
         };
         let wall = Wall::Cylinder(axis);
         let out = suture(&l, &s, &axis, &wall, &stop, &nopt, None, None).unwrap();

@@ -338,13 +338,7 @@ fn a_pressed_sheet_settles_at_the_closed_form_gap() {
                 step_residual_n: 0.0,
             },
             max_step_mm: 0.5,
-            max_rejections: 12,
-            ptc: false,
-            reuse_factor: false,
-            nonmonotone: 1,
-            stagnation: None,
-            creep: None,
-            initial_shift: 1.0,
+            ..NewtonOptions::default()
         },
     );
     assert!(o.converged, "{}", o.reason);

@@ -368,13 +368,7 @@ fn an_edge_pushed_onto_an_edge_is_held_by_the_edge_pair() {
                         step_residual_n: 0.0,
                     },
                     max_step_mm: 0.05,
-                    max_rejections: 12,
-                    ptc: false,
-                    reuse_factor: false,
-                    nonmonotone: 1,
-                    stagnation: None,
-                    creep: None,
-                    initial_shift: 1.0,
+                    ..NewtonOptions::default()
                 },
             );
             assert!(o.converged, "{}", o.reason);
