@@ -112,6 +112,49 @@ fn creep_hands_over_only_a_continuation_that_creeps() {
     );
 }
 
+/// The plateau rule hands a continuation over only after `steps` full
+/// steps in a row at the shift's floor whose best residual stayed above
+/// `1 − gain` times the one they started from: a rule that needs more
+/// steps than the solve takes changes nothing, to the bit; one every run of
+/// such steps meets hands over after exactly `steps` of them.
+#[test]
+fn plateau_hands_over_only_a_continuation_on_a_plateau() {
+    use super::solve::{Plateau, Stopped};
+    let p = 80.0 * MMHG;
+    let nh = || Box::new(NeoHookean { mu: MU });
+    let ptc = |plateau: Option<Plateau>| {
+        move |o: &mut super::solve::NewtonOptions| {
+            o.ptc = true;
+            o.initial_shift = 1e-12;
+            o.plateau = plateau;
+        }
+    };
+    let free = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(None));
+    assert!(free.outcome.converged, "{}", free.outcome.reason);
+    assert!(free.outcome.iterations > 3, "{}", free.outcome.iterations);
+    let never = Plateau {
+        steps: 1000,
+        gain: 1.0,
+    };
+    let ruled = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(Some(never)));
+    assert_eq!(free.lambda.to_bits(), ruled.lambda.to_bits());
+    assert_eq!(free.outcome.iterations, ruled.outcome.iterations);
+    let always = Plateau {
+        steps: 2,
+        gain: 1.0,
+    };
+    let o = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(Some(always))).outcome;
+    assert_eq!(o.stopped_by, Stopped::HandedOver, "{}", o.reason);
+    assert!(!o.converged);
+    assert!(
+        o.reason.starts_with("plateau: 2 full steps"),
+        "{}",
+        o.reason
+    );
+    assert_eq!(o.iterations, 2);
+    assert!(o.history.iter().all(|r| r.step == 1.0));
+}
+
 #[test]
 fn neo_hookean_cylinder_matches_the_table() {
     let p = 80.0 * MMHG;

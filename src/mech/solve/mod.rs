@@ -7,7 +7,9 @@ mod newton;
 mod relax;
 
 pub use combined::combined;
-pub use newton::{Creep, MAX_STEP_GROWTH, NONMONOTONE, NewtonOptions, newton, newton_reusing};
+pub use newton::{
+    Creep, MAX_STEP_GROWTH, NONMONOTONE, NewtonOptions, Plateau, newton, newton_reusing,
+};
 pub use relax::{RelaxOptions, relax};
 
 use serde::Serialize;

@@ -42,6 +42,9 @@ pub struct NewtonOptions {
     /// Continuation only: hand over ([`Stopped::HandedOver`]) once its
     /// tangent, not the shift, limits it (see [`Creep`]).
     pub creep: Option<Creep>,
+    /// Continuation only: hand over ([`Stopped::HandedOver`]) once full
+    /// steps at the shift's floor no longer gain (see [`Plateau`]).
+    pub plateau: Option<Plateau>,
     /// Continuation's first shift (relative to the diagonal). 1 from a
     /// state far from equilibrium; a phase that starts near one (after
     /// another phase) starts small, as the last phase ended.
@@ -60,6 +63,20 @@ pub struct Creep {
     pub below: f64,
     pub ratio: f64,
     pub steps: usize,
+}
+
+/// A continuation phase is on a plateau when, over `steps` full steps in a
+/// row at the shift's floor, the lowest residual stayed above `1 − gain`
+/// times the residual those steps started from, at whatever level: the
+/// steps bounce or crawl where [`Creep`], which asks each step to lower the
+/// residual and the phase to be near its goal, does not fire; only below
+/// the phase's start, so the state it hands over is a gain. (The sample
+/// with a slightly different sutured reference: 20 unprojected steps at
+/// 8.1–8.4e-4 N, 16 % of that phase's start, until its iteration limit.)
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Plateau {
+    pub steps: usize,
+    pub gain: f64,
 }
 
 /// The shift counted as at its floor for [`Creep`] (continuation lowers
@@ -102,6 +119,7 @@ impl Default for NewtonOptions {
             nonmonotone: 1,
             stagnation: None,
             creep: None,
+            plateau: None,
             initial_shift: 1.0,
         }
     }
@@ -137,6 +155,9 @@ pub fn newton_reusing(
     // shift's floor (for `creep`).
     let mut full_from: Option<f64> = None;
     let mut crept = 0usize;
+    // ‖R‖ at the iterates joined by the current run of full steps at the
+    // shift's floor (for `plateau`).
+    let mut run: Vec<f64> = Vec::new();
     loop {
         for term in sys.terms.iter_mut() {
             term.update(x);
@@ -211,6 +232,34 @@ pub fn newton_reusing(
                     100.0 * rn / full_from.unwrap_or(rn)
                 );
                 break;
+            }
+        }
+        if let Some(p) = opt.plateau {
+            match full_from {
+                Some(before) => {
+                    if run.is_empty() {
+                        run.push(before);
+                    }
+                    run.push(rn);
+                }
+                None => run.clear(),
+            }
+            if run.len() > p.steps {
+                let from = run[run.len() - 1 - p.steps];
+                let best = run[run.len() - p.steps..]
+                    .iter()
+                    .copied()
+                    .fold(f64::INFINITY, f64::min);
+                // Below the phase's start only: a plateau above it is the
+                // stagnation rule's (the phase failed, its state is not kept).
+                if best > (1.0 - p.gain) * from && best < out.initial_residual_n {
+                    out.stopped_by = Stopped::HandedOver;
+                    out.reason = format!(
+                        "plateau: {} full steps took the residual from {:.3e} N to no less than {:.3e} N",
+                        p.steps, from, best
+                    );
+                    break;
+                }
             }
         }
         out.iterations += 1;
