@@ -250,9 +250,10 @@ pub fn newton_reusing(
                     .iter()
                     .copied()
                     .fold(f64::INFINITY, f64::min);
-                // Below the phase's start only: a plateau above it is the
-                // stagnation rule's (the phase failed, its state is not kept).
-                if best > (1.0 - p.gain) * from && best < out.initial_residual_n {
+                // Below the phase's start only (the state handed over is
+                // this iterate): a plateau above it is the stagnation rule's
+                // (the phase failed, its state is not kept).
+                if best > (1.0 - p.gain) * from && rn < out.initial_residual_n {
                     out.stopped_by = Stopped::HandedOver;
                     out.reason = format!(
                         "plateau: {} full steps took the residual from {:.3e} N to no less than {:.3e} N",
