@@ -62,6 +62,38 @@ fn stagnation_stops_only_a_newton_that_stalls() {
     );
 }
 
+/// The neo-Hookean cylinder inflated at 80 mmHg by continuation that
+/// starts at the shift's floor, its options then changed by `rule` (the
+/// hand-over rules' tests).
+fn inflate_from_the_floor(rule: impl FnOnce(&mut super::solve::NewtonOptions)) -> Inflation {
+    inflate_cylinder_with(
+        Box::new(NeoHookean { mu: MU }),
+        R0,
+        H,
+        40,
+        80.0 * MMHG,
+        |o| {
+            o.ptc = true;
+            o.initial_shift = 1e-12;
+            rule(o);
+        },
+    )
+}
+
+/// `o` handed over after exactly two steps, both full, saying `why`.
+fn assert_handed_over_after_two_full_steps(o: &super::solve::Outcome, why: &str) {
+    assert_eq!(
+        o.stopped_by,
+        super::solve::Stopped::HandedOver,
+        "{}",
+        o.reason
+    );
+    assert!(!o.converged);
+    assert!(o.reason.starts_with(why), "{}", o.reason);
+    assert_eq!(o.iterations, 2);
+    assert!(o.history.iter().all(|r| r.step == 1.0));
+}
+
 /// The creep rule hands a continuation over only after `steps` full steps
 /// in a row at the shift's floor that each lowered the residual by less
 /// than `ratio`: a rule no step can meet (a step that lowers the residual
@@ -69,44 +101,26 @@ fn stagnation_stops_only_a_newton_that_stalls() {
 /// such step meets hands over after exactly `steps` of them.
 #[test]
 fn creep_hands_over_only_a_continuation_that_creeps() {
-    use super::solve::{Creep, Stopped};
-    let p = 80.0 * MMHG;
-    let nh = || Box::new(NeoHookean { mu: MU });
-    let ptc = |creep: Option<Creep>| {
-        move |o: &mut super::solve::NewtonOptions| {
-            o.ptc = true;
-            o.initial_shift = 1e-12;
-            o.creep = creep;
-        }
-    };
-    let free = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(None)).outcome;
-    assert!(free.converged, "{}", free.reason);
-    assert!(free.iterations > 3, "{}", free.iterations);
+    use super::solve::Creep;
+    let free = inflate_from_the_floor(|_| {});
+    assert!(free.outcome.converged, "{}", free.outcome.reason);
+    assert!(free.outcome.iterations > 3, "{}", free.outcome.iterations);
     let never = Creep {
         below: 1.0,
         ratio: 1.0,
         steps: 1,
     };
-    let ruled = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(Some(never)));
-    let free_again = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(None));
-    assert_eq!(free_again.lambda.to_bits(), ruled.lambda.to_bits());
-    assert_eq!(free.iterations, ruled.outcome.iterations);
+    let ruled = inflate_from_the_floor(|o| o.creep = Some(never));
+    assert_eq!(free.lambda.to_bits(), ruled.lambda.to_bits());
+    assert_eq!(free.outcome.iterations, ruled.outcome.iterations);
     let always = Creep {
         below: 1.0,
         ratio: 0.0,
         steps: 2,
     };
-    let o = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(Some(always))).outcome;
-    assert_eq!(o.stopped_by, Stopped::HandedOver, "{}", o.reason);
-    assert!(!o.converged);
-    assert!(
-        o.reason.starts_with("creeping: 2 full steps"),
-        "{}",
-        o.reason
-    );
-    // Every step so far was full and lowered the residual.
-    assert_eq!(o.iterations, 2);
-    assert!(o.history.iter().all(|r| r.step == 1.0));
+    let o = inflate_from_the_floor(|o| o.creep = Some(always)).outcome;
+    assert_handed_over_after_two_full_steps(&o, "creeping: 2 full steps");
+    // Each of them lowered the residual.
     assert!(
         o.residual_n < o.history[1].residual_n && o.history[1].residual_n < o.initial_residual_n
     );
@@ -119,40 +133,23 @@ fn creep_hands_over_only_a_continuation_that_creeps() {
 /// such steps meets hands over after exactly `steps` of them.
 #[test]
 fn plateau_hands_over_only_a_continuation_on_a_plateau() {
-    use super::solve::{Plateau, Stopped};
-    let p = 80.0 * MMHG;
-    let nh = || Box::new(NeoHookean { mu: MU });
-    let ptc = |plateau: Option<Plateau>| {
-        move |o: &mut super::solve::NewtonOptions| {
-            o.ptc = true;
-            o.initial_shift = 1e-12;
-            o.plateau = plateau;
-        }
-    };
-    let free = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(None));
+    use super::solve::Plateau;
+    let free = inflate_from_the_floor(|_| {});
     assert!(free.outcome.converged, "{}", free.outcome.reason);
     assert!(free.outcome.iterations > 3, "{}", free.outcome.iterations);
     let never = Plateau {
         steps: 1000,
         gain: 1.0,
     };
-    let ruled = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(Some(never)));
+    let ruled = inflate_from_the_floor(|o| o.plateau = Some(never));
     assert_eq!(free.lambda.to_bits(), ruled.lambda.to_bits());
     assert_eq!(free.outcome.iterations, ruled.outcome.iterations);
     let always = Plateau {
         steps: 2,
         gain: 1.0,
     };
-    let o = inflate_cylinder_with(nh(), R0, H, 40, p, ptc(Some(always))).outcome;
-    assert_eq!(o.stopped_by, Stopped::HandedOver, "{}", o.reason);
-    assert!(!o.converged);
-    assert!(
-        o.reason.starts_with("plateau: 2 full steps"),
-        "{}",
-        o.reason
-    );
-    assert_eq!(o.iterations, 2);
-    assert!(o.history.iter().all(|r| r.step == 1.0));
+    let o = inflate_from_the_floor(|o| o.plateau = Some(always)).outcome;
+    assert_handed_over_after_two_full_steps(&o, "plateau: 2 full steps");
 }
 
 #[test]

@@ -200,7 +200,7 @@ pub fn inflate_cylinder(mat: Box<dyn Membrane>, r0: f64, h: f64, nt: usize, p: f
 }
 
 /// [`inflate_cylinder`] with Newton's options changed by `tune` (the
-/// stagnation and creep rules' tests).
+/// stagnation, creep and plateau rules' tests).
 pub fn inflate_cylinder_with(
     mat: Box<dyn Membrane>,
     r0: f64,

@@ -79,7 +79,7 @@ pub struct Plateau {
     pub gain: f64,
 }
 
-/// The shift counted as at its floor for [`Creep`] (continuation lowers
+/// The shift counted as at its floor for [`Creep`] and [`Plateau`] (continuation lowers
 /// it to 1e-12).
 const CREEP_SHIFT: f64 = 1e-9;
 
@@ -152,7 +152,7 @@ pub fn newton_reusing(
     // acceptance of non-symmetric steps).
     let mut recent: Vec<f64> = Vec::with_capacity(opt.nonmonotone.max(1));
     // ‖R‖ before the last step, when that step was a full one at the
-    // shift's floor (for `creep`).
+    // shift's floor (for `creep` and `plateau`).
     let mut full_from: Option<f64> = None;
     let mut crept = 0usize;
     // ‖R‖ at the iterates joined by the current run of full steps at the
@@ -241,6 +241,9 @@ pub fn newton_reusing(
                         run.push(before);
                     }
                     run.push(rn);
+                    if run.len() > p.steps + 1 {
+                        run.remove(0);
+                    }
                 }
                 None => run.clear(),
             }
