@@ -489,7 +489,7 @@ impl Anatomy {
             Vector3::new(0.5 + d.apex_jitter[0], -0.45 + d.apex_jitter[1], -0.75).normalize();
         let rot = basis_with_axis(&apex_dir);
         let semi = Vector3::new(LV_SEMI[0], LV_SEMI[1], LV_SEMI[2]);
-        let lvot_end = origin - axis * lvot_len;
+        let lvot_end = lumen.lvot_centre(lvot_len);
         // The LVOT end sits 70 % of the long semi-axis from the centre.
         let mut centre = lvot_end + apex_dir * (0.7 * LV_SEMI[2]);
         let reach = |c: &Point3| {

@@ -5,6 +5,8 @@ use std::sync::OnceLock;
 
 use super::*;
 use crate::geom::Vector3;
+use lumen::LVOT_TURN_MM;
+use shapes::Sdf;
 
 const SEED: u64 = 3;
 
@@ -305,6 +307,62 @@ fn annulus_tilt_is_the_requested_angle_between_nadir_and_commissure_planes() {
             }
         }
     }
+}
+
+#[test]
+fn tilted_lvot_stands_square_to_the_annulus_and_joins_the_root_c1() {
+    let an = anatomy_of(&PhantomParams::new(Preset::Clinical, SEED));
+    let lumen = &an.lumen;
+    let p = &lumen.profile;
+    assert!(p.annulus_tilt_rad > 0.3);
+    let (sa, ca) = p.annulus_tilt_rad.sin_cos();
+    let st = lumen.centreline.station(0.0);
+    let low = st.e1 * p.annulus_low_angle_rad.cos() + st.e2 * p.annulus_low_angle_rad.sin();
+    let normal = lumen.annulus_normal();
+    for k in 0..12 {
+        let th = -3.0 + 0.53 * k as f64;
+        let s_plane = p.annulus_s(th).0;
+        // C¹ where the LVOT meets the root at the plane.
+        let (below, above) = (p.eval(s_plane - 1e-7, th), p.eval(s_plane + 1e-7, th));
+        assert!((below.r - above.r).abs() < 1e-6, "r jumps at θ {th}");
+        assert!(
+            (below.dr_ds - above.dr_ds).abs() < 1e-5,
+            "dr/ds jumps at θ {th}"
+        );
+        assert!((below.dr_dtheta - above.dr_dtheta).abs() < 1e-5);
+        for depth in [0.5, 3.0, 8.0, 14.0] {
+            let s = s_plane - depth;
+            // The derivatives are those of r.
+            let r = p.eval(s, th);
+            let e = 1e-6;
+            let ds = (p.eval(s + e, th).r - p.eval(s - e, th).r) / (2.0 * e);
+            let dt = (p.eval(s, th + e).r - p.eval(s, th - e).r) / (2.0 * e);
+            assert!((ds - r.dr_ds).abs() < 1e-6, "dr/ds {ds} vs {}", r.dr_ds);
+            assert!(
+                (dt - r.dr_dtheta).abs() < 1e-6,
+                "dr/dθ {dt} vs {}",
+                r.dr_dtheta
+            );
+        }
+        // Past the turn the wall is a cylinder along the annulus plane's
+        // normal: a wall point moved down that normal stays on the wall.
+        let w = lumen.wall_point(s_plane - 10.0, th);
+        let moved = w - normal * 4.0;
+        let l = lumen.local(&moved);
+        let r = p.eval(l.station.s, l.theta).r;
+        assert!((l.rho - r).abs() < 1e-8, "off the wall by {}", l.rho - r);
+        // And the sweep direction is the normal, not the valve axis.
+        assert!((normal - (st.tangent * ca + low * sa)).norm() < 1e-12);
+    }
+    // The LVOT's end lies shifted off the valve axis, inside the LV.
+    let end = lumen.lvot_centre(lumen.lvot_length_mm);
+    let off = (end - st.point).cross(&st.tangent).norm();
+    let expected = p.annulus_tilt_rad.tan() * (lumen.lvot_length_mm - 0.5 * LVOT_TURN_MM);
+    assert!(
+        (off - expected).abs() < 1e-9,
+        "LVOT end {off} mm off the axis"
+    );
+    assert!(an.lv.eval(&end).0 < 0.0);
 }
 
 #[test]

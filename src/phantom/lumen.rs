@@ -67,6 +67,15 @@ fn smoothstep(t: f64) -> (f64, f64) {
     (t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t))
 }
 
+/// Below a tilted annulus the LVOT's axis turns from the valve axis onto
+/// the annulus plane's normal over this depth (mm; the real CT's least
+/// sections turn 27° over 7 mm onto its annulus), and back to the valve axis at
+/// [`LVOT_TURN_END_MM`], past the LVOT's end inside the LV.
+pub const LVOT_TURN_MM: f64 = 6.0;
+pub const LVOT_TURN_END_MM: f64 = 20.0;
+/// Newton iterations of [`RadiusProfile::lvot_tilted`] (it takes 3–5).
+const MAX_LVOT_NEWTON: usize = 30;
+
 /// Radius with its partial derivatives.
 #[derive(Debug, Clone, Copy)]
 pub struct RadiusSample {
@@ -142,9 +151,10 @@ impl RadiusProfile {
 
     /// r(s, θ). With an annulus tilt the root part is the untilted profile
     /// stretched per angle from [δ(θ), h_stj] onto [0, h_stj], δ(θ) the
-    /// annulus plane's arc length at the wall, and the LVOT is shifted by
-    /// δ(θ): the sinuses, nadirs and VAJ follow the tilted plane while the
-    /// STJ and everything above stay where they were, and the wall stays C¹.
+    /// annulus plane's arc length at the wall: the sinuses, nadirs and VAJ
+    /// follow the tilted plane while the STJ and everything above stay where
+    /// they were. Below the plane the LVOT turns onto the plane's normal
+    /// ([`RadiusProfile::lvot_tilted`]), and the wall stays C¹.
     pub fn eval(&self, s: f64, theta: f64) -> RadiusSample {
         if self.annulus_tilt_rad == 0.0 || s > self.h_stj_mm {
             return self.eval_plain(s, theta);
@@ -152,12 +162,7 @@ impl RadiusProfile {
         let (d, dd) = self.annulus_s(theta);
         let h = self.h_stj_mm;
         if s < d {
-            let r = self.eval_plain(s - d, theta);
-            RadiusSample {
-                r: r.r,
-                dr_ds: r.dr_ds,
-                dr_dtheta: r.dr_dtheta - r.dr_ds * dd,
-            }
+            self.lvot_tilted(s, theta)
         } else {
             let se = (s - d) * h / (h - d);
             let r = self.eval_plain(se, theta);
@@ -166,6 +171,109 @@ impl RadiusProfile {
                 dr_ds: r.dr_ds * h / (h - d),
                 dr_dtheta: r.dr_dtheta + r.dr_ds * h * dd * (s - h) / ((h - d) * (h - d)),
             }
+        }
+    }
+
+    /// Lateral shift of the tilted LVOT's sections at `depth` below the
+    /// annulus plane, away from the plane's lowest point, and its
+    /// derivative: tan α times the integral of a window that turns the
+    /// axis onto the plane's normal over [`LVOT_TURN_MM`] and back to the
+    /// valve axis at [`LVOT_TURN_END_MM`] (inside the LV, and the shift
+    /// stays bounded).
+    pub fn lvot_shift(&self, depth: f64) -> (f64, f64) {
+        let k = self.annulus_tilt_rad.tan();
+        let l = LVOT_TURN_MM;
+        let ramp = |x: f64| {
+            let t = x / l;
+            if t <= 0.0 {
+                0.0
+            } else if t < 1.0 {
+                l * (t * t * t - 0.5 * t * t * t * t)
+            } else {
+                0.5 * l + (x - l)
+            }
+        };
+        let end = depth - LVOT_TURN_END_MM;
+        (
+            k * (ramp(depth) - ramp(end)),
+            k * (smoothstep(depth / l).0 - smoothstep(end / l).0),
+        )
+    }
+
+    /// The LVOT's section radius `depth` below the annulus plane at angle θ
+    /// of the section's own centre, with its depth and θ derivatives: the
+    /// annulus circle, its ellipticity fading in with depth.
+    fn lvot_section(&self, depth: f64, theta: f64) -> (f64, f64, f64) {
+        let (w, dw) = smoothstep(depth / self.lvot_fade_mm);
+        let ang = 2.0 * (theta - self.lvot_major_angle_rad);
+        let (r, e) = (self.r_annulus_mm, self.lvot_ellipticity);
+        (
+            r * (1.0 + e * w * ang.cos()),
+            r * e * dw / self.lvot_fade_mm * ang.cos(),
+            -2.0 * r * e * w * ang.sin(),
+        )
+    }
+
+    /// r(s, θ) below a tilted annulus plane. In ceCTA the lumen's least
+    /// sections turn from the aorta's onto the annulus as they reach the
+    /// LVOT: on the real CT of `../shared/real/` they turn 27° over the
+    /// 7 mm down to the annulus and settle within 4° of the nadirs' plane
+    /// (`segment/vaj_floor.rs`). So the LVOT here stands square to the
+    /// plane, the annulus curve swept down the plane's normal: a wall point
+    /// at depth d (along the valve axis, from its foot F on the plane) at
+    /// F − d·t − G(d)·l, l towards the plane's lowest point and G
+    /// ([`RadiusProfile::lvot_shift`]) turning the sweep from the valve
+    /// axis at the plane (so the wall is C¹ there) onto the normal. For
+    /// the ray at (s, θ) Newton solves for the radius ρ and the depth d:
+    /// the plane through F (E1) and F on the section circle (E2); the
+    /// derivatives follow by implicit differentiation.
+    fn lvot_tilted(&self, s: f64, theta: f64) -> RadiusSample {
+        let (sa, ca) = self.annulus_tilt_rad.sin_cos();
+        let (sd, cd) = (theta - self.annulus_low_angle_rad).sin_cos();
+        let u = [theta.cos(), theta.sin()];
+        let up = [-u[1], u[0]];
+        let l = [
+            self.annulus_low_angle_rad.cos(),
+            self.annulus_low_angle_rad.sin(),
+        ];
+        let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
+        let mut rho = self.r_annulus_mm;
+        let mut d = -s - rho * sa / ca * cd;
+        let mut jac = [[0.0; 2]; 2];
+        let mut e2_theta = 0.0;
+        for _ in 0..MAX_LVOT_NEWTON {
+            let (g, g1) = self.lvot_shift(d);
+            let f = [rho * u[0] + g * l[0], rho * u[1] + g * l[1]];
+            let fl = f[0].hypot(f[1]);
+            let fh = [f[0] / fl, f[1] / fl];
+            let tau = [-fh[1], fh[0]];
+            let (r, dr_dd, dr_dth) = self.lvot_section(d, f[1].atan2(f[0]));
+            let e1 = (d + s) * ca + g * sa + rho * sa * cd;
+            let e2 = fl - r;
+            jac = [
+                [sa * cd, ca + g1 * sa],
+                [
+                    dot(fh, u) - dr_dth * dot(tau, u) / fl,
+                    g1 * dot(fh, l) - dr_dd - dr_dth * g1 * dot(tau, l) / fl,
+                ],
+            ];
+            e2_theta = rho * dot(fh, up) - dr_dth * rho * dot(tau, up) / fl;
+            let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
+            let d_rho = -(jac[1][1] * e1 - jac[0][1] * e2) / det;
+            let d_d = -(-jac[1][0] * e1 + jac[0][0] * e2) / det;
+            rho += d_rho;
+            d += d_d;
+            if d_rho.abs() + d_d.abs() < 1e-12 * self.r_annulus_mm {
+                break;
+            }
+        }
+        // ∂(ρ, d)/∂x = −J⁻¹ ∂E/∂x; only ρ's row is needed.
+        let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
+        let d_rho = |e1: f64, e2: f64| -(jac[1][1] * e1 - jac[0][1] * e2) / det;
+        RadiusSample {
+            r: rho,
+            dr_ds: d_rho(ca, 0.0),
+            dr_dtheta: d_rho(-rho * sa * sd, e2_theta),
         }
     }
 
@@ -218,7 +326,10 @@ impl RadiusProfile {
             .fold(0.0, f64::max);
         sinus
             .max(self.r_ascending_mm * (1.0 + self.ascending_variation.abs()))
-            .max(self.r_annulus_mm * (1.0 + self.lvot_ellipticity))
+            .max(
+                self.r_annulus_mm * (1.0 + self.lvot_ellipticity)
+                    + self.annulus_tilt_rad.tan() * LVOT_TURN_END_MM,
+            )
             .max(self.r_stj_mm)
     }
 
@@ -315,6 +426,16 @@ impl Lumen {
     /// Height above the annulus plane along the valve axis.
     pub fn height(&self, p: &Point3) -> f64 {
         (p - self.centreline.origin).dot(&self.centreline.axis)
+    }
+
+    /// Centre of the LVOT's section `depth` below the annulus centre: on the
+    /// valve axis, shifted away from the tilted plane's lowest point
+    /// ([`RadiusProfile::lvot_shift`]).
+    pub fn lvot_centre(&self, depth: f64) -> Point3 {
+        let st = self.centreline.station(0.0);
+        let low = self.profile.annulus_low_angle_rad;
+        let l = st.e1 * low.cos() + st.e2 * low.sin();
+        st.point - st.tangent * depth - l * self.profile.lvot_shift(depth).0
     }
 
     /// Unit normal of the annulus (nadir, VAJ) plane, towards the aorta: the

@@ -48,7 +48,8 @@
 //!   `calcium_in_lumen_mm3` gives their overlap with the truth region.
 //! * **Options** (all off except in the `clinical` preset): with an annulus
 //!   tilt the VAJ plane above is the tilted annulus plane through the
-//!   annulus centre (nadirs on it, commissures still at h_comm); with an
+//!   annulus centre (nadirs on it, commissures still at h_comm) and the
+//!   LVOT below it stands square to that plane; with an
 //!   arch the truth region ends at a plane z = const 8 mm below the arch's
 //!   start; native cusps lie inside the lumen and so inside the mask.
 //!

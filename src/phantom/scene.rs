@@ -296,7 +296,10 @@ impl Scene {
             let cl = &an.lumen.centreline;
             let top = MYO_TOP_BELOW_VAJ_MM + ROUNDING_MM;
             let basal = Tube::new(
-                vec![o - cl.axis * (lvot + BELOW_LVOT_MM), o - cl.axis * top],
+                vec![
+                    an.lumen.lvot_centre(lvot + BELOW_LVOT_MM),
+                    an.lumen.lvot_centre(top),
+                ],
                 vec![an.lumen.profile.r_annulus_mm + LVOT_MYOCARDIUM_MM - ROUNDING_MM],
             );
             // Capsule trimmed flat, then dilated: a cylinder with a rounded rim.
