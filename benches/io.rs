@@ -59,8 +59,9 @@ fn grid(n: usize) -> TriMesh {
 }
 
 fn main() {
-    let dir = std::env::temp_dir().join(format!("coapt-bench-io-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let work = coapt::bench::work_dir::WorkDir::new(None, "io");
+    let dir = work.path();
+    std::fs::create_dir_all(dir).unwrap();
     let vol = ct();
     let mb = vol.len() as f64 * 2.0 / 1e6;
     println!("NIfTI, 512×512×300 int16 ({mb:.0} MB raw)");
@@ -90,5 +91,4 @@ fn main() {
         let size = std::fs::metadata(&p).unwrap().len() as f64 / 1e6;
         println!("  zlib={compress:<5} write {w:.2} s  read {r:.2} s  file {size:.1} MB");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

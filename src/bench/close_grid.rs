@@ -220,18 +220,8 @@ pub struct Grid {
 /// Check the options, then run the grid.
 pub fn run(opts: &Options) -> Result<Grid> {
     validate(opts)?;
-    let (work, temporary) = match &opts.work {
-        Some(d) => (d.clone(), false),
-        None => (
-            std::env::temp_dir().join(format!("coapt-bench-close-grid-{}", std::process::id())),
-            true,
-        ),
-    };
-    let result = run_in(opts, &work);
-    if temporary {
-        let _ = std::fs::remove_dir_all(&work);
-    }
-    result
+    let work = super::work_dir::WorkDir::new(opts.work.as_deref(), "close-grid");
+    run_in(opts, work.path())
 }
 
 fn validate(opts: &Options) -> Result<()> {

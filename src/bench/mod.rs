@@ -16,6 +16,7 @@ pub mod seed001;
 pub mod segment;
 pub mod stress_close;
 pub mod surface;
+pub mod work_dir;
 
 use std::path::Path;
 use std::process::Command;
@@ -38,8 +39,8 @@ pub struct Sample {
 pub fn run_child(stage: &str, args: &[String], threads: usize) -> Result<Sample> {
     let exe = std::env::current_exe()
         .map_err(|e| Error::failed("bench", format!("cannot find coapt itself: {e}")))?;
-    let dir = std::env::temp_dir().join(format!("coapt-bench-{}-{}", stage, std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let work = work_dir::WorkDir::new(None, stage);
+    let dir = work.path();
     let t0 = Instant::now();
     let out = Command::new(exe)
         .arg(stage)
@@ -51,7 +52,6 @@ pub fn run_child(stage: &str, args: &[String], threads: usize) -> Result<Sample>
         .map_err(|e| Error::failed("bench", format!("cannot start coapt: {e}")))?;
     let wall_s = t0.elapsed().as_secs_f64();
     if !out.status.success() {
-        let _ = std::fs::remove_dir_all(&dir);
         return Err(Error::failed(
             "bench",
             format!(
@@ -61,7 +61,7 @@ pub fn run_child(stage: &str, args: &[String], threads: usize) -> Result<Sample>
             ),
         ));
     }
-    let manifest = Manifest::load(&dir)?;
+    let manifest = Manifest::load(dir)?;
     let rec = manifest
         .stage(stage)
         .ok_or_else(|| Error::failed("bench", format!("{stage} wrote no manifest record")))?;
@@ -70,9 +70,8 @@ pub fn run_child(stage: &str, args: &[String], threads: usize) -> Result<Sample>
         stage_s: rec.seconds,
         summary: rec.summary.clone(),
         peak_rss_mb: rec.peak_rss_mb,
-        output_bytes: dir_bytes(&dir),
+        output_bytes: dir_bytes(dir),
     };
-    let _ = std::fs::remove_dir_all(&dir);
     Ok(sample)
 }
 

@@ -86,18 +86,11 @@ pub fn dispatch(m: &ArgMatches, threads: usize) -> Result<()> {
     if h_mm <= 0.0 {
         return Err(Error::usage(format!("--h {h_text}: must be positive")));
     }
-    let (work, temporary) = match m.get_one::<PathBuf>("work") {
-        Some(d) => (d.clone(), false),
-        None => (
-            std::env::temp_dir().join(format!("coapt-bench-pipeline-{}", std::process::id())),
-            true,
-        ),
-    };
-    let result = run_all(&presets, h_mm, threads, &work);
-    if temporary {
-        let _ = std::fs::remove_dir_all(&work);
-    }
-    let results = result?;
+    let work = super::work_dir::WorkDir::new(
+        m.get_one::<PathBuf>("work").map(PathBuf::as_path),
+        "pipeline",
+    );
+    let results = run_all(&presets, h_mm, threads, work.path())?;
     println!("{}", table(&results));
     if let Some(path) = m.get_one::<PathBuf>("csv") {
         std::fs::write(path, csv(&results)).map_err(|e| Error::write(path, e))?;

@@ -549,8 +549,9 @@ fn run_baseline(
     seg: &crate::segment::Segmentation,
     secs: f64,
 ) -> Result<String> {
-    let dir = std::env::temp_dir().join(format!("coapt-bench-segment-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| Error::write(&dir, e))?;
+    let work = super::work_dir::WorkDir::new(None, "segment");
+    let dir = work.path();
+    std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
     let ct = dir.join("ct.nii.gz");
     crate::io::nifti::write(&ct, &ph.ct)?;
     let out = dir.join("baseline.nii.gz");
@@ -593,7 +594,6 @@ fn run_baseline(
         let t_n = ph.truth_mask.as_slice().iter().filter(|&&v| v != 0).count();
         2.0 * inter as f64 / (m_n + t_n) as f64
     };
-    let _ = std::fs::remove_dir_all(&dir);
     Ok(format!(
         "SimpleITK baseline Dice {b_dice:.4} in {b_secs:.2} s; coapt {secs:.2} s (baseline/coapt time ratio {:.2})",
         b_secs / secs
