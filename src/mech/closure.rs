@@ -633,7 +633,8 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
 /// Close the leaflets: suture them first (seed 001 Algorithm 1) unless
 /// `cfg.suture.mode` is off (the stage turns `auto` into off for leaflets
 /// that say they are sutured) or `sutured` gives the pre-stage's result
-/// already (the low-pressure closure reuses the first one's). `wall`: the
+/// already ([`sew`]; its seconds count against `time_limit` as if it had
+/// run here). `wall`: the
 /// wall whose tangent the sutured triangles turn to (default: the cylinder
 /// about the axis).
 pub fn close_on(
@@ -666,24 +667,8 @@ fn watching(w: Option<&Watch>, solve: Solve) -> Option<super::system::Watch> {
     })
 }
 
-/// [`close_on`], telling `watch` how each solve goes.
-pub fn close_watched(
-    l: &Leaflets,
-    cfg: &CloseConfig,
-    axis: Option<Axis>,
-    wall: Option<&Wall>,
-    sutured: Option<&Sutured>,
-    watch: Option<&Watch>,
-) -> Result<Closed, String> {
-    let t0 = Instant::now();
-    let n_leaflets = l.leaflet.iter().map(|&k| k as usize + 1).max().unwrap_or(0);
-    let axis = match axis {
-        Some(a) => a,
-        None => axis_from_leaflets(l)?,
-    };
-    if !l.boundary.iter().any(|&b| b == 1) {
-        return Err("no sutured nodes (boundary = 1): the leaflets would float away".into());
-    }
+/// The solver's stopping rules and Newton options from the settings.
+fn solver_settings(cfg: &CloseConfig) -> (Stop, NewtonOptions) {
     let stop = Stop {
         abs_n: cfg.tolerance,
         rel: cfg.relative_tolerance,
@@ -698,64 +683,112 @@ pub fn close_watched(
         max_rejections: 12,
         ..NewtonOptions::default()
     };
-    let suturing = match (sutured, cfg.suture.mode) {
-        (Some(s), _) => Some(s.clone()),
-        (None, suture::Mode::Off) => None,
-        (None, _) => {
-            let cyl = Wall::Cylinder(axis);
-            // With true contact the leaflets are sewn without crossing
-            // each other too (the closure's barrier cannot undo it).
-            let contact = (cfg.contact == ContactKind::Leaflets).then(|| {
-                let dhat = cfg.contact_margin;
-                suture::SewContact {
-                    dhat,
-                    xi: (cfg.thickness - 0.5 * dhat).max(0.0),
-                }
-            });
-            let s = suture::suture(
-                l,
-                &cfg.suture,
-                &axis,
-                wall.unwrap_or(&cyl),
-                &stop,
-                &nopt,
-                contact,
-                watching(watch, Solve::Suture),
-            )?;
-            if s.status == suture::Status::Failed {
-                let (crossings, sewn_contacts) = leaflet_crossings(l, &s.x);
-                return Ok(Closed {
-                    crossings,
-                    sewn_contacts,
-                    contact: vec![0; s.x.len()],
-                    area_stretch: Vec::new(),
-                    max_stretch: Vec::new(),
-                    setup_s: t0.elapsed().as_secs_f64(),
-                    solve_s: 0.0,
-                    pressure_sign: pressure_signs(l, &axis, n_leaflets),
-                    outcome: Outcome {
-                        stopped_by: Stopped::SuturingFailed,
-                        reason: format!("suturing (seed 001 Algorithm 1) failed: {}", s.reason),
-                        iterations: s.iterations,
-                        residual_n: s.rounds.last().map_or(0.0, |r| r.residual_n),
-                        initial_residual_n: s.rounds.first().map_or(0.0, |r| r.residual_n),
-                        seconds: s.seconds,
-                        ..Outcome::start()
-                    },
-                    x: s.x.clone(),
-                    suturing: Some(s),
-                    wall_contact: None,
-                });
-            }
-            Some(s)
-        }
+    (stop, nopt)
+}
+
+/// The axis given, else the leaflets' own; refused when nothing is sewn.
+fn checked_axis(l: &Leaflets, axis: Option<Axis>) -> Result<Axis, String> {
+    let axis = match axis {
+        Some(a) => a,
+        None => axis_from_leaflets(l)?,
     };
+    if !l.boundary.iter().any(|&b| b == 1) {
+        return Err("no sutured nodes (boundary = 1): the leaflets would float away".into());
+    }
+    Ok(axis)
+}
+
+/// The suturing pre-stage alone (seed 001 Algorithm 1), as [`close_watched`]
+/// runs it when it is not given one: `None` when `cfg.suture.mode` is off.
+/// Two closures of one valve (at the closing pressure and at the effective
+/// height's) start from one sewing.
+pub fn sew(
+    l: &Leaflets,
+    cfg: &CloseConfig,
+    axis: Option<Axis>,
+    wall: Option<&Wall>,
+    watch: Option<&Watch>,
+) -> Result<Option<Sutured>, String> {
+    let axis = checked_axis(l, axis)?;
+    if cfg.suture.mode == suture::Mode::Off {
+        return Ok(None);
+    }
+    let (stop, nopt) = solver_settings(cfg);
+    let cyl = Wall::Cylinder(axis);
+    // With true contact the leaflets are sewn without crossing each other
+    // too (the closure's barrier cannot undo it).
+    let contact = (cfg.contact == ContactKind::Leaflets).then(|| {
+        let dhat = cfg.contact_margin;
+        suture::SewContact {
+            dhat,
+            xi: (cfg.thickness - 0.5 * dhat).max(0.0),
+        }
+    });
+    suture::suture(
+        l,
+        &cfg.suture,
+        &axis,
+        wall.unwrap_or(&cyl),
+        &stop,
+        &nopt,
+        contact,
+        watching(watch, Solve::Suture),
+    )
+    .map(Some)
+}
+
+/// [`close_on`], telling `watch` how each solve goes.
+pub fn close_watched(
+    l: &Leaflets,
+    cfg: &CloseConfig,
+    axis: Option<Axis>,
+    wall: Option<&Wall>,
+    sutured: Option<&Sutured>,
+    watch: Option<&Watch>,
+) -> Result<Closed, String> {
+    let t0 = Instant::now();
+    let n_leaflets = l.leaflet.iter().map(|&k| k as usize + 1).max().unwrap_or(0);
+    let axis = checked_axis(l, axis)?;
+    let (stop, nopt) = solver_settings(cfg);
+    let suturing = match sutured {
+        Some(s) => Some(s.clone()),
+        None => sew(l, cfg, Some(axis), wall, watch)?,
+    };
+    if let Some(s) = suturing
+        .as_ref()
+        .filter(|s| s.status == suture::Status::Failed)
+    {
+        let (crossings, sewn_contacts) = leaflet_crossings(l, &s.x);
+        return Ok(Closed {
+            crossings,
+            sewn_contacts,
+            contact: vec![0; s.x.len()],
+            area_stretch: Vec::new(),
+            max_stretch: Vec::new(),
+            setup_s: t0.elapsed().as_secs_f64(),
+            solve_s: 0.0,
+            pressure_sign: pressure_signs(l, &axis, n_leaflets),
+            outcome: Outcome {
+                stopped_by: Stopped::SuturingFailed,
+                reason: format!("suturing (seed 001 Algorithm 1) failed: {}", s.reason),
+                iterations: s.iterations,
+                residual_n: s.rounds.last().map_or(0.0, |r| r.residual_n),
+                initial_residual_n: s.rounds.first().map_or(0.0, |r| r.residual_n),
+                seconds: s.seconds,
+                ..Outcome::start()
+            },
+            x: s.x.clone(),
+            suturing: Some(s.clone()),
+            wall_contact: None,
+        });
+    }
     // `time_limit` bounds the whole close: the closure gets what suturing
     // left of it (each had been given the whole limit, so a case could run
-    // twice as long as asked).
+    // twice as long as asked), whether it sewed here or was given the sewing.
     let sew_s = suturing.as_ref().map_or(0.0, |s| s.seconds);
+    let sewn_before = if sutured.is_some() { sew_s } else { 0.0 };
     let stop = Stop {
-        max_seconds: (cfg.time_limit - t0.elapsed().as_secs_f64()).max(0.0),
+        max_seconds: (cfg.time_limit - sewn_before - t0.elapsed().as_secs_f64()).max(0.0),
         ..stop
     };
     let nopt = NewtonOptions {
@@ -885,7 +918,7 @@ pub fn close_watched(
         pressure_tangent: true,
         watch: watching(watch, Solve::Close),
     };
-    let setup_s = t0.elapsed().as_secs_f64() - suturing.as_ref().map_or(0.0, |s| s.seconds);
+    let setup_s = t0.elapsed().as_secs_f64() - (sew_s - sewn_before);
     let t1 = Instant::now();
     let mut x = l.x.clone();
     let load_n = cfg.pressure.abs() * sys.refs.iter().map(|r| r.area).sum::<f64>();
@@ -1182,6 +1215,41 @@ mod tests {
         assert_eq!(late.stopped_by, Stopped::TimeLimit, "{}", late.reason);
         assert!(late.reason.contains("time limit"), "{}", late.reason);
         assert!(late.residual_n.is_finite(), "{}", late.residual_n);
+    }
+
+    /// The stage sews once for its two closures: a closure given that
+    /// sewing ends where one that sews for itself does, to the bit, and the
+    /// sewing's seconds count against `time_limit` as if it had run there.
+    #[test]
+    fn a_closure_given_the_sewing_is_the_one_that_sews() {
+        let (l, axis) = crate::bench::close::ozaki_cylinder(2.0).unwrap();
+        let cfg = crate::mech::config::parse(
+            "model = \"svk\"\nyoung = \"1 MPa\"\npoisson = 0\nthickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\n",
+        )
+        .unwrap();
+        let own = close_on(&l, &cfg, Some(axis), None, None).unwrap();
+        let sewn = sew(&l, &cfg, Some(axis), None, None)
+            .unwrap()
+            .expect("suturing is on");
+        let given = close_on(&l, &cfg, Some(axis), None, Some(&sewn)).unwrap();
+        assert!(own.outcome.converged && given.outcome.converged);
+        assert_eq!(own.x, given.x);
+        assert_eq!(own.outcome.iterations, given.outcome.iterations);
+        assert_eq!(own.suturing.as_ref().unwrap().x, sewn.x);
+        let slow = suture::Sutured {
+            seconds: cfg.time_limit + 1.0,
+            ..sewn
+        };
+        let late = close_on(&l, &cfg, Some(axis), None, Some(&slow))
+            .unwrap()
+            .outcome;
+        assert!(!late.converged);
+        assert_eq!(late.stopped_by, Stopped::TimeLimit, "{}", late.reason);
+        assert!(
+            late.reason.starts_with("no time left to close"),
+            "{}",
+            late.reason
+        );
     }
 
     /// A residual tolerance below round-off cannot be met; Newton then

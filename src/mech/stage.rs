@@ -220,37 +220,42 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
     progress.set(0.05);
     let wall_normals = wall_of(&wall);
     let goal = (cfg.tolerance, cfg.relative_tolerance);
-    let watch = bar_watch(progress, goal, (0.05, 0.35), (0.35, 0.8));
-    let closed = closure::close_watched(
-        &leaflets,
-        &cfg,
-        axis,
-        Some(&wall_normals),
-        None,
-        Some(&watch),
-    )
-    .map_err(|e| Error::bad_input(lpath, e))?;
-    progress.set(0.8);
+    let watch = bar_watch(progress, goal, (0.05, 0.35), (0.35, 0.95));
+    let sewn = closure::sew(&leaflets, &cfg, axis, Some(&wall_normals), Some(&watch))
+        .map_err(|e| Error::bad_input(lpath, e))?;
     // The seeds read the effective height on an extra closure at a low
     // pressure (3 mmHg), where the leaflets just meet without being pressed.
-    let low = match cfg.effective_height_pressure {
-        Some(p) if closed.outcome.converged => {
-            let mut low_cfg = cfg.clone();
-            low_cfg.pressure = p;
-            low_cfg.effective_height_pressure = None;
-            let watch = bar_watch(progress, goal, (0.8, 0.8), (0.8, 0.95));
-            Some(
-                closure::close_watched(
-                    &leaflets,
-                    &low_cfg,
-                    axis,
-                    Some(&wall_normals),
-                    closed.suturing.as_ref(),
-                    Some(&watch),
-                )
-                .map_err(|e| Error::bad_input(lpath, e))?,
+    // It starts from the same sewing, not from the first closure, so the
+    // two run side by side: on two cores the second fills the core the
+    // first leaves idle while it factorises. It counts only when the first
+    // converges (its result, or its error, is dropped otherwise).
+    let low_cfg = cfg.effective_height_pressure.map(|p| {
+        let mut c = cfg.clone();
+        c.pressure = p;
+        c.effective_height_pressure = None;
+        c
+    });
+    let sewn = sewn.as_ref();
+    let (closed, low) = rayon::join(
+        || {
+            closure::close_watched(
+                &leaflets,
+                &cfg,
+                axis,
+                Some(&wall_normals),
+                sewn,
+                Some(&watch),
             )
-        }
+        },
+        || {
+            low_cfg.as_ref().map(|c| {
+                closure::close_watched(&leaflets, c, axis, Some(&wall_normals), sewn, None)
+            })
+        },
+    );
+    let closed = closed.map_err(|e| Error::bad_input(lpath, e))?;
+    let low = match low {
+        Some(l) if closed.outcome.converged => Some(l.map_err(|e| Error::bad_input(lpath, e))?),
         _ => None,
     };
     progress.set(0.95);
