@@ -17,9 +17,8 @@
 //! "seed000-anisotropic"), `contact_margin` (the leaflet barrier's reach
 //! d̂: mid-surfaces closer than thickness + d̂/2 push apart, and sheets
 //! pressed at the closing pressure rest a thickness apart; default 0.5 ×
-//! thickness), `contact_alpha` (stiffness factor of
-//! the node-to-triangle penalty, `contact::penalty`; the barrier's
-//! stiffness follows from the pressure instead), `plane_offset` (contact
+//! thickness; the barrier's stiffness follows from the pressure),
+//! `plane_offset` (contact
 //! planes moved off the plane of symmetry into each leaflet's side, e.g.
 //! half the thickness so pressed leaflets do not cross; default "0 mm", the
 //! seed's planes through the axis), `tolerance` (default
@@ -221,7 +220,6 @@ pub struct CloseConfig {
     pub pressure: f64,
     pub contact: ContactKind,
     pub contact_margin: f64,
-    pub contact_alpha: f64,
     /// Contact planes sit this far (mm) off the plane of symmetry, into the
     /// leaflet's side (0: the seed's planes through the axis).
     pub plane_offset: f64,
@@ -305,7 +303,6 @@ impl CloseConfig {
             "pressure_mmhg": self.pressure / units::MMHG_IN_MPA,
             "contact": format!("{:?}", self.contact).to_lowercase(),
             "contact_margin_mm": self.contact_margin,
-            "contact_alpha": self.contact_alpha,
             "plane_offset_mm": self.plane_offset,
             "solver": format!("{:?}", self.solver).to_lowercase(),
             "tolerance_n": self.tolerance,
@@ -488,13 +485,15 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
     }
     let contact_margin =
         q(Kind::Length, &raw.contact_margin, "contact_margin")?.unwrap_or(0.5 * thickness);
+    if raw.contact_alpha.is_some() {
+        return Err("contact_alpha was the stiffness factor of the node-to-triangle penalty, which no closure uses since the leaflet barrier replaced it (its stiffness follows from the pressure): remove the key".into());
+    }
     let cfg = CloseConfig {
         model,
         thickness,
         pressure,
         contact,
         contact_margin: positive(contact_margin, "contact_margin")?,
-        contact_alpha: positive(raw.contact_alpha.unwrap_or(25.0), "contact_alpha")?,
         plane_offset: match q(Kind::Length, &raw.plane_offset, "plane_offset")?.unwrap_or(0.0) {
             v if v >= 0.0 => v,
             _ => return Err("plane_offset must be ≥ 0".into()),
@@ -636,13 +635,6 @@ pub fn check_ranges(c: &CloseConfig) -> std::result::Result<(), String> {
         "the contact reach is a fraction of the thickness",
     )?;
     check(
-        "contact_alpha",
-        c.contact_alpha,
-        (1e-3, 1e4),
-        ONE,
-        "the penalty factor is of order 10",
-    )?;
-    check(
         "plane_offset",
         c.plane_offset,
         (0.0, 5.0),
@@ -782,10 +774,6 @@ mod tests {
                 &["pressure 1e12 mmHg", "0–300 mmHg"],
             ),
             ("mu = \"1e9 MPa\"", &["mu 1e9 MPa", "0.001–1000 MPa"]),
-            (
-                "contact_alpha = 1e300",
-                &["contact_alpha 1e300 lies", "0.001–10000:"],
-            ),
             ("tolerance = \"1e300 N\"", &["tolerance", "0–1 N"]),
             ("relative_tolerance = 0.5", &["relative_tolerance 0.5 lies"]),
             (
@@ -843,6 +831,13 @@ mod tests {
         assert!(e.contains("mu") && e.contains("unit"), "{e}");
         let e = parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.4 mm\"\npressure = \"90 mmHg\"\nfoo = 1\n").unwrap_err();
         assert!(e.contains("foo"), "{e}");
+        // A key that once tuned the node-to-triangle penalty is refused
+        // with why, not ignored.
+        let e = parse("model = \"neo-hookean\"\nmu = \"300 kPa\"\nthickness = \"0.4 mm\"\npressure = \"90 mmHg\"\ncontact_alpha = 25\n").unwrap_err();
+        assert!(
+            e.contains("contact_alpha") && e.contains("remove the key"),
+            "{e}"
+        );
         let e =
             parse("model = \"svk\"\nthickness = \"0.4 mm\"\npressure = \"90 mmHg\"\n").unwrap_err();
         assert!(e.contains("young"), "{e}");

@@ -1,27 +1,19 @@
 //! Contact for membranes (ALGORITHMS.md §7): the unsigned-distance barrier
 //! between leaflets with its collision-free step (`barrier`,
-//! `leaflet_barrier`; what `contact = "leaflets"` uses), the signed
-//! node-to-triangle penalty (`penalty`) and the seed's penalty planes. The broad phase
-//! (`geom::bvh`), closest points and the exact triangle–triangle test live in
-//! `geom/`, shared with the leaflets and report stages.
-//!
-//! Typical use in a solver iteration (positions `x`, mm):
-//!
-//! ```text
-//! bvh.refit(&x);                                   // rebuild when bvh.cost() has grown ~1.5×
-//! let pairs = penalty::find_pairs(&x, &tris, &node_body, &tri_body, &area, &bvh, &params, &sides, reach);
-//! for p in &pairs { let (e, g, h) = penalty::pair_eval(&x, &tris, p, &params, true); /* assemble at p.dofs(&tris) */ }
-//! // after a converged load step:
-//! sides.commit(&x, &tris, &pairs);
-//! let mask = penalty::contact_mask(x.len(), &pairs);   // `contact` point data
-//! ```
+//! `edge_barrier`, `leaflet_barrier`; what `contact = "leaflets"` uses),
+//! the barrier that keeps leaflets off the aortic wall (`wall_barrier`) and
+//! the seed's penalty planes (`planes`; a lone leaflet of a symmetric
+//! valve). The broad phase (`geom::bvh`), closest points and the exact
+//! triangle–triangle test live in `geom/`, shared with the leaflets and
+//! report stages. (A signed node-to-triangle penalty came first; on a
+//! valve its contact set grew without bound, free-edge nodes re-learning
+//! their side, and the barrier replaced it.)
 
 pub mod barrier;
 pub mod edge_barrier;
 pub mod edge_pairs;
 pub mod jet;
 pub mod leaflet_barrier;
-pub mod penalty;
 pub mod planes;
 pub mod wall_barrier;
 
