@@ -236,23 +236,30 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         c
     });
     let sewn = sewn.as_ref();
-    let (closed, low) = rayon::join(
-        || {
-            closure::close_watched(
-                &leaflets,
-                &cfg,
-                axis,
-                Some(&wall_normals),
-                sewn,
-                Some(&watch),
-            )
-        },
-        || {
-            low_cfg.as_ref().map(|c| {
-                closure::close_watched(&leaflets, c, axis, Some(&wall_normals), sewn, None)
-            })
-        },
-    );
+    let main = || {
+        closure::close_watched(
+            &leaflets,
+            &cfg,
+            axis,
+            Some(&wall_normals),
+            sewn,
+            Some(&watch),
+        )
+    };
+    let low = || {
+        low_cfg
+            .as_ref()
+            .map(|c| closure::close_watched(&leaflets, c, axis, Some(&wall_normals), sewn, None))
+    };
+    // On one thread nothing runs beside the first closure, so the second
+    // waits for it and is skipped when it fails, as before.
+    let (closed, low) = if rayon::current_num_threads() > 1 {
+        rayon::join(main, low)
+    } else {
+        let closed = main();
+        let converged = closed.as_ref().is_ok_and(|c| c.outcome.converged);
+        (closed, if converged { low() } else { None })
+    };
     let closed = closed.map_err(|e| Error::bad_input(lpath, e))?;
     let low = match low {
         Some(l) if closed.outcome.converged => Some(l.map_err(|e| Error::bad_input(lpath, e))?),
