@@ -18,9 +18,9 @@
 //! d̂: mid-surfaces closer than thickness + d̂/2 push apart, and sheets
 //! pressed at the closing pressure rest a thickness apart; default 0.5 ×
 //! thickness; the barrier's stiffness follows from the pressure),
-//! `plane_offset` (contact
-//! planes moved off the plane of symmetry into each leaflet's side, e.g.
-//! half the thickness so pressed leaflets do not cross; default "0 mm", the
+//! `plane_offset` (contact planes moved off the plane of symmetry into
+//! each leaflet's side, e.g. half the thickness so pressed leaflets do
+//! not cross; default "0 mm", the
 //! seed's planes through the axis), `tolerance` (default
 //! "1e-7 N"), `relative_tolerance` (default 1e-7), `step_tolerance`
 //! (default "1e-4 mm", a hundredth of the 0.01 mm the report gives
