@@ -3,10 +3,10 @@
 //!
 //! # Why a barrier and not the signed penalty
 //!
-//! The signed node-to-triangle penalty (`penalty.rs`) needs each node's side
-//! of the other leaflet; free-edge nodes slip round the other leaflet's free
-//! edge, their side is re-learned, and on a valve the contact set grew
-//! without bound. The distance d = |x − p| to the closest point p of the
+//! The signed node-to-triangle penalty that came first (since removed)
+//! needed each node's side of the other leaflet; free-edge nodes slipped
+//! round the other leaflet's free edge, their side was re-learned, and on a
+//! valve the contact set grew without bound. The distance d = |x − p| to the closest point p of the
 //! triangle has no side: nothing to learn, nothing to re-learn. Instead the
 //! energy grows without bound as d falls to the offset ξ, and the solver's
 //! step filter ([`toi`], additive CCD) never lets a step reach it, so a
