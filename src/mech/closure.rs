@@ -634,9 +634,8 @@ pub fn close(l: &Leaflets, cfg: &CloseConfig, axis: Option<Axis>) -> Result<Clos
 /// `cfg.suture.mode` is off (the stage turns `auto` into off for leaflets
 /// that say they are sutured) or `sutured` gives the pre-stage's result
 /// already ([`sew`]; its seconds count against `time_limit` as if it had
-/// run here). `wall`: the
-/// wall whose tangent the sutured triangles turn to (default: the cylinder
-/// about the axis).
+/// run here). `wall`: the wall whose tangent the sutured triangles turn to
+/// (default: the cylinder about the axis).
 pub fn close_on(
     l: &Leaflets,
     cfg: &CloseConfig,
