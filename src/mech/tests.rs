@@ -62,6 +62,35 @@ fn stagnation_stops_only_a_newton_that_stalls() {
     );
 }
 
+/// The held-back rule stops a Newton only after n accepted steps in a row
+/// that the line search cut to f of Newton's or less: with f = 0 no step
+/// qualifies and the solve ends where it ends without the rule, to the
+/// bit; with f = 1 every accepted step does and it stops after n, saying
+/// so, its state kept. Continuation (`ptc`) ignores it.
+#[test]
+fn held_back_stops_only_a_newton_whose_steps_are_cut() {
+    let p = 80.0 * MMHG;
+    let nh = || Box::new(NeoHookean { mu: MU });
+    let free = inflate_cylinder_with(nh(), R0, H, 40, p, |_| {});
+    let never = inflate_cylinder_with(nh(), R0, H, 40, p, |o| o.held_back = Some((1, 0.0)));
+    assert!(free.outcome.converged && never.outcome.converged);
+    assert_eq!(free.lambda.to_bits(), never.lambda.to_bits());
+    assert_eq!(free.outcome.iterations, never.outcome.iterations);
+    assert!(free.outcome.iterations > 3, "{}", free.outcome.iterations);
+    let stopped =
+        inflate_cylinder_with(nh(), R0, H, 40, p, |o| o.held_back = Some((3, 1.0))).outcome;
+    assert!(!stopped.converged);
+    assert_eq!(stopped.stopped_by, super::solve::Stopped::IterationLimit);
+    assert_eq!(stopped.iterations, 3);
+    assert!(
+        stopped.reason.starts_with("held back: 3 steps"),
+        "{}",
+        stopped.reason
+    );
+    assert!(stopped.residual_n < stopped.initial_residual_n);
+    assert_unmet_rule_changes_nothing(|o| o.held_back = Some((1, 1.0)));
+}
+
 /// The neo-Hookean cylinder inflated at 80 mmHg by continuation that
 /// starts at the shift's floor, its options then changed by `rule` (the
 /// hand-over rules' tests).

@@ -45,6 +45,12 @@ pub struct NewtonOptions {
     /// Continuation only: hand over ([`Stopped::HandedOver`]) once full
     /// steps at the shift's floor no longer gain (see [`Plateau`]).
     pub plateau: Option<Plateau>,
+    /// (n, f), Newton without continuation only: stop once n accepted
+    /// steps in a row were cut to f of Newton's or less, by the line search
+    /// or by a barrier's collision-free limit (a phase that hands back when
+    /// its tangent no longer points anywhere useful), as
+    /// [`Stopped::IterationLimit`].
+    pub held_back: Option<(usize, f64)>,
     /// Continuation's first shift (relative to the diagonal). 1 from a
     /// state far from equilibrium; a phase that starts near one (after
     /// another phase) starts small, as the last phase ended.
@@ -118,6 +124,7 @@ impl Default for NewtonOptions {
             reuse_factor: false,
             nonmonotone: 1,
             stagnation: None,
+            held_back: None,
             creep: None,
             plateau: None,
             initial_shift: 1.0,
@@ -158,6 +165,8 @@ pub fn newton_reusing(
     // ‖R‖ at the iterates joined by the current run of full steps at the
     // shift's floor (for `plateau`).
     let mut run: Vec<f64> = Vec::new();
+    // Accepted steps in a row the line search cut (for `held_back`).
+    let mut held = 0usize;
     loop {
         for term in sys.terms.iter_mut() {
             term.update(x);
@@ -217,6 +226,13 @@ pub fn newton_reusing(
                 );
                 break;
             }
+        }
+        if let Some((n, f)) = opt.held_back.filter(|&(n, _)| !opt.ptc && held >= n) {
+            out.stopped_by = Stopped::IterationLimit;
+            out.reason = format!(
+                "held back: {n} steps in a row cut to {f} of Newton's or less, at residual {rn:.3e} N"
+            );
+            break;
         }
         if let Some(c) = opt.creep {
             let creeping = full_from.is_some_and(|before| {
@@ -484,6 +500,8 @@ pub fn newton_reusing(
             Some(xn) => {
                 *x = xn;
                 rec.step = alpha * limit;
+                let cut = opt.held_back.is_some_and(|(_, f)| alpha * limit <= f);
+                held = if cut { held + 1 } else { 0 };
                 full_from = (opt.ptc && alpha == 1.0 && limit >= 1.0 && rec.shift <= CREEP_SHIFT)
                     .then_some(rn);
                 rejections = 0;
@@ -499,6 +517,7 @@ pub fn newton_reusing(
             }
             None => {
                 full_from = None;
+                held = 0;
                 rejections += 1;
                 stalled = true;
                 cap = (0.5 * cap).max(opt.max_step_mm);
