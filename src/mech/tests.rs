@@ -63,7 +63,7 @@ fn stagnation_stops_only_a_newton_that_stalls() {
 }
 
 /// The held-back rule stops a Newton only after n accepted steps in a row
-/// that the line search cut to f of Newton's or less: with f = 0 no step
+/// that were cut to f of Newton's or less: with f = 0 no step
 /// qualifies and the solve ends where it ends without the rule, to the
 /// bit; with f = 1 every accepted step does and it stops after n, saying
 /// so, its state kept. Continuation (`ptc`) ignores it.

@@ -165,7 +165,8 @@ pub fn newton_reusing(
     // ‖R‖ at the iterates joined by the current run of full steps at the
     // shift's floor (for `plateau`).
     let mut run: Vec<f64> = Vec::new();
-    // Accepted steps in a row the line search cut (for `held_back`).
+    // Accepted steps in a row cut short, by the line search or a barrier
+    // (for `held_back`).
     let mut held = 0usize;
     loop {
         for term in sys.terms.iter_mut() {
