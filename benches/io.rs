@@ -1,6 +1,7 @@
 //! `cargo bench --bench io`: throughput of the file formats on realistic
 //! sizes: a 512×512×300 int16 CT (as a `full` phantom) and a 2-million-
-//! triangle mesh. Best of three; numbers go in the closing notes and README.
+//! triangle mesh. Best of three; numbers go in the closing notes and
+//! docs/results.md ("Speed").
 
 use std::time::Instant;
 

@@ -314,7 +314,7 @@ fn stage_command(spec: &'static StageSpec) -> Command {
                     .default
                     .map(|d| format!(" [default: {d}]"))
                     .unwrap_or_default();
-                // `--omega "-40 deg"`, as the README writes it: a negative
+                // `--omega "-40 deg"`, as docs/commands.md writes it: a negative
                 // quantity is a value, not a flag.
                 Arg::new(p.name)
                     .long(flag)

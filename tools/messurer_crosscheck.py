@@ -38,7 +38,7 @@ coapt's own values: coaptation height and area from the bench CSV (the zone
 within eta2 = 0.01 R of a plane, distance interpolated over each triangle;
 this script recomputes both from the dump and stops with exit 1 if they
 disagree); central coaptation, effective height and billowing by the
-report stage's definitions (README, "The report stage") applied to the
+report stage's definitions (docs/report.md) applied to the
 bench zone rule, since `bench close` does not print them.
 
 Exit 0 after printing; 1 if the recomputed bench values disagree; 2 on bad

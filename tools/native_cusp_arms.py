@@ -11,7 +11,7 @@ least 75 degrees apart; each is followed from the junction to the mask's
 edge, and that wall point's angle about the axis is compared with the
 nearest commissure's. Prints, per height, the dips' depth (median HU minus
 the minima's mean), the arms' wall angles and each commissure's angular
-distance to the nearest arm. The README's landmarks section ("The native
+distance to the nearest arm. docs/results.md (landmarks, "The native
 cusps' closed Y") quotes it on ../shared/real/. Needs numpy, scipy and
 nibabel. Not part of `cargo test`.
 """

@@ -819,7 +819,8 @@ mod tests {
     /// of free edge on one plane, so 0.3 mm between two meshes passes the
     /// one and fails the other. Both sides of the symmetric case must
     /// coapt alike (the membrane's fold broke that). Without suturing: its
-    /// first-row turn has a mesh dependence of its own (README).
+    /// first-row turn has a mesh dependence of its own (docs/close.md,
+    /// "Bending").
     #[test]
     fn bench_close_with_bending_is_mesh_consistent() {
         let mut m = Vec::new();

@@ -417,8 +417,9 @@ mod tests {
     /// zone); at 3 mmHg the free edge's centre stands higher than at
     /// 80 mmHg and below the commissures; the zone's share of the cusp is a
     /// fraction. h_E is *not* held to the seed's 10.4–10.8 mm: on this
-    /// stand-in for Marom's template it is 15.4–15.5 mm (README: the cusp's
-    /// geometric height decides it), so the band checked is that result's.
+    /// stand-in for Marom's template it is 15.4–15.5 mm (docs/verification.md,
+    /// "Seed 000's closure benchmark": the cusp's geometric height decides
+    /// it), so the band checked is that result's.
     #[test]
     fn marom_benchmark_closes_every_law_without_crossings() {
         for law in LAWS {

@@ -10,7 +10,8 @@
 //! project's search tool (documentation, web pages, code and issue corpora;
 //! no implementation of them is stored), and the seeds state none of its
 //! parameters. So this is a stand-in built from what the project's sources
-//! do state, every choice named here and in the README:
+//! do state, every choice named here and in docs/verification.md ("Seed
+//! 000's closure benchmark"):
 //!
 //! - **root**: a cylinder of radius R = d_AA / 2 = 12 mm (Haj-Ali's root has
 //!   sinuses bulging beyond the annulus and a sinotubular junction; closed
@@ -205,7 +206,7 @@ mod tests {
             let next = attachment((k + 1) % 3);
             assert!((p.last().unwrap() - next[0]).norm() < 1e-9);
             // The flat cusp's attached edge is within 5 % of the line it
-            // is placed on (stated in the README).
+            // is placed on (stated in docs/verification.md).
             let ratio = c.sutured_length() / path_length(&p);
             assert!((ratio - 1.0).abs() < 0.05, "sutured / attachment = {ratio}");
         }

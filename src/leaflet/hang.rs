@@ -34,8 +34,8 @@
 //! columns are not (the template is flat, the sewn leaflet is not
 //! developable). The closure takes this as the sewn state (seed 001's
 //! Algorithm 1 is skipped); with the sutured reference it is stress-free,
-//! so the closed shape follows this placement's geometry (see the README's
-//! sizing section for how much).
+//! so the closed shape follows this placement's geometry (see
+//! docs/results.md, "Leaflet sizing", for how much).
 
 use crate::geom::{Point3, Vector3};
 

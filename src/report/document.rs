@@ -1,4 +1,5 @@
-//! `report.json` (schema `schemas/report.schema.json`, keys in README):
+//! `report.json` (schema `schemas/report.schema.json`, keys in
+//! docs/report.md, "report.json"):
 //! verdict, criteria, metrics with units in the key names, both
 //! measurement conventions, findings, solver, timings and provenance.
 

@@ -41,7 +41,7 @@ use crate::{Error, Result};
 use hough::HoughParams;
 use track::{TrackPoint, annulus_values, median, slice_f32};
 
-/// Tunables (defaults justified in the README paragraph and the report).
+/// Tunables (defaults justified in docs/segment.md and the report).
 #[derive(Debug, Clone, Copy)]
 pub struct SegmentParams {
     pub hough: HoughParams,

@@ -809,7 +809,7 @@ fn temporaries_a_killed_run_left_are_removed_by_the_next() {
     );
 }
 
-/// The README writes negative quantities with a space (`--omega "-40 deg"`):
+/// docs/commands.md writes negative quantities with a space (`--omega "-40 deg"`):
 /// clap used to take "-40 deg" for a flag. And a bare number in a closure
 /// config names its line and key and says how to write it.
 #[test]

@@ -844,7 +844,7 @@ fn jpeg_lossless_series_read_back_bit_identical_to_uncompressed() {
 }
 
 /// JPEG baseline is refused: 8-bit samples cannot hold HU (decided and
-/// documented in README); JPEG-LS and JPEG 2000 are not decoded. Each
+/// documented in docs/artifacts.md); JPEG-LS and JPEG 2000 are not decoded. Each
 /// message names the transfer syntax. The pixel data here are no real
 /// codestreams: the refusal comes from the syntax alone, before decoding.
 #[test]

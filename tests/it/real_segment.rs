@@ -555,7 +555,7 @@ fn real_ct_chain_runs_to_an_honest_report() {
 }
 
 /// What `coapt design` recommends on this root with the hanging placement
-/// (size 19, README "Against Ozaki's sizing rule") closes with a zone where
+/// (size 19, docs/results.md "Against Ozaki's sizing rule") closes with a zone where
 /// all three leaflets meet and meets every criterion; Ozaki's own rule
 /// (`size = "measured"`: 21 / 25 / 25 from the intercommissural distances)
 /// closes too, failing only the central coaptation height. Both converge
