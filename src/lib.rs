@@ -1,7 +1,7 @@
 //! coapt: from a contrast CT angiogram (ceCTA) to the predicted closure of an
 //! Ozaki-reconstructed aortic valve.
 //!
-//! The crate is cut by pipeline stage (see `DESIGN.md` in the shared folder):
+//! The crate is cut by pipeline stage (see the README's "Layout"):
 //! each stage is a library function over in-memory types from [`geom`], plus a
 //! declaration in [`pipeline`] from which its CLI subcommand, its run-config
 //! section and its provenance record follow. [`io`] holds file formats and

@@ -1,11 +1,12 @@
-//! `coapt bench close --case ozaki-cylinder`: the peer case of issue 6 /
-//! VERIFICATION.md §4, in process. One leaflet of the parametric Ozaki
-//! template (D 19, H 11, H_f 2, L_f 24 mm) meshed by the advancing front and
-//! placed as the `leaflets` stage places it (`place_radial`, ω = −40°) on a
-//! cylindrical root R = 12 mm (axis +z through the origin, commissures at
-//! z = 0) whose suture line is seed 001 eq. 1 with H_c 1.5, H_b 9 mm and
-//! 4 mm gaps between the three leaflets; St.V-K E 1 MPa ν 0, 0.5 mm, 80 mmHg,
-//! the two seed 001 contact planes. Prints one line per mesh.
+//! `coapt bench close --case ozaki-cylinder`: the peer case of issue 6 (the
+//! seeds' group's one-leaflet benchmark; docs/verification.md), in process.
+//! One leaflet of the parametric Ozaki template (D 19, H 11, H_f 2, L_f
+//! 24 mm) meshed by the advancing front and placed as the `leaflets` stage
+//! places it (`place_radial`, ω = −40°) on a cylindrical root R = 12 mm
+//! (axis +z through the origin, commissures at z = 0) whose suture line is
+//! seed 001 eq. 1 with H_c 1.5, H_b 9 mm and 4 mm gaps between the three
+//! leaflets; St.V-K E 1 MPa ν 0, 0.5 mm, 80 mmHg, the two seed 001 contact
+//! planes. Prints one line per mesh.
 
 use std::f64::consts::PI;
 use std::io::Write;

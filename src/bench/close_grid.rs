@@ -42,7 +42,8 @@ const CLOSE_TOML: &str = include_str!("../../pipelines/close.toml");
 const TEMPLATE_TOML: &str = include_str!("../../pipelines/templates/ozaki_default.toml");
 
 /// Contact margin per thickness, as the report stage measures
-/// (VERIFICATION.md §5), and its refinement of partly touching triangles.
+/// (docs/report.md, "Where leaflets touch"), and its refinement of partly
+/// touching triangles.
 const MARGIN_PER_THICKNESS: f64 = 1.8;
 const REFINE: usize = 4;
 

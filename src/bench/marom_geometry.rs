@@ -22,14 +22,14 @@
 //!   leaflets meet at the commissures as in a native valve;
 //! - **commissure height** above the annulus (the plane of the three
 //!   nadirs): 17.8 mm, the seeds' group's ideal (Thubrikar) valve at
-//!   R = 12 mm (VERIFICATION.md §4), so H_b = 17.8 − 1.5 = 16.3 mm;
-//! - **cusp**: the flat parametric Ozaki outline (VERIFICATION.md §4; belly
+//!   R = 12 mm, so H_b = 17.8 − 1.5 = 16.3 mm;
+//! - **cusp**: the flat parametric Ozaki outline (the group's; belly
 //!   circle D, lug corners H above its centre and L_f apart, free edge to an
 //!   apex H_f higher) with the group's H_f = 2 mm, a free edge of
-//!   d_AA + 10 = 34 mm (VERIFICATION.md §4's template-free clinical rule for
-//!   the free margin), lug corners as high above the belly's lowest point as
-//!   the commissures stand above the nadir (D/2 + H = 17.8 mm), and a belly
-//!   circle of D = d_AA / 2 = 12 mm;
+//!   d_AA + 10 = 34 mm (the template-free clinical rule: free margin =
+//!   annulus diameter + 10 mm), lug corners as high above the belly's
+//!   lowest point as the commissures stand above the nadir (D/2 + H =
+//!   17.8 mm), and a belly circle of D = d_AA / 2 = 12 mm;
 //! - **placement**: the `leaflets` stage's radial placement with its default
 //!   lean ω = −40° (each node at the angle of its attachment point, so the
 //!   leaflets stay in their wedges), and this placed shape is the native

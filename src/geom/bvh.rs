@@ -1,5 +1,5 @@
 //! A small axis-aligned bounding-box tree over the triangles of a mesh
-//! (ALGORITHMS.md §7.2, broad phase).
+//! (the broad phase of the closest-point and intersection searches).
 //!
 //! Built once by median split on the longest axis of the triangle
 //! centroids (leaves hold at most [`LEAF_SIZE`] triangles), then kept up to
@@ -36,8 +36,8 @@ impl Aabb {
         }
     }
 
-    /// The cube `center ± half` (ALGORITHMS.md §7.2: "query the AABB of each
-    /// node, of size ±m").
+    /// The cube `center ± half` (the broad phase queries a box of ±m, the
+    /// contact margin, about each node).
     pub fn around(center: &V3, half: f64) -> Aabb {
         Aabb {
             min: center - V3::repeat(half),

@@ -1,4 +1,5 @@
-//! Advancing-front triangulation of a planar outline (ALGORITHMS.md §4).
+//! Advancing-front triangulation of a planar outline (the `leaflets` stage's
+//! mesher; docs/valve-and-leaflets.md).
 //!
 //! The boundary is split by arc length (corners kept); the front starts as
 //! the boundary, domain on the left. The shortest front edge AB is taken
@@ -60,7 +61,8 @@ pub struct FlatMesh {
     pub n_boundary: usize,
 }
 
-/// Quality summary (ALGORITHMS.md §4.2).
+/// Quality summary: smallest angle, shape 4√3·A / (l₁² + l₂² + l₃²) (1 for an
+/// equilateral triangle) and edge lengths against h.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct MeshStats {
     pub nodes: usize,

@@ -6,7 +6,7 @@
 //!   a 200° arc whose tangents lean inwards by 10°); with this reading all
 //!   four of seed 000's example templates are valid, whereas the minor-arc
 //!   reading cannot close example (a) (r = a = b = 11 mm).
-//! * `ozaki_size` — the Ozaki sizer table (VERIFICATION.md §4): the same
+//! * `ozaki_size` — the Ozaki sizer table ([`OZAKI_SIZES`]): the same
 //!   construction with a 170° arc (lean α = 5°), extension b, free segment a
 //!   at angle β to the horizontal, r = (a cos β − b sin α)/cos α. `size =
 //!   "measured"` is Ozaki's own rule: each leaflet is cut at the sizer size
@@ -312,8 +312,10 @@ impl ArcTemplate {
     }
 }
 
-/// Parametric Ozaki template (VERIFICATION.md §4), symmetric about u = 0,
-/// belly circle centred at the origin.
+/// Parametric Ozaki template of the seeds' group's later code (belly circle
+/// of diameter D, lug corners H above its centre and L_f apart, apex H_f
+/// above the corners), symmetric about u = 0, belly circle centred at the
+/// origin.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OzakiTemplate {
     pub d: f64,
@@ -347,13 +349,15 @@ impl OzakiTemplate {
         Ok(OzakiTemplate { d, h, hf, lf })
     }
 
-    /// Half-angle of the belly arc, φ of VERIFICATION.md §4.
+    /// Half-angle of the belly arc: φ = π − atan(L_f/(2H)) − arccos(D/(2q)),
+    /// q = √(H² + L_f²/4).
     pub fn phi(&self) -> f64 {
         let q = (self.h * self.h + self.lf * self.lf / 4.0).sqrt();
         PI - (self.lf / (2.0 * self.h)).atan() - (self.d / (2.0 * q)).acos()
     }
 
-    /// Closed forms of VERIFICATION.md §4.
+    /// Closed forms: free edge 2√(H_f² + L_f²/4); sutured edge
+    /// D·φ + 2√(H² + L_f²/4 − D²/4).
     pub fn free_length(&self) -> f64 {
         2.0 * (self.hf * self.hf + self.lf * self.lf / 4.0).sqrt()
     }
@@ -479,7 +483,8 @@ mod tests {
 
     #[test]
     fn parametric_ozaki_default_lengths() {
-        // VERIFICATION.md §4: free edge 24.33 mm, sutured edge 52.4 mm.
+        // The seeds' group's default template (D 19, H 11, H_f 2, L_f 24 mm):
+        // free edge 24.33 mm, sutured edge 52.4 mm.
         let t = OzakiTemplate::new(19.0, 11.0, 2.0, 24.0).unwrap();
         assert!((t.free_length() - 24.33).abs() < 0.005);
         assert!((t.sutured_length() - 52.4).abs() < 0.05);

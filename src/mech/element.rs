@@ -10,7 +10,7 @@ pub type V3 = Vector3<f64>;
 pub type Grad9 = SVector<f64, 9>;
 pub type Hess9 = SMatrix<f64, 9, 9>;
 
-/// Reference triangle P₁P₂P₃ (ALGORITHMS.md §5.1). Built once; everything a
+/// Reference triangle P₁P₂P₃ (seed 001 eq. 30–31). Built once; everything a
 /// material needs that does not depend on the current position.
 #[derive(Debug, Clone)]
 pub struct RefTri {
@@ -66,9 +66,9 @@ impl RefTri {
         let mut m = [[0.0; 3]; 2];
         if let Some(f) = fibers {
             for a in 0..2 {
-                // Project onto the reference plane and normalise (reading (a)
-                // of ALGORITHMS.md §5.1; the leaflets stage already pushes
-                // the template's fibres forward, reading (b)).
+                // Project onto the reference plane and normalise (one reading
+                // of seed 001's "e_x are Cartesian vectors"; the leaflets stage
+                // already pushes the template's fibres forward, the other).
                 let t = f[a] - normal * normal.dot(&f[a]);
                 let n = t.norm();
                 if n > 1e-12 {

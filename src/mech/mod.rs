@@ -1,5 +1,5 @@
 //! Closure mechanics: membrane materials, pressure, contact and the solvers
-//! that close the valve under diastolic pressure (ALGORITHMS.md §5, §7).
+//! that close the valve under diastolic pressure (docs/close.md).
 //!
 //! Every piece is an element on a few nodes with an energy, a gradient and a
 //! Hessian (`element`, `material`, `contact`); `system` sums them into a

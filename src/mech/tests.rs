@@ -1,4 +1,5 @@
-//! The mechanics against closed-form solutions (VERIFICATION.md §1–2).
+//! The mechanics against closed-form solutions: inflated spheres and
+//! cylinders, Hencky's clamped membrane (docs/verification.md).
 
 use super::material::{NeoHookean, StVenantKirchhoff};
 use super::verify::*;
@@ -13,7 +14,7 @@ fn rel_err(lam: f64, exact: f64) -> f64 {
 
 #[test]
 fn neo_hookean_sphere_matches_the_table_and_converges_quadratically() {
-    // VERIFICATION.md §1 table: 80 mmHg → λ = 1.07256.
+    // Neo-Hookean sphere, k = P·R0/(μH) = 2(λ⁻¹ − λ⁻⁷): 80 mmHg → λ = 1.07256.
     let p = 80.0 * MMHG;
     let k = p * R0 / (MU * H);
     let exact = invert(k, 1.38, |l| sphere_w1(l, |_| 0.5));
@@ -393,7 +394,7 @@ fn hencky_clamped_disc_within_two_percent() {
         "{area}"
     );
     assert_eq!(rim.iter().filter(|&&r| r).count(), 60);
-    // VERIFICATION.md §2: a = 10 mm, h = 0.5 mm, E = 3μ = 1 MPa, ν = 0.5,
+    // Hencky's clamped membrane: a = 10 mm, h = 0.5 mm, E = 3μ = 1 MPa, ν = 0.5,
     // q = 1 kPa → w0 = 0.59488·a·(qa/Eh)^(1/3) = 1.61 mm.
     let (a, h, q): (f64, f64, f64) = (10.0, 0.5, 0.001);
     let w0 = 0.59488 * a * (q * a / (1.0 * h)).cbrt();

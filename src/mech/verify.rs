@@ -1,7 +1,7 @@
-//! Closed-form inflation references (VERIFICATION.md §1) and the discrete
-//! experiments that are held against them: a free sphere (rigid modes pinned
-//! by three symmetric constraints) and a long cylinder with its axial
-//! stretch held at 1.
+//! Closed-form inflation references (membranes under follower pressure;
+//! docs/verification.md) and the discrete experiments that are held against
+//! them: a free sphere (rigid modes pinned by three symmetric constraints)
+//! and a long cylinder with its axial stretch held at 1.
 
 use super::element::{Membrane, RefTri, V3};
 use super::shapes;

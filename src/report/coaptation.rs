@@ -1,9 +1,10 @@
-//! Where the closed leaflets touch (VERIFICATION.md §5, the seeds' group's
-//! convention): a point of leaflet i coapts with leaflet j when its distance
-//! to j's surface is below a margin (≈ 1.8 × thickness). Triangles whose
-//! status could change inside them are refined n×n and every sub-triangle
-//! is cut at the margin by linear interpolation of the distance, so the zone
-//! boundary, its area and its heights do not jump with the mesh.
+//! Where the closed leaflets touch (docs/report.md, "Where leaflets touch";
+//! the seeds' group's convention): a point of leaflet i coapts with leaflet
+//! j when its distance to j's surface is below a margin (≈ 1.8 ×
+//! thickness). Triangles whose status could change inside them are refined
+//! n×n and every sub-triangle is cut at the margin by linear interpolation
+//! of the distance, so the zone boundary, its area and its heights do not
+//! jump with the mesh.
 //!
 //! Zones are kept as small convex polygons on the leaflet surface, per
 //! leaflet and target: each other leaflet, any other (the coaptation zone),

@@ -1,4 +1,4 @@
-//! The coaptation numbers (DESIGN.md `report.json`, VERIFICATION.md §5):
+//! The coaptation numbers (docs/report.md: "Where leaflets touch", `report.json`):
 //! heights along the valve axis measured from the annulus plane, areas on
 //! the closed leaflets, the free edge, billowing, the regurgitant orifice.
 

@@ -1,6 +1,7 @@
 //! The coaptation report (`report` stage): measure the closed valve in both
-//! conventions of VERIFICATION.md §5, judge the surgical criteria, and write
-//! `report.json` and one self-contained `report.html` with its figures.
+//! conventions (the seeds' group's and SlicerHeart's; docs/report.md), judge
+//! the surgical criteria, and write `report.json` and one self-contained
+//! `report.html` with its figures.
 //!
 //! - `valve.rs`: the closed leaflets as the report sees them (positions,
 //!   placed positions, triangles, leaflet of each triangle, boundary codes,

@@ -243,7 +243,8 @@ fn check(p: &Params) -> Result<()> {
 /// Narrowest column across a coaptation strip (mm).
 const MIN_COLUMN_MM: f64 = 0.01;
 
-/// Thickness multiple of the contact margin (VERIFICATION.md §5).
+/// Thickness multiple of the contact margin (the seeds' group's convention:
+/// docs/report.md, "Where leaflets touch").
 const MARGIN_PER_THICKNESS: f64 = 1.8;
 
 /// A `coapt design` sweep; only its own schema is taken.

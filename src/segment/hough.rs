@@ -1,4 +1,5 @@
-//! Hough circleness on an axial slice, in millimetres (ALGORITHMS.md §1.2–1.3).
+//! Hough circleness on an axial slice, in millimetres (gradient voting, as
+//! ITK's HoughTransform2DCirclesImageFilter; docs/segment.md).
 //!
 //! Edges are the gradient maxima along the gradient (non-maximum suppression,
 //! so a rim is one pixel thick whatever the blur). Each edge pixel votes

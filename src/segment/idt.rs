@@ -1,4 +1,4 @@
-//! Isoperimetric distance trees (Grady 2006; ALGORITHMS.md §2.2).
+//! Isoperimetric distance trees (Grady 2006; docs/segment.md).
 //!
 //! On the 6-connected lattice of the threshold region: a maximum spanning
 //! tree weighted by the distance transform (it follows medial paths, so a

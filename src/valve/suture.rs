@@ -1,4 +1,4 @@
-//! Suture paths (ALGORITHMS.md §8.1): seed 001's eq. 1 curve — straight
+//! Suture paths (docs/valve-and-leaflets.md): seed 001's eq. 1 curve — straight
 //! parts of height H_c at the commissures and an elliptic arc through the
 //! nadir — drawn in (angle, height) on the commissure cylinder and projected
 //! onto the wall by radial rays from the axis.

@@ -6,7 +6,8 @@
 //! allocated for voxels, so a corrupt or hostile header costs nothing; the
 //! voxel data is then streamed straight into the output buffer.
 //!
-//! NIfTI stores RAS world coordinates; coapt's world is LPS (see DESIGN.md),
+//! NIfTI stores RAS world coordinates; coapt's world is LPS (see
+//! docs/artifacts.md, "Conventions"),
 //! so x and y are negated on the way in and out:
 //! `affine_lps = diag(-1, -1, 1, 1) · affine_ras`.
 //!

@@ -288,7 +288,8 @@ fn attribute_section<'a>(
 
 pub fn encode(w: &mut impl Write, pd: &PolyData, opts: &WriteOptions) -> io::Result<()> {
     let mut sections: Vec<Section> = Vec::new();
-    // Every coapt .vtp records its frame (DESIGN.md); absent means LPS.
+    // Every coapt .vtp records its frame (field data `frame`,
+    // docs/artifacts.md); absent means LPS.
     let default_frame = DataArray::string("frame", "LPS");
     let frame = pd
         .field_data

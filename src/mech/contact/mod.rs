@@ -1,4 +1,4 @@
-//! Contact for membranes (ALGORITHMS.md §7): the unsigned-distance barrier
+//! Contact for membranes (docs/close.md): the unsigned-distance barrier
 //! between leaflets with its collision-free step (`barrier`,
 //! `edge_barrier`, `leaflet_barrier`; what `contact = "leaflets"` uses),
 //! the barrier that keeps leaflets off the aortic wall (`wall_barrier`) and

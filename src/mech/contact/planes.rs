@@ -1,4 +1,4 @@
-//! Penalty planes of seed 001, eq. 37 (ALGORITHMS.md §7.1).
+//! Penalty planes of seed 001, eq. 37 (`contact = "planes"`; docs/close.md).
 //!
 //! For node x and plane (R, n): d = (x − R)·n (mm), f(d) = max(1 − 2d/η₂, 0)
 //! and the seed's force is

@@ -1,4 +1,4 @@
-//! Incompressible Gent membrane (ALGORITHMS.md §5.2; seed 000):
+//! Incompressible Gent membrane (nodal forces as seed 001 eq. 33; seed 000):
 //! W = −(μ J_m / 2) ln(1 − s/J_m), s = I₁ + J⁻² − 3, per unit reference
 //! volume; the element energy is A_P H W.
 //! W_s = (μ/2)/(1 − s/J_m), W_ss = (μ/2)/(J_m (1 − s/J_m)²);

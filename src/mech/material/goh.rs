@@ -1,5 +1,6 @@
 //! Gasser–Ogden–Holzapfel membrane with fibre dispersion, incompressible
-//! (seed 001 eq. 17–19; ALGORITHMS.md §5.2–5.3):
+//! (seed 001 eq. 17–19; nodal forces as its eq. 33, with the consistent
+//! tangent):
 //!
 //!   W = μ/2 · s + Σ_α ψ(I*_α),  s = I₁ + J⁻² − 3,
 //!   I*_α = κ (s + 3) + (1 − 3κ) I₄α,  I₄α = |F M_α|²,

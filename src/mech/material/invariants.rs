@@ -1,5 +1,6 @@
 //! Surface invariants of one triangle and their derivatives over the 9
-//! current coordinates (ALGORITHMS.md §5.1, §5.3).
+//! current coordinates (seed 001 eq. 30–31; the 9×9 Hessians for Newton's
+//! consistent tangent).
 //!
 //! * I₁ = ‖F‖²_F = Σ_ij G_ij Q_i·Q_j, ∂I₁/∂Q_i = 2 F D_i, H_I1 = 2 G ⊗ I₃.
 //! * J = A_Q / A_P, ∂A_Q/∂Q_i = ½ n × (Q_k − Q_j) (i, j, k cyclic),

@@ -1,6 +1,6 @@
 //! Membrane materials as [`Membrane`](crate::mech::element::Membrane)
 //! elements: energy, gradient (∂U/∂x, force = −grad) and the consistent
-//! symmetric Hessian per triangle (ALGORITHMS.md §5).
+//! symmetric Hessian per triangle (docs/close.md).
 //!
 //! Units: mm, N, MPa (1 kPa = 1e-3 MPa); energies in N·mm.
 //!

@@ -1,5 +1,5 @@
-//! Mass–spring model as a per-triangle element (ALGORITHMS.md §5.5; seeds
-//! 000/002/004).
+//! Mass–spring model as a per-triangle element (seeds 000/002/004;
+//! docs/close.md, "The mass–spring model (MSM)").
 //!
 //! Each triangle T puts one spring on each of its three edges with the
 //! Van Gelder (ν = 0) = Lloyd stiffness k = E H A_T / ℓ₀², so summing the two

@@ -1,6 +1,6 @@
-//! Incompressible neo-Hookean membrane (ALGORITHMS.md §5.2; seed 001 eq.
-//! 17–18 with k₁ = 0): W = μ/2 · s, s = I₁ + J⁻² − 3, per unit reference
-//! volume; the element energy is A_P H W.
+//! Incompressible neo-Hookean membrane (nodal forces as seed 001 eq. 33;
+//! seed 001 eq. 17–18 with k₁ = 0): W = μ/2 · s, s = I₁ + J⁻² − 3, per unit
+//! reference volume; the element energy is A_P H W.
 
 use super::invariants::{J_MIN, Kin, finite_eval};
 use crate::mech::element::{Eval, Membrane, RefTri, V3};

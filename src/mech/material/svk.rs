@@ -1,5 +1,5 @@
 //! St Venant–Kirchhoff membrane as Delingette's biquadratic triangular
-//! springs ("TBS", ALGORITHMS.md §5.4; Delingette 2008).
+//! springs (seed 000's "TBS"; Delingette 2008).
 //!
 //! With Δ_k = ℓ_k² − L_k² (edge k opposite vertex k, current length ℓ, rest
 //! length L), the *rest* angles α_k and the rest area A₀:
