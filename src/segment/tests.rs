@@ -607,3 +607,65 @@ fn the_vaj_settles_from_a_slanted_knee_onto_the_annulus() {
         "plane at z = {z:.2} mm: {floor:?}"
     );
 }
+
+/// An annulus tilted 20° to the root, as the clinical phantoms have it:
+/// the LVOT stands square to the tilted plane through the origin and
+/// flares slightly below it (as the phantoms' sections square to it do,
+/// 2–3 % over 6 mm), the sinus bulge of [`root_tube`] rises from that
+/// plane about the z axis.
+/// Marched along −z, the sections leave the root only below the plane's
+/// low side and never narrow again, so the march has nothing to settle;
+/// the plane turns onto the LVOT's least section and rises to the
+/// narrowest section square to it, onto the tilted annulus.
+#[test]
+fn a_tilted_annulus_turns_the_vaj_plane_onto_it() {
+    use crate::geom::{Point3, Vector3};
+    let tilt = 20f64.to_radians();
+    let n = Vector3::new(tilt.sin(), 0.0, tilt.cos());
+    let radius = |h: f64| {
+        let (r0, r_stj) = (11.6, 12.5);
+        if h >= 20.0 {
+            r_stj
+        } else {
+            let s = (std::f64::consts::PI * h / 20.0).sin();
+            r0 + (r_stj - r0) * (1.0 - (std::f64::consts::PI * h / 20.0).cos()) / 2.0 + 2.5 * s * s
+        }
+    };
+    let mut pts = Vec::new();
+    for k in -60..120 {
+        for j in -36..36 {
+            for i in -36..36 {
+                let q = Point3::new(
+                    i as f64 * 0.5 + 0.25,
+                    j as f64 * 0.5 + 0.25,
+                    k as f64 * 0.5 + 0.25,
+                );
+                let h = q.coords.dot(&n);
+                let inside = if h < 0.0 {
+                    h >= -15.0 && (q.coords - n * h).norm() <= 11.6 - 0.04 * h
+                } else {
+                    q.x.hypot(q.y) <= radius(h)
+                };
+                if inside {
+                    pts.push(q);
+                }
+            }
+        }
+    }
+    let cells = super::vaj::Cells::new(pts).unwrap();
+    let t = -Vector3::z();
+    // Where sections square to z have left the sinus on every side.
+    let knee = Point3::new(0.0, 0.0, -11.6 * tilt.tan());
+    let (k, _) = cells.section(&knee, &t, 1.0, 30.0);
+    let (plane, floor) = super::vaj_floor::settle(&cells, 0.125, 1.0, knee, t, k * 0.125, 30.0);
+    let plane = plane.unwrap_or_else(|| panic!("kept the knee's plane: {floor:?}"));
+    assert!(
+        floor.settled_mm.is_none() && floor.lvot_turn_deg.is_some(),
+        "{floor:?}"
+    );
+    let angle = Vector3::from(plane.normal).dot(&n).acos().to_degrees();
+    assert!(angle < 4.0, "plane {angle:.1}° off the annulus: {floor:?}");
+    // Its centre on the annulus: the tilted plane through the origin.
+    let h = Point3::from(plane.point_mm).coords.dot(&n);
+    assert!(h.abs() <= 1.5, "plane {h:.2} mm off the annulus: {floor:?}");
+}

@@ -337,12 +337,13 @@ fn landmarks_of_phantom(d: &Path, args: &[&str]) -> (serde_json::Value, serde_js
 /// The clinical phantom of seed 1 (1.5 mm; arch, descending aorta and
 /// spine in view, native cusps, annulus tilted 20°) from its CT alone:
 /// segment finds the root, cuts off the arch and the descending aorta, and
-/// the chain reaches an honest report. Not every point is within the
-/// untilted phantoms' 1.5 mm (measured: commissures 0.87–1.70 mm, nadirs
-/// 0.89–3.91 mm): segment's VAJ plane is square to the marched centreline,
-/// 20° from the nadirs' plane, so the nadirs sit 3.5 mm below to 5.1 mm
-/// above it; the one far above goes up onto its sinus floor, the one below
-/// stays on the cut.
+/// the chain reaches an honest report. Segment's VAJ plane turns onto the
+/// LVOT's least section (measured: 4.8° from the nadirs' plane, 16.5° from
+/// the marched centreline), so every nadir is read on the annulus
+/// (measured 1.05–1.74 mm; 1.38–3.30 mm when the plane stayed square to
+/// the marched centreline, 20° off the nadirs' plane: the nadir below it
+/// was read on the cut and N1, 5 mm above it, was lifted onto its sinus
+/// floor); commissures 1.49–1.67 mm. No nadir needs lifting now.
 #[test]
 fn clinical_phantom_ct_alone_reaches_a_report() {
     let d = tmpdir("lm-run-clinical");
@@ -373,40 +374,20 @@ fn clinical_phantom_ct_alone_reaches_a_report() {
         "{}",
         seg["topology"]
     );
+    let floor = &seg["vaj"]["profile"]["floor"];
+    let turn = floor["lvot_turn_deg"].as_f64().unwrap_or(0.0);
+    assert!((10.0..=30.0).contains(&turn), "{floor}");
     let found = markups::read(&run.join("landmarks.mrk.json")).unwrap();
     let truth = markups::read(&ph.join("landmarks.mrk.json")).unwrap();
     let dist = distances(&truth, &found);
     eprintln!("clinical CT alone: {dist:?}");
     for (l, e) in &dist {
-        let bound = if l.starts_with('C') { 2.0 } else { 4.5 };
-        assert!(*e <= bound, "{l}: {e:.2} mm > {bound} mm ({dist:?})");
+        assert!(*e <= 2.0, "{l}: {e:.2} mm > 2.0 mm ({dist:?})");
     }
-    // N1, 5.1 mm above that plane in truth, would be read on the LVOT's
-    // straight wall (measured: it widens 0.0 mm up to 4 mm above the
-    // plane); it goes up onto its sinus floor (measured 4.0 mm up, 0.89 mm
-    // from the truth) and says so: a finding, not a silent guess.
     let lm = json(&run.join("landmarks.json"));
-    let n1 = lm["points"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|p| p["label"] == "N1")
-        .unwrap();
-    assert!(
-        n1["evidence"]["floor_rise_mm"].as_f64().unwrap() < 0.75,
-        "{n1}"
-    );
-    let lifted = n1["evidence"]["lifted_mm"].as_f64().unwrap();
-    assert!((2.5..=6.0).contains(&lifted), "{n1}");
-    assert!(
-        lm["findings"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|f| f.as_str().unwrap().starts_with("N1 lies")),
-        "{}",
-        lm["findings"]
-    );
+    for p in lm["points"].as_array().unwrap() {
+        assert!(p["evidence"]["lifted_mm"].is_null(), "{p}");
+    }
 }
 
 /// The clinical phantom (arch, native cusps, tilted annulus) of seed 2,
