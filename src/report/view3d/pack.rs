@@ -85,8 +85,8 @@ fn part_json(h: &mut String, name: &str, p: &Part) {
         p.positions.len(),
         p.triangles.len(),
         q.exp,
-        BASE64.encode(&delta_varint(&xyz, 3)),
-        BASE64.encode(&delta_varint(&ids, 1)),
+        BASE64.encode(delta_varint(&xyz, 3)),
+        BASE64.encode(delta_varint(&ids, 1)),
     );
 }
 
