@@ -4,7 +4,6 @@
 //! errors that name the file and the problem; writers are atomic.
 
 pub mod atomic;
-pub mod base64;
 pub mod dicom;
 pub mod leaflet_mesh;
 pub mod markups;

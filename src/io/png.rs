@@ -1,5 +1,9 @@
-//! A minimal PNG writer (8-bit RGB, zlib via flate2): debug slices and the
-//! report's figures, without pulling an image-codec crate into the build.
+//! A minimal PNG writer (8-bit RGB, zlib via flate2, chunk CRCs via
+//! crc32fast): debug slices and the report's figures, without pulling an
+//! image-codec crate into the build. The report embeds these bytes, so they
+//! must not drift: the `png` crate (0.18, level 1, no filter) writes the same
+//! bytes today but reserves the right to change what its levels mean in
+//! semver-compatible releases.
 
 use std::io::Write;
 
@@ -10,27 +14,15 @@ pub struct Rgb {
     pub px: Vec<[u8; 3]>,
 }
 
-fn crc32(data: &[u8]) -> u32 {
-    let mut c = 0xFFFF_FFFFu32;
-    for &b in data {
-        c ^= b as u32;
-        for _ in 0..8 {
-            c = if c & 1 != 0 {
-                0xEDB8_8320 ^ (c >> 1)
-            } else {
-                c >> 1
-            };
-        }
-    }
-    !c
-}
-
+/// One chunk: length, type, data, and the CRC-32 of type and data.
 fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+    let mut crc = crc32fast::Hasher::new();
+    crc.update(kind);
+    crc.update(data);
     out.extend((data.len() as u32).to_be_bytes());
-    let mut body = kind.to_vec();
-    body.extend_from_slice(data);
-    out.extend(&body);
-    out.extend(crc32(&body).to_be_bytes());
+    out.extend_from_slice(kind);
+    out.extend_from_slice(data);
+    out.extend(crc.finalize().to_be_bytes());
 }
 
 /// Encode as PNG bytes.
@@ -54,4 +46,36 @@ pub fn encode(img: &Rgb) -> Vec<u8> {
     chunk(&mut out, b"IDAT", &idat);
     chunk(&mut out, b"IEND", &[]);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 1×1 RGB image: the IHDR and IEND chunks, CRCs included, are the
+    /// well-known bytes every such PNG carries; the pixel survives zlib.
+    #[test]
+    fn one_pixel_png_has_the_known_chunks() {
+        let png = encode(&Rgb {
+            w: 1,
+            h: 1,
+            px: vec![[200, 100, 50]],
+        });
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!(
+            &png[8..33],
+            b"\0\0\0\x0dIHDR\0\0\0\x01\0\0\0\x01\x08\x02\0\0\0\x90\x77\x53\xde"
+        );
+        assert_eq!(&png[png.len() - 12..], b"\0\0\0\0IEND\xae\x42\x60\x82");
+        let len = u32::from_be_bytes(png[33..37].try_into().unwrap()) as usize;
+        assert_eq!(&png[37..41], b"IDAT");
+        assert_eq!(png.len(), 41 + len + 4 + 12);
+        let idat = &png[41..41 + len];
+        let mut raw = Vec::new();
+        std::io::Read::read_to_end(&mut flate2::read::ZlibDecoder::new(idat), &mut raw).unwrap();
+        assert_eq!(raw, [0, 200, 100, 50]);
+        let mut crc = crc32fast::Hasher::new();
+        crc.update(&png[37..41 + len]);
+        assert_eq!(png[41 + len..45 + len], crc.finalize().to_be_bytes());
+    }
 }

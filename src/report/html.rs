@@ -12,11 +12,11 @@
 
 use std::fmt::Write as _;
 
+use base64::{Engine as _, engine::general_purpose::STANDARD as BASE64};
 use serde_json::{Map, Value};
 
 use super::view3d::{self, Scene};
 use super::{Figure, references};
-use crate::io::base64;
 
 /// The stages in pipeline order, for the timing table.
 const STAGE_ORDER: [&str; 6] = ["segment", "surface", "valve", "leaflets", "close", "report"];
@@ -875,7 +875,7 @@ fn figure(h: &mut String, f: &Figure, number: usize, used: &mut Vec<String>) {
         let _ = write!(
             h,
             "<img src=\"data:image/png;base64,{}\" alt=\"{}\"",
-            base64::encode(&f.png),
+            BASE64.encode(&f.png),
             esc(&f.title)
         );
         if f.width > 0 && f.height > 0 {
@@ -1548,7 +1548,7 @@ mod tests {
         bad.png = b"not a png".to_vec();
         let page = render(&example(), &[f.clone(), f.clone(), bad], None);
         assert_whole(&page);
-        let src = format!("src=\"data:image/png;base64,{}\"", base64::encode(&f.png));
+        let src = format!("src=\"data:image/png;base64,{}\"", BASE64.encode(&f.png));
         assert_eq!(page.matches(&src).count(), 2);
         assert!(page.contains("<figure id=\"fig-top-view\">"));
         assert!(page.contains("<figure id=\"fig-top-view-2\">"));

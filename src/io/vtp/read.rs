@@ -4,11 +4,12 @@
 
 use std::borrow::Cow;
 
+use base64::engine::general_purpose::{GeneralPurpose, GeneralPurposeConfig};
+use base64::{DecodeError, Engine as _, alphabet};
 use rayon::prelude::*;
 use roxmltree::{Document, Node};
 
 use crate::geom::{Attributes, DataArray, DataValues, Point3, PolyData};
-use crate::io::base64;
 use crate::{Error, Result};
 
 /// How binary data in this file is laid out (from the `VTKFile` attributes).
@@ -498,8 +499,8 @@ fn read_array(a: Node, layout: &Layout, ctx: &str) -> Result<DataArray> {
     let values = match format {
         "ascii" => parse_ascii(&direct_text(a), ty).map_err(|e| err(format!("{ctx}: {e}")))?,
         "binary" => {
-            let raw = base64::decode(direct_text(a).as_bytes())
-                .map_err(|e| err(format!("{ctx}: {e}")))?;
+            let raw =
+                decode_base64(direct_text(a).as_bytes()).map_err(|e| err(format!("{ctx}: {e}")))?;
             let payload = unpack(&raw, layout).map_err(|e| err(format!("{ctx}: {e}")))?;
             from_bytes(&payload, ty, layout.little_endian)
                 .map_err(|e| err(format!("{ctx}: {e}")))?
@@ -518,6 +519,44 @@ fn read_array(a: Node, layout: &Layout, ctx: &str) -> Result<DataArray> {
         )));
     }
     Ok(DataArray::new(String::new(), components, values))
+}
+
+/// Standard base64 with padding; like VTK's own reader, it ignores unused
+/// low bits in the last symbol.
+const BASE64: GeneralPurpose = GeneralPurpose::new(
+    &alphabet::STANDARD,
+    GeneralPurposeConfig::new().with_decode_allow_trailing_bits(true),
+);
+
+/// Decode VTK's base64, skipping whitespace. Padding may occur in the
+/// middle: VTK encodes a compressed array's header and its data as two
+/// separately padded runs, so each run (up to and including a padded
+/// 4-character group) is decoded on its own.
+pub(super) fn decode_base64(text: &[u8]) -> std::result::Result<Vec<u8>, String> {
+    let text: Vec<u8> = text
+        .iter()
+        .copied()
+        .filter(|c| !c.is_ascii_whitespace())
+        .collect();
+    if text.len() % 4 != 0 {
+        return Err("base64 text ends in the middle of a 4-character group (truncated?)".into());
+    }
+    let mut out = Vec::with_capacity(text.len() / 4 * 3);
+    let mut start = 0;
+    for end in (4..=text.len()).step_by(4) {
+        if text[end - 1] == b'=' || end == text.len() {
+            BASE64
+                .decode_vec(&text[start..end], &mut out)
+                .map_err(|e| match e {
+                    DecodeError::InvalidByte(_, c) if c != b'=' => {
+                        format!("invalid base64 character {:?}", c as char)
+                    }
+                    _ => "misplaced '=' padding in base64 text".to_string(),
+                })?;
+            start = end;
+        }
+    }
+    Ok(out)
 }
 
 /// Text of the element itself, without nested `<InformationKey>` elements.
@@ -565,7 +604,7 @@ fn appended(a: Node, ty: Ty, layout: &Layout) -> std::result::Result<DataValues,
             .copied()
             .unwrap_or(data.len())
             .min(data.len());
-        let raw = base64::decode(&data[offset..end])?;
+        let raw = decode_base64(&data[offset..end])?;
         let payload = unpack(&raw, layout)?;
         from_bytes(&payload, ty, layout.little_endian)
     } else {

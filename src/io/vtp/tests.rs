@@ -511,3 +511,47 @@ fn read_errors_name_the_file_and_leave_nothing_on_write_failure() {
     assert!(e.contains("out.vtp") && e.contains("unknown frame"), "{e}");
     assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
 }
+
+/// RFC 4648 vectors, and every padding length at every offset, decode back.
+#[test]
+fn base64_decodes_known_vectors_and_every_length() {
+    use base64::Engine as _;
+    for (raw, enc) in [
+        ("", ""),
+        ("f", "Zg=="),
+        ("fo", "Zm8="),
+        ("foo", "Zm9v"),
+        ("foob", "Zm9vYg=="),
+        ("fooba", "Zm9vYmE="),
+        ("foobar", "Zm9vYmFy"),
+    ] {
+        assert_eq!(read::decode_base64(enc.as_bytes()).unwrap(), raw.as_bytes());
+    }
+    assert_eq!(read::decode_base64(b"+/8=").unwrap(), [0xfb, 0xff]);
+    let all: Vec<u8> = (0..=255u8).collect();
+    for start in 0..3 {
+        for len in 0..=7 {
+            let d = &all[start..start + 250 - len];
+            let e = base64::engine::general_purpose::STANDARD.encode(d);
+            assert_eq!(read::decode_base64(e.as_bytes()).unwrap(), d);
+        }
+    }
+}
+
+/// VTK's separately padded runs, whitespace, lenient trailing bits, and
+/// the errors.
+#[test]
+fn base64_concatenated_runs_and_errors() {
+    assert_eq!(read::decode_base64(b" Zg==\n Zm8= ").unwrap(), b"ffo");
+    assert_eq!(
+        read::decode_base64(b"Zg==Zm9vYmFyZg==").unwrap(),
+        b"ffoobarf"
+    );
+    assert_eq!(read::decode_base64(b"Zh==").unwrap(), b"f");
+    let e = |t: &[u8]| read::decode_base64(t).unwrap_err();
+    assert!(e(b"Zm9").contains("truncated"));
+    assert!(e(b"Z=9v").contains("misplaced '='"));
+    assert!(e(b"Zg=A").contains("misplaced '='"));
+    assert!(e(b"====").contains("misplaced '='"));
+    assert!(e(b"Zm9*").contains("invalid base64 character '*'"));
+}

@@ -16,7 +16,9 @@ use std::fmt::Write as _;
 
 pub use scene::{Scene, build};
 
-use crate::io::{base64, sha256};
+use base64::{Engine as _, engine::general_purpose::STANDARD as BASE64};
+
+use crate::io::sha256;
 use crate::report::figures::palette::{PAIR, TRIPLE, leaflet_tint};
 use crate::report::raster::Rgb8;
 
@@ -40,7 +42,7 @@ ul.view3d-legend { list-style: none; padding: 0; margin: 0.4em 0; display: flex;
 pub fn script_source() -> String {
     format!(
         "'sha256-{}'",
-        base64::encode(&sha256::digest(SCRIPT.as_bytes()))
+        BASE64.encode(sha256::digest(SCRIPT.as_bytes()))
     )
 }
 
@@ -150,7 +152,7 @@ mod tests {
     fn script_source_is_the_hash_of_the_script() {
         let src = script_source();
         assert!(src.starts_with("'sha256-") && src.ends_with('\''));
-        let b = base64::decode(src[8..src.len() - 1].as_bytes()).unwrap();
+        let b = BASE64.decode(&src[8..src.len() - 1]).unwrap();
         assert_eq!(b, sha256::digest(SCRIPT.as_bytes()));
     }
 }

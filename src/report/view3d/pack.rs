@@ -9,8 +9,9 @@
 
 use std::fmt::Write as _;
 
+use base64::{Engine as _, engine::general_purpose::STANDARD as BASE64};
+
 use super::scene::{Part, Scene};
-use crate::io::base64;
 use crate::report::figures::palette::{PAIR, TRIPLE, leaflet_tint};
 use crate::report::raster::Rgb8;
 
@@ -84,8 +85,8 @@ fn part_json(h: &mut String, name: &str, p: &Part) {
         p.positions.len(),
         p.triangles.len(),
         q.exp,
-        base64::encode(&delta_varint(&xyz, 3)),
-        base64::encode(&delta_varint(&ids, 1)),
+        BASE64.encode(delta_varint(&xyz, 3)),
+        BASE64.encode(delta_varint(&ids, 1)),
     );
 }
 
@@ -108,7 +109,7 @@ pub fn payload(s: &Scene) -> String {
         rgb(WALL),
     );
     part_json(&mut h, "leaflets", &s.leaflets);
-    let _ = write!(h, ",\"codes\":\"{}\"}}", base64::encode(&s.codes));
+    let _ = write!(h, ",\"codes\":\"{}\"}}", BASE64.encode(&s.codes));
     if let Some((w, _)) = &s.wall {
         h.push(',');
         part_json(&mut h, "wall", w);
@@ -152,11 +153,7 @@ pub(crate) mod tests {
     pub(crate) fn decode_part(v: &Value) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
         let q = quantum_mm(v["quantum_exp"].as_u64().unwrap() as u32);
         let field = |k: &str, stride| {
-            undelta_varint(
-                &base64::decode(v[k].as_str().unwrap().as_bytes()).unwrap(),
-                stride,
-            )
-            .unwrap()
+            undelta_varint(&BASE64.decode(v[k].as_str().unwrap()).unwrap(), stride).unwrap()
         };
         let xyz = field("positions", 3);
         let ids = field("indices", 1);
@@ -196,7 +193,9 @@ pub(crate) mod tests {
         assert_eq!(j["format"], FORMAT);
         assert_eq!(j["leaflets"]["quantum_exp"], 0, "a 12 mm valve fits 10 µm");
         assert_round_trip(&j["leaflets"], &s.leaflets);
-        let codes = base64::decode(j["leaflets"]["codes"].as_str().unwrap().as_bytes()).unwrap();
+        let codes = BASE64
+            .decode(j["leaflets"]["codes"].as_str().unwrap())
+            .unwrap();
         assert_eq!(codes, s.codes);
         assert_eq!(j["colours"]["leaflets"].as_array().unwrap().len(), 3);
         assert!(j.get("wall").is_none());
