@@ -338,12 +338,12 @@ fn landmarks_of_phantom(d: &Path, args: &[&str]) -> (serde_json::Value, serde_js
 /// spine in view, native cusps, annulus tilted 20°) from its CT alone:
 /// segment finds the root, cuts off the arch and the descending aorta, and
 /// the chain reaches an honest report. Segment's VAJ plane turns onto the
-/// LVOT's least section (measured: 4.8° from the nadirs' plane, 16.5° from
+/// LVOT's least section (measured: 3.7° from the nadirs' plane, 17.7° from
 /// the marched centreline), so every nadir is read on the annulus
-/// (measured 1.05–1.74 mm; 1.38–3.30 mm when the plane stayed square to
+/// (measured 1.04–1.44 mm; 1.38–3.30 mm when the plane stayed square to
 /// the marched centreline, 20° off the nadirs' plane: the nadir below it
 /// was read on the cut and N1, 5 mm above it, was lifted onto its sinus
-/// floor); commissures 1.49–1.67 mm. No nadir needs lifting now.
+/// floor); commissures 1.43–1.71 mm. No nadir needs lifting now.
 #[test]
 fn clinical_phantom_ct_alone_reaches_a_report() {
     let d = tmpdir("lm-run-clinical");
