@@ -208,7 +208,9 @@ pub(super) fn settle(
             let n = lvot_normal(cells, centre, t, w, reach);
             let n = lvot_normal(cells, centre, n, w, reach);
             let turn = n.dot(&t).clamp(-1.0, 1.0).acos().to_degrees();
-            if turn < LVOT_MIN_TURN_DEG {
+            // Two searches of 36° could turn the plane by 72°: past
+            // MAX_TURN_DEG, as for the march, it has left the root.
+            if !(LVOT_MIN_TURN_DEG..=MAX_TURN_DEG).contains(&turn) {
                 return (None, floor);
             }
             let up = narrowest_above(cells, centre, n, w, reach);
