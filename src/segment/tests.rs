@@ -429,26 +429,30 @@ fn radius_tests_answer_as_hypot_does() {
     assert!(within(3.0, 4.0, 5.0) && !in_ring(3.0, 4.0, 0.0, 5.0) && in_ring(3.0, 4.0, 5.0, 6.0));
 }
 
+/// The radius (mm) at height `z` above the annulus of the roots below:
+/// 11.6 mm LVOT, a sinus bulge leaving it with zero slope and peaking
+/// 2.5 mm wider at z = 10, a 12.5 mm STJ and aorta from z = 20.
+fn root_radius(z: f64) -> f64 {
+    let (r0, r_stj) = (11.6, 12.5);
+    if z <= 0.0 {
+        r0
+    } else if z >= 20.0 {
+        r_stj
+    } else {
+        let s = (std::f64::consts::PI * z / 20.0).sin();
+        r0 + (r_stj - r0) * (1.0 - (std::f64::consts::PI * z / 20.0).cos()) / 2.0 + 2.5 * s * s
+    }
+}
+
 /// Voxel centres (0.5 mm grid) of a straight lumen along z: LVOT of radius
 /// 11.6 mm below the annulus at z = 0, a sinus bulge that leaves it with
 /// zero slope and peaks 2.5 mm wider at z = 10, STJ and aorta of 12.5 mm
 /// from z = 20 up to z = 60. `keep` cuts the region's lower end.
 fn root_tube(keep: impl Fn(f64, f64, f64) -> bool) -> Vec<crate::geom::Point3> {
-    let radius = |z: f64| {
-        let (r0, r_stj) = (11.6, 12.5);
-        if z <= 0.0 {
-            r0
-        } else if z >= 20.0 {
-            r_stj
-        } else {
-            let s = (std::f64::consts::PI * z / 20.0).sin();
-            r0 + (r_stj - r0) * (1.0 - (std::f64::consts::PI * z / 20.0).cos()) / 2.0 + 2.5 * s * s
-        }
-    };
     let mut pts = Vec::new();
     for k in -60..120 {
         let z = k as f64 * 0.5 + 0.25;
-        let r = radius(z);
+        let r = root_radius(z);
         for j in -32..32 {
             for i in -32..32 {
                 let (x, y) = (i as f64 * 0.5 + 0.25, j as f64 * 0.5 + 0.25);
@@ -532,17 +536,6 @@ fn a_root_leaning_from_the_ascending_aorta_is_cut_at_its_annulus() {
     use crate::geom::{Point3, Vector3};
     let lean = 30f64.to_radians();
     let axis = Vector3::new(lean.sin(), 0.0, lean.cos());
-    let radius = |z: f64| {
-        let (r0, r_stj) = (11.6, 12.5);
-        if z <= 0.0 {
-            r0
-        } else if z >= 20.0 {
-            r_stj
-        } else {
-            let s = (std::f64::consts::PI * z / 20.0).sin();
-            r0 + (r_stj - r0) * (1.0 - (std::f64::consts::PI * z / 20.0).cos()) / 2.0 + 2.5 * s * s
-        }
-    };
     let stj = Point3::origin() + axis * 20.0;
     let mut pts = Vec::new();
     for k in -60..160 {
@@ -555,7 +548,8 @@ fn a_root_leaning_from_the_ascending_aorta_is_cut_at_its_annulus() {
                 );
                 let d = q.coords;
                 let h = d.dot(&axis);
-                let in_root = (-15.0..=20.0).contains(&h) && (d - axis * h).norm() <= radius(h);
+                let in_root =
+                    (-15.0..=20.0).contains(&h) && (d - axis * h).norm() <= root_radius(h);
                 let e = q - stj;
                 let in_aorta = e.z >= 0.0 && e.x.hypot(e.y) <= 12.5;
                 if in_root || in_aorta {
@@ -622,15 +616,6 @@ fn a_tilted_annulus_turns_the_vaj_plane_onto_it() {
     use crate::geom::{Point3, Vector3};
     let tilt = 20f64.to_radians();
     let n = Vector3::new(tilt.sin(), 0.0, tilt.cos());
-    let radius = |h: f64| {
-        let (r0, r_stj) = (11.6, 12.5);
-        if h >= 20.0 {
-            r_stj
-        } else {
-            let s = (std::f64::consts::PI * h / 20.0).sin();
-            r0 + (r_stj - r0) * (1.0 - (std::f64::consts::PI * h / 20.0).cos()) / 2.0 + 2.5 * s * s
-        }
-    };
     let mut pts = Vec::new();
     for k in -60..120 {
         for j in -36..36 {
@@ -644,7 +629,7 @@ fn a_tilted_annulus_turns_the_vaj_plane_onto_it() {
                 let inside = if h < 0.0 {
                     h >= -15.0 && (q.coords - n * h).norm() <= 11.6 - 0.04 * h
                 } else {
-                    q.x.hypot(q.y) <= radius(h)
+                    q.x.hypot(q.y) <= root_radius(h)
                 };
                 if inside {
                     pts.push(q);

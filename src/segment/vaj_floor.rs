@@ -104,9 +104,9 @@ pub struct Floor {
     pub lvot_raised_mm: Option<f64>,
 }
 
-/// Unit vectors within [`CONE_DEG`] of `t` on rings of [`CONE_STEP_DEG`],
-/// `t` first (so a tie keeps the current direction).
-fn cone(t: &Vector3) -> Vec<Vector3> {
+/// Unit vectors within `max_deg` of `t` on rings `step_deg` apart, `t`
+/// first (so a tie keeps the current direction).
+fn cone(t: &Vector3, max_deg: f64, step_deg: f64) -> Vec<Vector3> {
     let a = if t.x.abs() < 0.9 {
         Vector3::x()
     } else {
@@ -115,11 +115,11 @@ fn cone(t: &Vector3) -> Vec<Vector3> {
     let u = t.cross(&a).normalize();
     let v = t.cross(&u);
     let mut out = vec![*t];
-    let rings = (CONE_DEG / CONE_STEP_DEG).round() as usize;
+    let rings = (max_deg / step_deg).round() as usize;
     for ring in 1..=rings {
-        let th = (ring as f64 * CONE_STEP_DEG).to_radians();
-        let k = ((std::f64::consts::TAU * th.sin() / CONE_STEP_DEG.to_radians()).round() as usize)
-            .max(6);
+        let th = (ring as f64 * step_deg).to_radians();
+        let k =
+            ((std::f64::consts::TAU * th.sin() / step_deg.to_radians()).round() as usize).max(6);
         for s in 0..k {
             let ph = std::f64::consts::TAU * s as f64 / k as f64;
             out.push(t * th.cos() + (u * ph.cos() + v * ph.sin()) * th.sin());
@@ -153,7 +153,7 @@ pub(super) fn settle(
         let q = if s == 0 { p } else { p + n * STEP_MM };
         let reach = reach_max.min(1.8 * r + 3.0);
         let mut best: Option<(f64, Vector3, Vector3)> = None;
-        for c in cone(&n) {
+        for c in cone(&n, CONE_DEG, CONE_STEP_DEG) {
             let (k, off) = cells.section(&q, &c, w, reach);
             if best.is_none_or(|(b, _, _)| k < b) {
                 best = Some((k, c, off));
@@ -229,26 +229,11 @@ pub(super) fn settle(
 /// [`LVOT_SPAN`] mm (it ends in a taper, not the LVOT).
 fn lvot_normal(cells: &Cells, centre: Point3, t: Vector3, w: f64, reach: f64) -> Vector3 {
     let q = centre + t * LVOT_DEPTH_MM;
-    let a = if t.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let u = t.cross(&a).normalize();
-    let v = t.cross(&u);
-    let (mut best, mut normal) = (cells.section(&q, &t, w, reach).0, t);
-    let rings = (LVOT_CONE_DEG / LVOT_STEP_DEG).round() as usize;
-    for ring in 1..=rings {
-        let th = (ring as f64 * LVOT_STEP_DEG).to_radians();
-        let k = ((std::f64::consts::TAU * th.sin() / LVOT_STEP_DEG.to_radians()).round() as usize)
-            .max(6);
-        for s in 0..k {
-            let ph = std::f64::consts::TAU * s as f64 / k as f64;
-            let c = t * th.cos() + (u * ph.cos() + v * ph.sin()) * th.sin();
-            let (n, _) = cells.section(&q, &c, w, reach);
-            if n < best {
-                (best, normal) = (n, c);
-            }
+    let (mut best, mut normal) = (f64::INFINITY, t);
+    for c in cone(&t, LVOT_CONE_DEG, LVOT_STEP_DEG) {
+        let (n, _) = cells.section(&q, &c, w, reach);
+        if n < best {
+            (best, normal) = (n, c);
         }
     }
     let knee = cells.section(&centre, &t, w, reach).0;
