@@ -178,7 +178,10 @@ mod tests {
         assert!(why.contains("about 163 more"), "{why}");
         let up: Vec<f64> = (0..180).map(|i| 1.02f64.powi(i)).collect();
         let why = stall_cause(&history(&up, 1.0, |_| 0)).unwrap();
-        assert!(why.starts_with("creeping") && why.contains("raised"), "{why}");
+        assert!(
+            why.starts_with("creeping") && why.contains("raised"),
+            "{why}"
+        );
         let rising: Vec<f64> = (0..60).map(|i| 1.1f64.powi(i)).collect();
         let why = stall_cause(&history(&rising, 1.0, |_| 0)).unwrap();
         assert!(why.starts_with("the residual rose"), "{why}");
