@@ -15,7 +15,9 @@
 //!   `document.rs` report.json; `reach.rs` whether each free edge can
 //!   reach the centre, and Ozaki's rule for the root.
 //! - `raster.rs` and `figures/`: the software rasteriser and the figures;
-//!   `html.rs`: the page; `view3d/`: its interactive 3-D view (WebGL);
+//!   `html/`: the page (`mod.rs`), its sections (`header`, `verdict`,
+//!   `metrics`, `figures`, `record`), their formatting and `style.css`;
+//!   `view3d/`: its interactive 3-D view (WebGL);
 //!   `stage.rs`: the stage.
 
 pub mod case;
