@@ -5,6 +5,7 @@
 //! 3D Slicer); file readers convert other frames on the way in.
 
 pub mod attributes;
+pub mod basis;
 pub mod bvh;
 pub mod closest_point;
 pub mod frame;

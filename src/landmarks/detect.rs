@@ -33,6 +33,7 @@ use serde::Serialize;
 use super::angular::{self, SAMPLES};
 use super::lumen_rays::LumenProbe;
 use super::ostia::{self, NamedBy, Ostium, RootFrame};
+use crate::geom::basis::orthonormal_pair;
 use crate::geom::landmarks::SINUS_NAMES;
 use crate::geom::{Point3, Vector3, Volume};
 
@@ -249,21 +250,10 @@ pub struct SinusNaming {
     pub other_patches: usize,
 }
 
-/// Unit vectors (u, v) completing the unit `n` to a right-handed frame.
-fn basis(n: &Vector3) -> (Vector3, Vector3) {
-    let a = if n.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let u = n.cross(&a).normalize();
-    (u, n.cross(&u))
-}
-
 /// Mean lumen radius against height along (origin, axis); NaN where fewer
 /// than half the rays find the wall.
 fn axial_profile(probe: &LumenProbe, o: &Point3, n: &Vector3, hs: &[f64]) -> Vec<f64> {
-    let (u, v) = basis(n);
+    let (u, v) = orthonormal_pair(n);
     hs.iter()
         .map(|&h| {
             let c = o + n * h;
@@ -321,7 +311,7 @@ fn slab_centroid(
 /// [`AXIAL_RAYS`] rays from `c` (a star-shaped polygon about it); `None`
 /// when a ray finds no wall.
 fn section_centroid(probe: &LumenProbe, c: &Point3, n: &Vector3) -> Option<Point3> {
-    let (u, v) = basis(n);
+    let (u, v) = orthonormal_pair(n);
     let pts: Vec<(f64, f64)> = (0..AXIAL_RAYS)
         .map(|i| {
             let t = TAU * i as f64 / AXIAL_RAYS as f64;
@@ -472,7 +462,7 @@ pub fn detect(
     }
 
     // Radius against angle at mid-sinus.
-    let (u, v) = basis(&n);
+    let (u, v) = orthonormal_pair(&n);
     let dir = |deg: f64| {
         let t = deg.to_radians();
         u * t.cos() + v * t.sin()

@@ -8,5 +8,6 @@ pub mod detect;
 pub mod lumen_rays;
 pub mod ostia;
 pub mod stage;
+pub mod stage_params;
 
 pub use detect::{AnnulusPlane, Detection, detect};

@@ -7,6 +7,7 @@ use serde_json::{Value as Json, json};
 use super::annulus;
 use super::detect::{self, Detection};
 use super::ostia::{self, NamedBy};
+use super::stage_params::LandmarksParams;
 use crate::geom::bvh::Bvh;
 use crate::geom::closest_point::closest_point;
 use crate::geom::{Frame, Landmarks, Point3, TriMesh, Vector3};
@@ -84,7 +85,7 @@ pub static SPEC: StageSpec = StageSpec {
         default: Some("0.5"),
         help: "a point found with less confidence than this is listed as a finding (warning)",
     }],
-    check: |_| Ok(()),
+    check: |p| LandmarksParams::try_from(p).map(|_| ()),
     run,
 };
 
@@ -282,6 +283,7 @@ fn describe(label: &str, det: &Detection, sources: &[Source]) -> String {
 }
 
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
+    let lp = LandmarksParams::try_from(params)?;
     let t0 = std::time::Instant::now();
     let mask_path = io.input("mask").expect("required input");
     let surf_path = io.input("surface").expect("required input");
@@ -348,8 +350,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         None => None,
     };
     let sources = merge_given(&mut det, given.as_ref());
-    let min_conf = params.float("min_confidence");
-    let found = findings(&det, &sources, min_conf);
+    let found = findings(&det, &sources, lp.min_confidence);
     for f in &found {
         tracing::warn!(stage = "landmarks", event = "finding", "landmarks: {f}");
     }
@@ -367,7 +368,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             "commissure_above_knee_mm".into(),
             json!(detect::COMMISSURE_ABOVE_KNEE_MM),
         );
-        m.insert("min_confidence".into(), json!(min_conf));
+        m.insert("min_confidence".into(), json!(lp.min_confidence));
         if let Some(Json::Array(points)) = m.get_mut("points") {
             for ((p, s), found) in points.iter_mut().zip(&sources).zip(&det.points) {
                 p["source"] = json!(s.name());

@@ -8,6 +8,7 @@ pub mod outline;
 pub mod place;
 pub mod seed001;
 pub mod stage;
+pub mod stage_params;
 pub mod template;
 
 #[cfg(test)]

@@ -8,6 +8,7 @@ use super::crossings;
 use super::hang;
 use super::outline::Edge;
 use super::place::{self, Path3};
+use super::stage_params::{LeafletParams, Placement};
 use super::template::{Template, read_templates};
 use crate::geom::{DataArray, DataValues, Frame, Point3, TriMesh, Vector3};
 use crate::io::{Transaction, vtp};
@@ -110,21 +111,7 @@ pub static SPEC: StageSpec = StageSpec {
             help: "fibre angle θ on the flat template: M = cos θ e_x ± sin θ e_y",
         },
     ],
-    check: |p| {
-        if !(p.quantity("h") > 0.0) {
-            return Err(Error::value(format!(
-                "leaflets h (--h) must be positive, got {} mm",
-                p.quantity("h")
-            )));
-        }
-        if !(p.quantity("clearance") >= 0.0 && p.quantity("clearance") <= 5.0) {
-            return Err(Error::value("clearance must lie in 0–5 mm"));
-        }
-        if !(p.quantity("omega").abs() < 1.5) {
-            return Err(Error::value("omega must lie in (−86°, 86°)"));
-        }
-        Ok(())
-    },
+    check: |p| LeafletParams::try_from(p)?.check(),
     run,
 };
 
@@ -211,6 +198,7 @@ fn vec3(v: &Json) -> Option<Vector3> {
 }
 
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
+    let lp = LeafletParams::try_from(params)?;
     let valve_path = io.input("valve").expect("required");
     let valve: Json =
         serde_json::from_slice(&std::fs::read(valve_path).map_err(|e| Error::read(valve_path, e))?)
@@ -244,7 +232,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         }
     });
     let templates = read_templates(io.input("template").expect("required"), Some(gaps))?;
-    let h = params.quantity("h");
+    let h = lp.h_mm;
     // Nodes ∝ area / h² (`--h 0.001 mm` filled 8 GiB): the outline's area
     // is at most L²/4π, and an equilateral mesh gives a node per √3/2 h².
     for t in &templates {
@@ -258,7 +246,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             )));
         }
     }
-    let theta = params.quantity("fiber_angle");
+    let theta = lp.fiber_angle_rad;
     let mut out = TriMesh::new(Vec::new(), Vec::new());
     let (mut uv, mut bnd, mut lf, mut f1, mut f2) = (vec![], vec![], vec![], vec![], vec![]);
     let mut per = Vec::new();
@@ -276,8 +264,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             .map_err(|e| Error::failed("leaflets", format!("leaflet {}: {e}", k + 1)))?;
         let mesh_ms = t0.elapsed().as_secs_f64() * 1e3;
         mesh_ms_all.push(mesh_ms);
-        let gathering = match (params.choice("gathering"), t) {
-            ("ozaki", Template::Arc(_) | Template::Ozaki(_)) => place::Gathering::Ozaki,
+        let gathering = match (lp.gathering, t) {
+            (place::Gathering::Ozaki, Template::Arc(_) | Template::Ozaki(_)) => {
+                place::Gathering::Ozaki
+            }
             _ => place::Gathering::Uniform,
         };
         let path = Path3::sewn(
@@ -286,7 +276,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             gathering,
         );
         commissures.push(path.at(0.0));
-        let hanging = params.choice("placement") == "hanging" && !matches!(t, Template::Seed001(_));
+        let hanging = lp.placement == Placement::Hanging && !matches!(t, Template::Seed001(_));
         all_hanging &= hanging;
         any_hanging |= hanging;
         // The aortic side is judged on the leaflet extruded towards the
@@ -295,7 +285,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         let (s_e, w_e) = place::column_coords(t, &m);
         let omega = match t {
             Template::Seed001(s) => s.omega,
-            _ => params.quantity("omega"),
+            _ => lp.omega_rad,
         };
         let (x_e, om_e) = place::place_radial(&s_e, &w_e, &path, &axis, &centre, omega, 0.5);
         signs.push(pressure_sign(&x_e, &m.tris, &centre, &axis));
@@ -307,7 +297,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
                 outline.length(Edge::Free),
                 &axis,
                 &centre,
-                params.quantity("clearance"),
+                lp.clearance_mm,
             );
             let (x, excess) = hang::place(&c.s, &c.lam, &c.len, &path, &v, &axis, floor);
             (

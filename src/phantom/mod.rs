@@ -72,6 +72,7 @@ mod render;
 mod scene;
 mod shapes;
 pub mod stage;
+pub mod stage_params;
 pub mod structures;
 mod truth;
 

@@ -2,11 +2,10 @@
 
 use serde_json::{Value as Json, json};
 
-use super::{PhantomParams, Preset, generate};
+use super::{PhantomParams, generate};
 use crate::Result;
 use crate::geom::Frame;
 use crate::io::{Transaction, markups, nifti, vtp};
-use crate::pipeline::params::Value;
 use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
 use crate::units::Kind;
 
@@ -140,41 +139,12 @@ pub static SPEC: StageSpec = StageSpec {
             help: "turn of the root about its axis, counter-clockwise seen from the aorta, −180–180 deg: 0 faces the right-coronary sinus anterior, as in most patients; other angles test what does not assume it",
         },
     ],
-    check: |p| params_from(p).map(|_| ()),
+    check: |p| PhantomParams::try_from(p).map(|_| ()),
     run,
 };
 
-/// The generator's parameters from the stage's resolved parameters.
-pub fn params_from(p: &Params) -> Result<PhantomParams> {
-    let preset: Preset = p.choice("preset").parse()?;
-    // Unset quantities keep the preset's default (PhantomParams::new).
-    let mut pp = PhantomParams::new(preset, p.int("seed") as u64);
-    let given = |name: &str| !matches!(p.get(name), Value::Unset);
-    if given("noise") {
-        pp.noise_hu = p.quantity("noise");
-    }
-    if given("tilt") {
-        pp.tilt_rad = p.quantity("tilt");
-    }
-    pp.spacing_mm = p.lengths3("spacing");
-    pp.contrast = p.flag("contrast");
-    if given("blood") {
-        pp.blood_hu = p.quantity("blood");
-    }
-    pp.calcium = p.flag("calcium");
-    pp.coronaries = p.flag("coronaries");
-    pp.arch |= p.flag("arch");
-    pp.native_cusps |= p.flag("native_cusps");
-    if given("annulus_tilt") {
-        pp.annulus_tilt_rad = p.quantity("annulus_tilt");
-    }
-    pp.root_rotation_rad = p.quantity("root_rotation");
-    pp.validate()?;
-    Ok(pp)
-}
-
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
-    let pp = params_from(params)?;
+    let pp = PhantomParams::try_from(params)?;
     let t0 = std::time::Instant::now();
     let ph = generate(&pp, &|f| progress.set(0.9 * f))?;
     let generate_s = t0.elapsed().as_secs_f64();

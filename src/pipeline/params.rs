@@ -159,8 +159,14 @@ pub fn describe_kind(k: ParamKind) -> String {
 }
 
 /// A stage's resolved parameters, every declared one present (possibly `Unset`).
+///
+/// A stage reads them once, into its own typed struct (`TryFrom<&Params>`),
+/// through the accessors below; a name the stage did not declare, or a value
+/// of another kind than the stage reads, is an [`Error`], never a panic.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Params {
+    /// The declaring stage, for the errors of a lookup that does not match it.
+    stage: &'static str,
     values: BTreeMap<String, Value>,
 }
 
@@ -189,65 +195,106 @@ impl Params {
                 spec.name
             )));
         }
-        Ok(Params { values })
+        Ok(Params {
+            stage: spec.name,
+            values,
+        })
     }
 
-    pub fn get(&self, name: &str) -> &Value {
-        self.values
-            .get(name)
-            .unwrap_or_else(|| panic!("parameter '{name}' is not declared"))
+    fn value(&self, name: &str) -> Result<&Value> {
+        self.values.get(name).ok_or_else(|| {
+            Error::failed(
+                self.stage,
+                format!(
+                    "parameter '{name}' is read but not declared: add it to the stage's SPEC.params (the CLI, configs and provenance come from there) or read a declared name"
+                ),
+            )
+        })
     }
 
-    /// A quantity in internal units.
-    pub fn quantity(&self, name: &str) -> f64 {
-        match self.get(name) {
-            Value::Quantity(v, _) => *v,
-            other => panic!("parameter '{name}' is {other:?}, not a quantity"),
+    /// The error for a value the stage reads as another kind than it holds:
+    /// the SPEC's kind and the stage's typed field disagree.
+    fn not_a(&self, name: &str, v: &Value, what: &str) -> Error {
+        Error::failed(
+            self.stage,
+            format!(
+                "parameter '{name}' holds {v:?}, but the stage reads it as {what}: make its SPEC kind and its typed field agree"
+            ),
+        )
+    }
+
+    /// A quantity of `kind`, in internal units (mm, MPa, rad, HU, N, s, …).
+    pub fn quantity(&self, name: &str, kind: Kind) -> Result<f64> {
+        match self.value(name)? {
+            Value::Quantity(v, k) if *k == kind => Ok(*v),
+            other => Err(self.not_a(name, other, &format!("a {}", kind.name()))),
         }
     }
 
-    pub fn lengths3(&self, name: &str) -> Option<[f64; 3]> {
-        match self.get(name) {
-            Value::Lengths3(v) => Some(*v),
-            _ => None,
+    /// An optional quantity of `kind` (no default declared): `None` when unset.
+    pub fn quantity_opt(&self, name: &str, kind: Kind) -> Result<Option<f64>> {
+        match self.value(name)? {
+            Value::Unset => Ok(None),
+            _ => self.quantity(name, kind).map(Some),
         }
     }
 
-    pub fn int(&self, name: &str) -> i64 {
-        match self.get(name) {
-            Value::Int(i) => *i,
-            other => panic!("parameter '{name}' is {other:?}, not an integer"),
+    /// Three lengths (mm): `None` when unset.
+    pub fn lengths3(&self, name: &str) -> Result<Option<[f64; 3]>> {
+        match self.value(name)? {
+            Value::Lengths3(v) => Ok(Some(*v)),
+            Value::Unset => Ok(None),
+            other => Err(self.not_a(name, other, "three lengths")),
         }
     }
 
-    pub fn float(&self, name: &str) -> f64 {
-        match self.get(name) {
-            Value::Float(f) => *f,
-            other => panic!("parameter '{name}' is {other:?}, not a number"),
+    pub fn int(&self, name: &str) -> Result<i64> {
+        match self.value(name)? {
+            Value::Int(i) => Ok(*i),
+            other => Err(self.not_a(name, other, "an integer")),
         }
     }
 
-    pub fn flag(&self, name: &str) -> bool {
-        match self.get(name) {
-            Value::Bool(b) => *b,
-            other => panic!("parameter '{name}' is {other:?}, not a boolean"),
+    pub fn float(&self, name: &str) -> Result<f64> {
+        match self.value(name)? {
+            Value::Float(f) => Ok(*f),
+            other => Err(self.not_a(name, other, "a number")),
         }
     }
 
-    pub fn choice(&self, name: &str) -> &str {
-        match self.get(name) {
-            Value::Choice(s) => s,
-            other => panic!("parameter '{name}' is {other:?}, not a choice"),
+    pub fn flag(&self, name: &str) -> Result<bool> {
+        match self.value(name)? {
+            Value::Bool(b) => Ok(*b),
+            other => Err(self.not_a(name, other, "true or false")),
+        }
+    }
+
+    /// One of the declared options, as written in the SPEC.
+    pub fn choice(&self, name: &str) -> Result<&str> {
+        match self.value(name)? {
+            Value::Choice(s) => Ok(s),
+            other => Err(self.not_a(name, other, "a choice")),
         }
     }
 
     /// An optional path parameter: `None` when unset.
-    pub fn path(&self, name: &str) -> Option<&str> {
-        match self.get(name) {
-            Value::Path(s) => Some(s),
-            Value::Unset => None,
-            other => panic!("parameter '{name}' is {other:?}, not a path"),
+    pub fn path(&self, name: &str) -> Result<Option<&str>> {
+        match self.value(name)? {
+            Value::Path(s) => Ok(Some(s)),
+            Value::Unset => Ok(None),
+            other => Err(self.not_a(name, other, "a path")),
         }
+    }
+
+    /// The error for a choice the stage's typed field has no variant for
+    /// (the SPEC's options and the field's enum disagree).
+    pub fn unknown_choice(&self, name: &str, option: &str) -> Error {
+        Error::failed(
+            self.stage,
+            format!(
+                "parameter '{name}' is '{option}', which the stage's typed field has no variant for: make the SPEC's options and the field's enum agree"
+            ),
+        )
     }
 
     /// Canonical text of every parameter, for provenance and skip decisions.
@@ -256,6 +303,67 @@ impl Params {
             .iter()
             .map(|(k, v)| (k.clone(), v.canonical()))
             .collect()
+    }
+}
+
+/// For each stage's unit test: `read` (the stage's `TryFrom<&Params>`) takes
+/// every parameter `spec` declares, as the kind it declares, and nothing it
+/// does not.
+///
+/// Nothing undeclared: reading the declared defaults succeeds (an undeclared
+/// name is an error). Every declared one: with that one parameter holding a
+/// value of a kind no reader of its declared kind accepts, reading fails
+/// naming it. As its declared kind: with it holding a value of that kind
+/// (given, so an optional one is read too), reading does not fail for the
+/// kind (it may refuse the value itself).
+#[cfg(test)]
+pub(crate) fn assert_reads_exactly<T>(spec: &StageSpec, read: impl Fn(&Params) -> Result<T>) {
+    let defaults = Params::resolve(spec, BTreeMap::new()).unwrap();
+    if let Err(e) = read(&defaults) {
+        panic!("{}: reading the declared defaults fails: {e}", spec.name);
+    }
+    for p in spec.params {
+        let wrong = match p.kind {
+            ParamKind::Choice(_) => Value::Bool(false),
+            _ => Value::Choice("not of the declared kind".into()),
+        };
+        let given = BTreeMap::from([(p.name.to_string(), one_of(p.kind))]);
+        if let Err(e) = read(&Params::resolve(spec, given).unwrap()) {
+            assert!(
+                !e.to_string().contains("the stage reads it as"),
+                "{}.{}: {e}",
+                spec.name,
+                p.name
+            );
+        }
+        let given = BTreeMap::from([(p.name.to_string(), wrong)]);
+        let params = Params::resolve(spec, given).unwrap();
+        match read(&params) {
+            Ok(_) => panic!(
+                "{}.{} is declared but the typed parameters do not read it",
+                spec.name, p.name
+            ),
+            Err(e) => assert!(
+                e.to_string().contains(&format!("'{}'", p.name)),
+                "{}.{}: {e}",
+                spec.name,
+                p.name
+            ),
+        }
+    }
+}
+
+/// A value of the kind `k`, as a user could give it.
+#[cfg(test)]
+fn one_of(k: ParamKind) -> Value {
+    match k {
+        ParamKind::Quantity(kind) => Value::Quantity(1.0, kind),
+        ParamKind::Lengths3 => Value::Lengths3([1.0; 3]),
+        ParamKind::Int { min, .. } => Value::Int(min),
+        ParamKind::Float { min, .. } => Value::Float(min),
+        ParamKind::Bool => Value::Bool(false),
+        ParamKind::Choice(options) => Value::Choice(options[0].to_string()),
+        ParamKind::Path => Value::Path("somewhere".into()),
     }
 }
 
@@ -281,6 +389,75 @@ mod tests {
         assert_eq!(v.canonical(), "0.01 MPa");
         // The canonical text parses back to the same value.
         assert_eq!(parse_text(&P, &v.canonical()).unwrap(), v);
+    }
+
+    fn no_run(
+        _: &super::super::StageIo,
+        _: &Params,
+        _: &super::super::Progress,
+    ) -> Result<serde_json::Value> {
+        Ok(serde_json::Value::Null)
+    }
+
+    static STAGE: StageSpec = StageSpec {
+        name: "demo",
+        about: "",
+        inputs: &[],
+        outputs: &[],
+        out_dir: None,
+        params: &[P],
+        check: |_| Ok(()),
+        run: no_run,
+    };
+
+    /// A stage whose typed struct and SPEC disagree gets an error saying
+    /// which parameter and how to fix it, not a panic.
+    #[test]
+    fn undeclared_names_and_other_kinds_are_errors() {
+        let p = Params::resolve(&STAGE, BTreeMap::new()).unwrap();
+        let mpa = units::parse(Kind::Pressure, "80 mmHg").unwrap();
+        assert_eq!(p.quantity("pressure", Kind::Pressure).unwrap(), mpa);
+        assert_eq!(
+            p.quantity_opt("pressure", Kind::Pressure).unwrap(),
+            Some(mpa)
+        );
+        let e = p
+            .quantity("presure", Kind::Pressure)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("demo: ") && e.contains("'presure'") && e.contains("not declared"),
+            "{e}"
+        );
+        let e = p
+            .quantity("pressure", Kind::Length)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("'pressure'") && e.contains("as a length"), "{e}");
+        let e = p.flag("pressure").unwrap_err().to_string();
+        assert!(e.contains("as true or false"), "{e}");
+        assert!(p.path("pressure").is_err() && p.lengths3("pressure").is_err());
+    }
+
+    #[test]
+    #[should_panic(expected = "demo.pressure is declared but the typed parameters do not read it")]
+    fn the_per_stage_check_finds_a_declared_parameter_left_unread() {
+        assert_reads_exactly(&STAGE, |_| Ok(()));
+    }
+
+    #[test]
+    #[should_panic(expected = "demo: reading the declared defaults fails")]
+    fn the_per_stage_check_finds_an_undeclared_name_read() {
+        assert_reads_exactly(&STAGE, |p| {
+            p.quantity("pressure", Kind::Pressure)?;
+            p.float("presure")
+        });
+    }
+
+    #[test]
+    #[should_panic(expected = "the stage reads it as a length")]
+    fn the_per_stage_check_finds_a_parameter_read_as_another_quantity() {
+        assert_reads_exactly(&STAGE, |p| p.quantity_opt("pressure", Kind::Length));
     }
 
     #[test]

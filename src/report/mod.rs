@@ -36,6 +36,7 @@ pub mod raster;
 pub mod reach;
 pub mod references;
 pub mod stage;
+pub mod stage_params;
 pub mod symmetry;
 pub mod terminal;
 pub mod valve;

@@ -10,6 +10,7 @@ use super::coaptation::{self, Options as ZoneOptions};
 use super::criteria::{self, Anatomy, Pressures, Thresholds};
 use super::document::{self, Context, Finding, Severity};
 use super::metrics::{self, Metrics};
+use super::stage_params::ReportParams;
 use super::{ClosedValve, Figure, case, figures, html, load, reach, symmetry, verdict, view3d};
 use crate::geom::Point3;
 use crate::io::{Transaction, markups, nifti, volume_file, vtp};
@@ -17,7 +18,7 @@ use crate::pipeline::manifest::{self, Manifest};
 use crate::pipeline::{
     ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec, provenance,
 };
-use crate::units::{self, Kind};
+use crate::units::Kind;
 use crate::{Error, Result};
 
 const fn optional(
@@ -198,50 +199,9 @@ pub static SPEC: StageSpec = StageSpec {
             help: "run directory (default: the folder of closed.vtp): per-stage timings from its manifest.json, and the optional inputs not given (closure.json, ct, mask, …) by their file names",
         },
     ],
-    check,
+    check: |p| ReportParams::try_from(p)?.check(),
     run,
 };
-
-fn check(p: &Params) -> Result<()> {
-    // A criterion or a measure outside what a valve can show means nothing
-    // (a 1 km margin made every point "coapting" with exit 0).
-    let ranges: [(&str, f64, f64, &str); 7] = [
-        ("column_width", MIN_COLUMN_MM, 10.0, "mm"),
-        ("hcc_radius", 0.1, 30.0, "mm"),
-        ("min_central_coaptation", 0.0, 30.0, "mm"),
-        ("min_effective_height", 0.0, 40.0, "mm"),
-        ("max_regurgitant_orifice", 0.0, 1000.0, "mm²"),
-        ("max_billowing", 0.0, 30.0, "mm"),
-        ("margin", 0.01, 5.0, "mm"),
-    ];
-    for (name, lo, hi, unit) in ranges {
-        let v = match p.get(name) {
-            crate::pipeline::params::Value::Quantity(v, _) => *v,
-            _ => continue,
-        };
-        if v >= lo && v <= hi {
-            continue;
-        }
-        let flag = name.replace('_', "-");
-        // The strip's columns cost time ∝ 1/width (1e-6 mm ran past 120 s);
-        // narrower than the 0.05 mm raster of the orifice they resolve nothing.
-        let cost = if name == "column_width" && v > 0.0 && v < lo {
-            format!("about {:.0e} columns per strip; ", 30.0 / v)
-        } else {
-            String::new()
-        };
-        return Err(Error::value(format!(
-            "--{flag} {} {unit} (report.{name}): {cost}it must lie within {} {unit} to {} {unit}",
-            units::short(v),
-            units::short(lo),
-            units::short(hi)
-        )));
-    }
-    Ok(())
-}
-
-/// Narrowest column across a coaptation strip (mm).
-const MIN_COLUMN_MM: f64 = 0.01;
 
 /// Thickness multiple of the contact margin (the seeds' group's convention:
 /// docs/report.md, "Where leaflets touch").
@@ -400,13 +360,14 @@ fn timings(run_dir: Option<&Path>) -> Json {
 }
 
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
+    let rp = ReportParams::try_from(params)?;
     let t0 = Instant::now();
     let cpath = io.input("closed").expect("required");
     let lpath = io.input("leaflets").expect("required");
     let vpath = io.input("valve").expect("required");
-    let run_dir: Option<PathBuf> = params
-        .path("run_dir")
-        .map(PathBuf::from)
+    let run_dir: Option<PathBuf> = rp
+        .run_dir
+        .clone()
         .or_else(|| cpath.parent().map(Path::to_path_buf));
     let run_dir = run_dir.as_deref();
     let frame = crate::io::valve_json::read_frame(vpath)?;
@@ -427,11 +388,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         .and_then(|l| l["config"]["thickness_mm"].as_f64())
         .filter(|t| *t > 0.0);
     let completed = symmetry::complete(&valve);
-    let given = match params.get("margin") {
-        crate::pipeline::params::Value::Quantity(m, _) => Some(*m),
-        _ => None,
-    };
-    let (margin, margin_note) = match (given, &completed, thickness) {
+    let (margin, margin_note) = match (rp.margin_mm, &completed, thickness) {
         (Some(m), _, _) => (m, None),
         // Seed 001 §3.1: the zone is where the signed distance to a
         // contact plane is at most 0.01 R (R: the commissures' radius).
@@ -461,13 +418,13 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     };
     let zone = ZoneOptions {
         margin_mm: margin,
-        refine: params.int("refine") as usize,
+        refine: rp.refine,
     };
     let coapt = coaptation::find_with_planes(v, &zone, planes);
     progress.set(0.4);
     let mopts = metrics::Options {
-        column_mm: params.quantity("column_width"),
-        hcc_radius_mm: params.quantity("hcc_radius"),
+        column_mm: rp.column_width_mm,
+        hcc_radius_mm: rp.hcc_radius_mm,
         measured: completed.is_some().then_some(1),
         // The margin note says when 0.5 mm is assumed for want of closure.json.
         half_thickness_mm: 0.5 * thickness.unwrap_or(0.5),
@@ -502,10 +459,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         crate::io::valve_json::read_stj_height(vpath, &v.frame)?,
     );
     let thresholds = Thresholds {
-        central_coaptation_mm: params.quantity("min_central_coaptation"),
-        effective_height_mm: params.quantity("min_effective_height"),
-        regurgitant_orifice_mm2: params.quantity("max_regurgitant_orifice"),
-        billowing_mm: params.quantity("max_billowing"),
+        central_coaptation_mm: rp.min_central_coaptation_mm,
+        effective_height_mm: rp.min_effective_height_mm,
+        regurgitant_orifice_mm2: rp.max_regurgitant_orifice_mm2,
+        billowing_mm: rp.max_billowing_mm,
     };
     let crit = criteria::judge(&m, &thresholds, &anatomy, &pressures);
     let placement = match optional_input(io, run_dir, "summary") {
@@ -598,10 +555,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     if let Some(d) = &design {
         figs.extend(figures::sizing::sizing(
             d,
-            (
-                params.quantity("min_central_coaptation"),
-                params.quantity("min_effective_height"),
-            ),
+            (rp.min_central_coaptation_mm, rp.min_effective_height_mm),
         ));
     }
     let wall = match optional_input(io, run_dir, "surface") {

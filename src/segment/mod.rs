@@ -25,6 +25,7 @@ pub mod reach;
 pub mod roi;
 pub mod root_fill;
 pub mod stage;
+pub mod stage_params;
 pub mod track;
 pub mod vaj;
 pub mod vaj_floor;

@@ -2,6 +2,7 @@
 
 use serde_json::{Value as Json, json};
 
+use super::stage_params::SegmentStageParams;
 use super::{SegmentParams, segment};
 use crate::geom::landmarks::Landmarks;
 use crate::geom::{Point3, Volume};
@@ -55,7 +56,7 @@ pub static SPEC: StageSpec = StageSpec {
         default: None,
         help: "write PNG slices with the mask contour and the top slice's circleness map here",
     }],
-    check: |_| Ok(()),
+    check: |p| SegmentStageParams::try_from(p).map(|_| ()),
     run,
 };
 
@@ -63,6 +64,7 @@ pub static SPEC: StageSpec = StageSpec {
 const MIN_EXTENT_MM: f64 = 20.0;
 
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
+    let sp = SegmentStageParams::try_from(params)?;
     let t0 = std::time::Instant::now();
     let ct_path = io.input("ct").expect("required input");
     let ct = volume_file::read_ct(ct_path)?;
@@ -111,8 +113,8 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     tx.commit()?;
     // Debug images are not artifacts of the chain: written after the
     // outputs, outside the transaction.
-    let debug = match params.path("debug_dir") {
-        Some(d) => super::debug_png::write_all(std::path::Path::new(d), &seg.work, &seg)?,
+    let debug = match &sp.debug_dir {
+        Some(d) => super::debug_png::write_all(d, &seg.work, &seg)?,
         None => Vec::new(),
     };
     progress.set(1.0);

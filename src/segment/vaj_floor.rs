@@ -34,6 +34,7 @@
 //! then lies 3.4–4.2° off the nadirs' plane.
 
 use super::vaj::{Cells, KNEE_FLAT, KNEE_SPAN, Plane, SINUS_RISE};
+use crate::geom::basis::orthonormal_pair;
 use crate::geom::{Point3, Vector3};
 
 /// Step between stations (mm).
@@ -107,13 +108,7 @@ pub struct Floor {
 /// Unit vectors within `max_deg` of `t` on rings `step_deg` apart, `t`
 /// first (so a tie keeps the current direction).
 fn cone(t: &Vector3, max_deg: f64, step_deg: f64) -> Vec<Vector3> {
-    let a = if t.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let u = t.cross(&a).normalize();
-    let v = t.cross(&u);
+    let (u, v) = orthonormal_pair(t);
     let mut out = vec![*t];
     let rings = (max_deg / step_deg).round() as usize;
     for ring in 1..=rings {

@@ -15,6 +15,7 @@ pub mod regions;
 pub mod remesh;
 pub mod smooth;
 pub mod stage;
+pub mod stage_params;
 pub mod tables;
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 //! the grid border (top of the ascending aorta). Same codes as the phantom's
 //! `truth_surface.vtp`.
 
+use crate::geom::basis::orthonormal_pair;
 use crate::geom::{Point3, TriMesh, Vector3};
 
 pub const WALL: u8 = 0;
@@ -230,13 +231,7 @@ fn patch_shape(
     c: Point3,
     n: Vector3,
 ) -> Option<PatchShape> {
-    let helper = if n.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let e1 = n.cross(&helper).normalize();
-    let e2 = n.cross(&e1);
+    let (e1, e2) = orthonormal_pair(&n);
     let mut ata = nalgebra::SMatrix::<f64, 6, 6>::zeros();
     let mut atz = nalgebra::SVector::<f64, 6>::zeros();
     let (mut sw, mut sz, mut szz, mut sr2) = (0.0, 0.0, 0.0, 0.0);

@@ -2,14 +2,12 @@
 
 use serde_json::{Value as Json, json};
 
-use super::{RemeshParams, SurfaceParams, Taubin, surface_from_mask};
+use super::{SurfaceParams, surface_from_mask};
+use crate::Result;
 use crate::geom::Frame;
 use crate::io::{Transaction, nifti, vtp};
-use crate::pipeline::{
-    ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec, Value,
-};
+use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
 use crate::units::Kind;
-use crate::{Error, Result};
 
 pub static SPEC: StageSpec = StageSpec {
     name: "surface",
@@ -76,38 +74,12 @@ pub static SPEC: StageSpec = StageSpec {
             help: "isotropic remeshing to this edge length after smoothing, caps kept (default: off)",
         },
     ],
-    check: |p| params_from(p).map(|_| ()),
+    check: |p| SurfaceParams::try_from(p).map(|_| ()),
     run,
 };
 
-pub fn params_from(p: &Params) -> Result<SurfaceParams> {
-    let blur = p.quantity("blur");
-    if !(0.0..=20.0).contains(&blur) {
-        return Err(Error::value(format!("blur {blur} mm: expected 0 to 20 mm")));
-    }
-    let remesh = match p.get("target_edge") {
-        Value::Quantity(l, _) if (0.05..=50.0).contains(l) => Some(RemeshParams::new(*l)),
-        Value::Quantity(l, _) => {
-            return Err(Error::value(format!(
-                "target edge {l} mm: expected 0.05 to 50 mm"
-            )));
-        }
-        _ => None,
-    };
-    Ok(SurfaceParams {
-        iso: p.float("iso"),
-        blur_sigma_mm: blur,
-        taubin: Taubin {
-            iterations: p.int("smooth") as usize,
-            ..Taubin::default()
-        },
-        largest_only: !p.flag("keep_all"),
-        remesh,
-    })
-}
-
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
-    let sp = params_from(params)?;
+    let sp = SurfaceParams::try_from(params)?;
     let path = io.input("mask").expect("required input");
     let t0 = std::time::Instant::now();
     let mask = nifti::read_u8(path)?;

@@ -3,6 +3,7 @@
 pub mod cylinder;
 pub mod frame;
 pub mod stage;
+pub mod stage_params;
 pub mod suture;
 pub mod wall;
 

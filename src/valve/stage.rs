@@ -4,6 +4,7 @@
 use serde_json::{Value as Json, json};
 
 use super::frame::{self, CommissureCylinder};
+use super::stage_params::ValveParams;
 use super::suture::{self, LengthMatch, PathSpec};
 use super::wall::Wall;
 use crate::geom::{DataArray, DataValues, Frame, Point3, PolyData};
@@ -76,37 +77,11 @@ pub static SPEC: StageSpec = StageSpec {
             help: "largest point spacing along the paths",
         },
     ],
-    check: |p| {
-        // The straight part under a commissure is a few millimetres (seed
-        // 001: 1.5); 1000 mm made 72–90 mm paths that nothing refused.
-        let hc = p.quantity("hc");
-        if !(0.0..=HC_MAX_MM).contains(&hc) {
-            return Err(Error::value(format!(
-                "--hc {hc} mm: the straight part under each commissure must lie in 0–{HC_MAX_MM} mm (a commissure stands 15–25 mm above the annulus)"
-            )));
-        }
-        // Points per path ∝ 1/spacing: below the wall's own resolution
-        // (vertices ≈ 0.5 mm apart) a finer spacing adds nothing, and
-        // 1e-9 mm asked for 568 GB.
-        let sp = p.quantity("spacing");
-        if !(SPACING_MM.0..=SPACING_MM.1).contains(&sp) {
-            return Err(Error::value(format!(
-                "--spacing {sp} mm: the suture paths would hold about {:.0e} points each; it must lie in {}–{} mm",
-                150.0 / sp.max(1e-300),
-                SPACING_MM.0,
-                SPACING_MM.1
-            )));
-        }
-        Ok(())
-    },
+    check: |p| ValveParams::try_from(p)?.check(),
     run,
 };
 
 const MAX_SNAP_MM: f64 = 2.0;
-/// Longest straight part under a commissure (mm).
-const HC_MAX_MM: f64 = 10.0;
-/// The paths' point spacing that makes sense (mm).
-const SPACING_MM: (f64, f64) = (0.01, 5.0);
 
 /// Everything the stage computes, for the CLI and for tests.
 pub struct ValveResult {
@@ -115,6 +90,7 @@ pub struct ValveResult {
 }
 
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
+    let vp = ValveParams::try_from(params)?;
     let surf_path = io.input("surface").expect("required");
     let lm_path = io.input("landmarks").expect("required");
     let mesh = vtp::read_mesh(surf_path)?;
@@ -184,15 +160,8 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         None
     };
     progress.set(0.2);
-    let r = compute(
-        &mesh,
-        &wall,
-        &c,
-        nadirs.as_ref(),
-        templates.as_ref(),
-        params,
-    )
-    .map_err(|e| Error::failed("valve", e))?;
+    let r = compute(&mesh, &wall, &c, nadirs.as_ref(), templates.as_ref(), &vp)
+        .map_err(|e| Error::failed("valve", e))?;
     for f in r.json["findings"].as_array().into_iter().flatten() {
         if let Some(f) = f.as_str() {
             tracing::warn!("valve: {f}");
@@ -237,13 +206,13 @@ pub fn compute(
     c: &[Point3; 3],
     nadirs: Option<&[Point3; 3]>,
     templates: Option<&[Template; 3]>,
-    params: &Params,
+    params: &ValveParams,
 ) -> std::result::Result<ValveResult, String> {
     let (cyl, oriented_by) =
         frame::commissure_cylinder(mesh, c, nadirs).ok_or("the three commissures are collinear")?;
     let m = frame::measure(mesh, wall, &cyl, c, nadirs)?;
     plausible(&m)?;
-    let ds = params.quantity("spacing");
+    let ds = params.spacing_mm;
     let mut paths = Vec::new();
     let mut matches = Vec::new();
     for k in 0..3 {
@@ -251,7 +220,7 @@ pub fn compute(
         let tpl = templates.map(|t| &t[k]);
         let hc = match tpl {
             Some(Template::Seed001(s)) => s.hc,
-            _ => params.quantity("hc"),
+            _ => params.hc_mm,
         };
         let target = tpl.map(|t| t.outline().length(Edge::Sutured));
         let (path, depth, adjusted, spec) = match (nadirs, target) {

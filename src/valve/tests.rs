@@ -4,6 +4,7 @@ use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
 use super::stage::{SPEC, compute, path_findings};
+use super::stage_params::ValveParams;
 use super::wall::Wall;
 use super::{cylinder, suture};
 use crate::leaflet::template::{Template, TemplateSpec};
@@ -14,8 +15,8 @@ const R: f64 = 15.0;
 const HC: f64 = 1.5;
 const HB: f64 = 15.0;
 
-fn params() -> Params {
-    Params::resolve(&SPEC, BTreeMap::new()).unwrap()
+fn params() -> ValveParams {
+    ValveParams::try_from(&Params::resolve(&SPEC, BTreeMap::new()).unwrap()).unwrap()
 }
 
 /// Length of the planar eq. 1 curve with l = R·2π/3 (no gaps).
