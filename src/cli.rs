@@ -209,7 +209,7 @@ fn command() -> Command {
                     .arg(Arg::new("seed").long("seed").value_name("N").default_value("1").value_parser(clap::value_parser!(u64)))
                     .arg(Arg::new("h-min").long("h-min").value_name("MM").default_value("0.25").value_parser(bench::bounded::mesh_size()))
                     .arg(Arg::new("h-max").long("h-max").value_name("MM").default_value("3").value_parser(bench::bounded::mesh_size()))
-                    .arg(Arg::new("time-limit").long("time-limit").value_name("S").default_value("60").value_parser(bench::bounded::time_limit()).help("the solver's own limit per case; twice that plus 10 s counts as a hang"))
+                    .arg(Arg::new("time-limit").long("time-limit").value_name("S").default_value("600").value_parser(bench::bounded::time_limit()).help("the solver's own limit per case (the close stage's default); twice that plus 10 s counts as a hang"))
                     .arg(Arg::new("csv").long("csv").value_name("FILE").value_parser(clap::value_parser!(PathBuf)).help("one row per case"))
                     .arg(Arg::new("only").long("only").value_name("I,J,…").value_delimiter(',').value_parser(bench::bounded::count(0, 1_000_000)).help("replay these cases of the seed's sequence (0-based indices, as in the CSV) instead of 0..N"))
                     .arg(Arg::new("plausible").long("plausible").action(clap::ArgAction::SetTrue).help("draw only from the plausible range: E 0.3–10 MPa, 40–120 mmHg, 0.2–0.8 mm, jittered but unsqueezed meshes (use with --h-max 2)")),

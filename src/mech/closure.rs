@@ -93,6 +93,13 @@ const UNPROJECTED_SHIFT: f64 = 1e-6;
 /// (the peer case without bending) stagnates at once.
 const UNPROJECTED_STAGNATION: usize = 6;
 
+/// The suturing pre-stage's rounds get at most this many iterations of the
+/// closure's budget (`max_iterations`, 1500 by default): a round that needs
+/// more is a doubling of K the solver cannot follow, and suturing keeps its
+/// last sewn state (on the real CT resampled to 2 mm a round's fallback
+/// ran 300 iterations, 64 s, without converging).
+const SEW_MAX_ITERATIONS: usize = 300;
+
 /// Leaflets as the mechanics sees them (all in mm, LPS).
 #[derive(Debug, Clone)]
 pub struct Leaflets {
@@ -727,6 +734,14 @@ pub fn sew(
         return Ok(None);
     }
     let (stop, nopt) = solver_settings(cfg);
+    let stop = Stop {
+        max_iterations: stop.max_iterations.min(SEW_MAX_ITERATIONS),
+        ..stop
+    };
+    let nopt = NewtonOptions {
+        stop: stop.clone(),
+        ..nopt
+    };
     let cyl = Wall::Cylinder(axis);
     // With true contact the leaflets are sewn without crossing each other
     // too (the closure's barrier cannot undo it).
