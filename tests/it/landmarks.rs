@@ -343,7 +343,10 @@ fn landmarks_of_phantom(d: &Path, args: &[&str]) -> (serde_json::Value, serde_js
 /// (measured 1.04–1.44 mm; 1.38–3.30 mm when the plane stayed square to
 /// the marched centreline, 20° off the nadirs' plane: the nadir below it
 /// was read on the cut and N1, 5 mm above it, was lifted onto its sinus
-/// floor); commissures 1.43–1.71 mm. No nadir needs lifting now.
+/// floor). Commissures 0.78–0.84 mm, read on the sinus sectors' middle
+/// half (1.43–1.71 mm on every ray, where the cusps' hinge dents below
+/// the commissures held the narrowing's knee 1.5 mm low). No nadir needs
+/// lifting now.
 #[test]
 fn clinical_phantom_ct_alone_reaches_a_report() {
     let d = tmpdir("lm-run-clinical");
@@ -382,7 +385,8 @@ fn clinical_phantom_ct_alone_reaches_a_report() {
     let dist = distances(&truth, &found);
     eprintln!("clinical CT alone: {dist:?}");
     for (l, e) in &dist {
-        assert!(*e <= 2.0, "{l}: {e:.2} mm > 2.0 mm ({dist:?})");
+        let bound = if l.starts_with('C') { 1.0 } else { 1.5 };
+        assert!(*e <= bound, "{l}: {e:.2} mm > {bound} mm ({dist:?})");
     }
     let lm = json(&run.join("landmarks.json"));
     for p in lm["points"].as_array().unwrap() {
