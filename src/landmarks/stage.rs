@@ -433,6 +433,8 @@ mod tests {
             sinus_height_mm: 9.0,
             stj_height_mm: 18.0,
             knee_height_mm: 16.5,
+            commissure_stj_height_mm: 18.0,
+            sector_profile_mm: Vec::new(),
             sinus_mean_radius_mm: 14.0,
             stj_mean_radius_mm: 13.0,
             stj_is_minimum,

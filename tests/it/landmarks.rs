@@ -171,6 +171,40 @@ fn standard_phantom_from_its_ct_within_1_5_mm() {
     assert!(worst(&dist) <= 1.5, "{dist:?}");
 }
 
+/// Sample seed 1 drawn with its closed native cusps, from its CT: the mask
+/// loses a dent along each cusp's hinge line up to the commissures, which
+/// held the knee of the narrowing, read over every ray, 1 mm low (the
+/// commissures 0.86–1.33 mm under the truth; without cusps 0.02–0.16).
+/// Read on the sinus sectors' middle half, their heights along the valve
+/// axis are within 0.5 mm of the truth (measured −0.31 to +0.13 mm) and
+/// every commissure within 1.5 mm (0.42–1.38).
+#[test]
+fn commissures_under_closed_cusps_keep_their_height() {
+    let d = tmpdir("lm-cusps");
+    let ph = d.join("ph");
+    let o = coapt(&[
+        "phantom",
+        "--seed",
+        "1",
+        "--native-cusps",
+        "--out",
+        &s(&ph),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (mask, seg, surf) = segment_and_surface(&d, &ph.join("ct.nii.gz"));
+    let found = detect(&d, &mask, &surf, Some(&seg));
+    let truth = markups::read(&ph.join("landmarks.mrk.json")).unwrap();
+    let axis = point(&json(&ph.join("truth.json"))["valve_frame"]["axis"]).coords;
+    for l in ["C1", "C2", "C3"] {
+        let off = found.get(l).unwrap() - truth.get(l).unwrap();
+        let (dh, dist) = (off.dot(&axis), off.norm());
+        eprintln!("{l}: {dist:.2} mm off, {dh:+.2} mm in height");
+        assert!(dh.abs() <= 0.5, "{l}: {dh:+.2} mm in height");
+        assert!(dist <= 1.5, "{l}: {dist:.2} mm");
+    }
+}
+
 /// `coapt run` on the sample CT alone (no landmarks under [inputs]): the
 /// landmarks stage runs after the surface and feeds `valve`, the chain
 /// reaches `report.json`, segment ran without landmarks, and the found
@@ -343,7 +377,10 @@ fn landmarks_of_phantom(d: &Path, args: &[&str]) -> (serde_json::Value, serde_js
 /// (measured 1.04–1.44 mm; 1.38–3.30 mm when the plane stayed square to
 /// the marched centreline, 20° off the nadirs' plane: the nadir below it
 /// was read on the cut and N1, 5 mm above it, was lifted onto its sinus
-/// floor); commissures 1.43–1.71 mm. No nadir needs lifting now.
+/// floor). Commissures 0.78–0.84 mm, read on the sinus sectors' middle
+/// half (1.43–1.71 mm on every ray, where the cusps' hinge dents below
+/// the commissures held the narrowing's knee 1.5 mm low). No nadir needs
+/// lifting now.
 #[test]
 fn clinical_phantom_ct_alone_reaches_a_report() {
     let d = tmpdir("lm-run-clinical");
@@ -382,7 +419,8 @@ fn clinical_phantom_ct_alone_reaches_a_report() {
     let dist = distances(&truth, &found);
     eprintln!("clinical CT alone: {dist:?}");
     for (l, e) in &dist {
-        assert!(*e <= 2.0, "{l}: {e:.2} mm > 2.0 mm ({dist:?})");
+        let bound = if l.starts_with('C') { 1.0 } else { 1.5 };
+        assert!(*e <= bound, "{l}: {e:.2} mm > {bound} mm ({dist:?})");
     }
     let lm = json(&run.join("landmarks.json"));
     for p in lm["points"].as_array().unwrap() {
