@@ -20,7 +20,8 @@ const WANDER: f64 = 10.0;
 /// Share of the tail's steps that must move the residual one way for a
 /// slow trend to be a creep rather than a cycle. A stress case (pure
 /// neo-Hookean membrane, h 0.75 mm) was called cycling while all 60 of its
-/// last steps lowered the residual, 0.986-fold each.
+/// last steps lowered the residual, 0.985-fold each. Steps cut
+/// short are the held-back case, whatever their trend.
 const MONOTONE: f64 = 0.9;
 
 /// The solver's behaviour over the last third of `history` (10 to 60
@@ -73,7 +74,7 @@ pub fn stall_cause(history: &[Record]) -> Option<String> {
             "the residual rose from about {first:.2e} to {last:.2e} N over the last {w} iterations: \
              the iterates leave the equilibrium (a structure softening or folding under the load)"
         )
-    } else if falls >= monotone || (w - 1) as f64 - falls >= monotone {
+    } else if mean_step >= 0.5 && (falls >= monotone || (w - 1) as f64 - falls >= monotone) {
         let (way, per_tenfold) = if rate < 1.0 {
             (
                 "lowered",
@@ -176,6 +177,8 @@ mod tests {
             "{why}"
         );
         assert!(why.contains("about 163 more"), "{why}");
+        let why = stall_cause(&history(&creeping, 0.01, |_| 0)).unwrap();
+        assert!(why.starts_with("held back"), "{why}");
         let up: Vec<f64> = (0..180).map(|i| 1.02f64.powi(i)).collect();
         let why = stall_cause(&history(&up, 1.0, |_| 0)).unwrap();
         assert!(
