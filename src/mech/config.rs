@@ -220,7 +220,8 @@ pub enum Reference {
 /// cases (`bench stress-close --plausible --h-max 2`) that failed at the
 /// old 300, 17 converge within 1500 (at 320–1393 iterations, the slowest
 /// in 123 s at h 0.26 mm on one thread); those that still fail are
-/// balloons, collapsed MSM triangles, and five that creep, wander or rise.
+/// balloons, collapsed MSM triangles, and five held back by cut steps,
+/// wandering or rising.
 /// A closure that converges stops long before; one that does not is
 /// bounded by `time_limit` as well.
 pub const MAX_ITERATIONS: usize = 1500;
