@@ -449,15 +449,28 @@ fn root_radius(z: f64) -> f64 {
 /// zero slope and peaks 2.5 mm wider at z = 10, STJ and aorta of 12.5 mm
 /// from z = 20 up to z = 60. `keep` cuts the region's lower end.
 fn root_tube(keep: impl Fn(f64, f64, f64) -> bool) -> Vec<crate::geom::Point3> {
+    half_mm_grid(-60..120, -32..32, -32..32, |q| {
+        let r = root_radius(q.z);
+        q.x * q.x + q.y * q.y <= r * r && keep(q.x, q.y, q.z)
+    })
+}
+
+/// The centres of the 0.5 mm voxels with indices `ks` × `js` × `is` (voxel
+/// i's centre at 0.5 i + 0.25 mm) that `inside` admits, z slowest.
+fn half_mm_grid(
+    ks: std::ops::Range<i32>,
+    js: std::ops::Range<i32>,
+    is: std::ops::Range<i32>,
+    inside: impl Fn(&crate::geom::Point3) -> bool,
+) -> Vec<crate::geom::Point3> {
+    let c = |i: i32| i as f64 * 0.5 + 0.25;
     let mut pts = Vec::new();
-    for k in -60..120 {
-        let z = k as f64 * 0.5 + 0.25;
-        let r = root_radius(z);
-        for j in -32..32 {
-            for i in -32..32 {
-                let (x, y) = (i as f64 * 0.5 + 0.25, j as f64 * 0.5 + 0.25);
-                if x * x + y * y <= r * r && keep(x, y, z) {
-                    pts.push(crate::geom::Point3::new(x, y, z));
+    for k in ks {
+        for j in js.clone() {
+            for i in is.clone() {
+                let q = crate::geom::Point3::new(c(i), c(j), c(k));
+                if inside(&q) {
+                    pts.push(q);
                 }
             }
         }
@@ -537,27 +550,14 @@ fn a_root_leaning_from_the_ascending_aorta_is_cut_at_its_annulus() {
     let lean = 30f64.to_radians();
     let axis = Vector3::new(lean.sin(), 0.0, lean.cos());
     let stj = Point3::origin() + axis * 20.0;
-    let mut pts = Vec::new();
-    for k in -60..160 {
-        for j in -40..40 {
-            for i in -40..80 {
-                let q = Point3::new(
-                    i as f64 * 0.5 + 0.25,
-                    j as f64 * 0.5 + 0.25,
-                    k as f64 * 0.5 + 0.25,
-                );
-                let d = q.coords;
-                let h = d.dot(&axis);
-                let in_root =
-                    (-15.0..=20.0).contains(&h) && (d - axis * h).norm() <= root_radius(h);
-                let e = q - stj;
-                let in_aorta = e.z >= 0.0 && e.x.hypot(e.y) <= 12.5;
-                if in_root || in_aorta {
-                    pts.push(q);
-                }
-            }
-        }
-    }
+    let pts = half_mm_grid(-60..160, -40..40, -40..80, |q| {
+        let d = q.coords;
+        let h = d.dot(&axis);
+        let in_root = (-15.0..=20.0).contains(&h) && (d - axis * h).norm() <= root_radius(h);
+        let e = q - stj;
+        let in_aorta = e.z >= 0.0 && e.x.hypot(e.y) <= 12.5;
+        in_root || in_aorta
+    });
     let (plane, profile) = super::vaj::measure(
         pts,
         0.125,
@@ -616,27 +616,14 @@ fn a_tilted_annulus_turns_the_vaj_plane_onto_it() {
     use crate::geom::{Point3, Vector3};
     let tilt = 20f64.to_radians();
     let n = Vector3::new(tilt.sin(), 0.0, tilt.cos());
-    let mut pts = Vec::new();
-    for k in -60..120 {
-        for j in -36..36 {
-            for i in -36..36 {
-                let q = Point3::new(
-                    i as f64 * 0.5 + 0.25,
-                    j as f64 * 0.5 + 0.25,
-                    k as f64 * 0.5 + 0.25,
-                );
-                let h = q.coords.dot(&n);
-                let inside = if h < 0.0 {
-                    h >= -15.0 && (q.coords - n * h).norm() <= 11.6 - 0.04 * h
-                } else {
-                    q.x.hypot(q.y) <= root_radius(h)
-                };
-                if inside {
-                    pts.push(q);
-                }
-            }
+    let pts = half_mm_grid(-60..120, -36..36, -36..36, |q| {
+        let h = q.coords.dot(&n);
+        if h < 0.0 {
+            h >= -15.0 && (q.coords - n * h).norm() <= 11.6 - 0.04 * h
+        } else {
+            q.x.hypot(q.y) <= root_radius(h)
         }
-    }
+    });
     let cells = super::vaj::Cells::new(pts).unwrap();
     let t = -Vector3::z();
     // Where sections square to z have left the sinus on every side.
