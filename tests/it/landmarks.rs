@@ -77,6 +77,21 @@ fn segment_and_surface(d: &Path, ct: &Path) -> (PathBuf, PathBuf, PathBuf) {
     (mask, seg, surf)
 }
 
+/// A phantom made with `args` in `d/ph`, its CT segmented and surfaced,
+/// and the landmarks found there with segment's VAJ plane:
+/// (the phantom's folder, found, truth).
+fn from_phantom_ct(d: &Path, args: &[&str]) -> (PathBuf, Landmarks, Landmarks) {
+    let ph = d.join("ph");
+    let mut a = vec!["phantom", "--out", ph.to_str().unwrap(), "--quiet"];
+    a.extend_from_slice(args);
+    let o = coapt(&a);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (mask, seg, surf) = segment_and_surface(d, &ph.join("ct.nii.gz"));
+    let found = detect(d, &mask, &surf, Some(&seg));
+    let truth = markups::read(&ph.join("landmarks.mrk.json")).unwrap();
+    (ph, found, truth)
+}
+
 fn detect(d: &Path, mask: &Path, surface: &Path, report: Option<&Path>) -> Landmarks {
     let out = d.join("found.mrk.json");
     let mut args = vec![
@@ -151,21 +166,7 @@ fn sample_truth_mask_within_1_5_mm() {
 #[test]
 fn standard_phantom_from_its_ct_within_1_5_mm() {
     let d = tmpdir("lm-standard");
-    let ph = d.join("ph");
-    let o = coapt(&[
-        "phantom",
-        "--preset",
-        "standard",
-        "--seed",
-        "2",
-        "--out",
-        &s(&ph),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let (mask, seg, surf) = segment_and_surface(&d, &ph.join("ct.nii.gz"));
-    let found = detect(&d, &mask, &surf, Some(&seg));
-    let truth = markups::read(&ph.join("landmarks.mrk.json")).unwrap();
+    let (_, found, truth) = from_phantom_ct(&d, &["--preset", "standard", "--seed", "2"]);
     let dist = distances(&truth, &found);
     eprintln!("standard seed 2 from its CT: {dist:?}");
     assert!(worst(&dist) <= 1.5, "{dist:?}");
@@ -181,20 +182,7 @@ fn standard_phantom_from_its_ct_within_1_5_mm() {
 #[test]
 fn commissures_under_closed_cusps_keep_their_height() {
     let d = tmpdir("lm-cusps");
-    let ph = d.join("ph");
-    let o = coapt(&[
-        "phantom",
-        "--seed",
-        "1",
-        "--native-cusps",
-        "--out",
-        &s(&ph),
-        "--quiet",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let (mask, seg, surf) = segment_and_surface(&d, &ph.join("ct.nii.gz"));
-    let found = detect(&d, &mask, &surf, Some(&seg));
-    let truth = markups::read(&ph.join("landmarks.mrk.json")).unwrap();
+    let (ph, found, truth) = from_phantom_ct(&d, &["--seed", "1", "--native-cusps"]);
     let axis = point(&json(&ph.join("truth.json"))["valve_frame"]["axis"]).coords;
     for l in ["C1", "C2", "C3"] {
         let off = found.get(l).unwrap() - truth.get(l).unwrap();
