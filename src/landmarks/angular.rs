@@ -73,6 +73,11 @@ pub fn trough_centre(r: &[f64], i: usize, level: f64, reach: usize) -> f64 {
     i as f64 + 0.5 * (crossing(-1) + crossing(1))
 }
 
+/// The angle between directions `a` and `b` (degrees), in 0–180.
+pub fn apart_deg(a: f64, b: f64) -> f64 {
+    ((a - b + 540.0).rem_euclid(360.0) - 180.0).abs()
+}
+
 /// Angular distance from `a` forward to `b` in samples.
 pub fn forward(a: usize, b: usize, n: usize) -> usize {
     (b + n - a) % n
@@ -119,6 +124,14 @@ pub fn sector_max(r: &[f64], a: usize, b: usize, margin: usize) -> Option<usize>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn apart_is_the_short_way_round() {
+        assert_eq!(apart_deg(350.0, 10.0), 20.0);
+        assert_eq!(apart_deg(10.0, 350.0), 20.0);
+        assert_eq!(apart_deg(0.0, 180.0), 180.0);
+        assert_eq!(apart_deg(-90.0, 270.0), 0.0);
+    }
 
     /// A flat-bottomed trough with a ripple on its floor: the lowest sample
     /// lies 12° off the trough's centre, the flanks' midpoint on it.

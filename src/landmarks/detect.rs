@@ -630,7 +630,7 @@ pub fn detect(
     let clear = |deg: f64| {
         pillar_deg
             .iter()
-            .all(|&p| ((deg - p + 540.0).rem_euclid(360.0) - 180.0).abs() >= PILLAR_CLEAR_DEG)
+            .all(|&p| angular::apart_deg(deg, p) >= PILLAR_CLEAR_DEG)
     };
     let rc = smooth5(&axial_profile(&probe, &o, &n, &hs, &clear));
     let lc = levels_from(&hs, &rc, lv.sinus);

@@ -254,7 +254,7 @@ fn describe(label: &str, det: &Detection, sources: &[Source]) -> String {
         (Some((p, Source::Given { .. })), Some(sectors)) => {
             let deg = angle_about_axis(det, &p.point_mm);
             if label.starts_with('C') {
-                let off = |x: f64| ((deg - x + 540.0).rem_euclid(360.0) - 180.0).abs();
+                let off = |x: f64| super::angular::apart_deg(deg, x);
                 (0..3)
                     .min_by(|&i, &j| off(sectors[i]).total_cmp(&off(sectors[j])))
                     .unwrap_or(by_label)
