@@ -20,7 +20,12 @@ reference = "flat"
 wrinkling = true
 # Full steps cycle at 3e-3 to 6e-3 N among 1e5 contact pairs on the sample
 # at h 0.5 mm: 2.6e-4 of the 23 N pressure load, corrections of ~5e-3 mm.
-tolerance = "6e-3 N"
+# At h 1 mm from the extruded start as sewn since each sutured triangle
+# shares its free vertex's wall normal (suture.rs `shared_normals`) they
+# cycle at 1.09e-2 to 1.23e-2 N among 1.7e4 pairs (5e-4 of the load); at
+# 1.5e-2 N the two placements close 0.064 mm apart (median node; 0.051 at
+# 6e-3 N before), effective heights 17.37 / 17.49 mm.
+tolerance = "1.5e-2 N"
 "#;
 
 /// Closed positions and (effective height, coaptation height) of the run.
