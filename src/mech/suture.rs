@@ -311,8 +311,9 @@ struct Candidate {
     n_wall: V3,
 }
 
-/// The wall normal each sutured triangle is sewn to: the mean of the
-/// normals of all sutured triangles sharing its free vertex.
+/// The wall normal each sutured triangle is sewn to on a segmented wall:
+/// the mean of the normals of all sutured triangles sharing its free
+/// vertex.
 ///
 /// Two sutured triangles on neighbouring edges of the suture line often
 /// share their free vertex. Each is tangent to the wall only when that
@@ -416,8 +417,15 @@ pub fn sutured_triangles(l: &Leaflets, wall: &Wall) -> Result<Vec<SuturedTri>, S
             n_wall: nw,
         });
     }
+    // An analytic wall's normals carry no noise: each triangle keeps its own
+    // exact tangent plane there (the seed's), and the peer case's closure
+    // stays what it was.
+    let normals = match wall {
+        Wall::Mesh { .. } => shared_normals(&found),
+        Wall::Cylinder(_) => found.iter().map(|f| f.n_wall).collect(),
+    };
     let mut sides = Vec::with_capacity(found.len());
-    for (f, nw) in found.iter().zip(shared_normals(&found)) {
+    for (f, nw) in found.iter().zip(normals) {
         let (pa, pb) = (l.x[f.a as usize], l.x[f.b as usize]);
         let m = (pa + pb) * 0.5;
         let (sum, count) = mid[f.leaflet];
