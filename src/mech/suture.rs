@@ -1037,15 +1037,9 @@ mod tests {
         }
     }
 
-    /// Algorithm 1 on the peer case (one Ozaki leaflet on a cylinder of
-    /// radius 12 mm): the sutured triangles end tangent to the cylinder,
-    /// measured directly (triangle normal against the radius), the suture
-    /// line stays put, K doubles from k0 and max sin φ falls with it.
-    #[test]
-    fn the_peer_leaflet_is_sewn_tangent_to_its_cylinder() {
-        use crate::bench::close as peer;
-        let (l, axis) = peer::ozaki_cylinder(1.0).unwrap();
-        let s = Settings::default();
+    /// The auxiliary problem's stop (the seed's 10⁷-fold reduction) and
+    /// Newton options for the peer leaflet's suturing tests.
+    fn peer_solver() -> (Stop, NewtonOptions) {
         let stop = Stop {
             abs_n: 1e-7,
             rel: 1e-7,
@@ -1059,6 +1053,19 @@ mod tests {
             max_step_mm: 0.5,
             ..NewtonOptions::default()
         };
+        (stop, nopt)
+    }
+
+    /// Algorithm 1 on the peer case (one Ozaki leaflet on a cylinder of
+    /// radius 12 mm): the sutured triangles end tangent to the cylinder,
+    /// measured directly (triangle normal against the radius), the suture
+    /// line stays put, K doubles from k0 and max sin φ falls with it.
+    #[test]
+    fn the_peer_leaflet_is_sewn_tangent_to_its_cylinder() {
+        use crate::bench::close as peer;
+        let (l, axis) = peer::ozaki_cylinder(1.0).unwrap();
+        let s = Settings::default();
+        let (stop, nopt) = peer_solver();
         let wall = Wall::Cylinder(axis);
         let out = suture(&l, &s, &axis, &wall, &stop, &nopt, None, None).unwrap();
         assert_eq!(out.status, Status::Sewn, "{}", out.reason);
@@ -1162,6 +1169,8 @@ mod tests {
     fn a_rough_wall_is_sewn_to_one_normal_per_shared_vertex() {
         use crate::bench::close as peer;
         let (l, axis) = peer::ozaki_cylinder(1.0).unwrap();
+        let s = Settings::default();
+        let (stop, nopt) = peer_solver();
         for seed in 1..=6 {
             let wall = bumpy_cylinder(&l, &axis, 0.15, seed);
             let tris = sutured_triangles(&l, &wall).unwrap();
@@ -1185,20 +1194,6 @@ mod tests {
             }
             assert!(shared_pairs >= 3, "{shared_pairs}");
             assert!(worst_roll > 0.04, "{worst_roll}");
-            let s = Settings::default();
-            let stop = Stop {
-                abs_n: 1e-7,
-                rel: 1e-7,
-                max_iterations: 300,
-                max_seconds: 300.0,
-                step_mm: 0.0,
-                step_residual_n: 0.0,
-            };
-            let nopt = NewtonOptions {
-                stop: stop.clone(),
-                max_step_mm: 0.5,
-                ..NewtonOptions::default()
-            };
             let out = suture(&l, &s, &axis, &wall, &stop, &nopt, None, None).unwrap();
             assert_eq!(out.status, Status::Sewn, "wall {seed}: {}", out.reason);
             assert!(out.max_sin_phi < 0.01);
