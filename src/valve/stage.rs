@@ -223,6 +223,7 @@ pub fn compute(
             _ => params.hc_mm,
         };
         let target = tpl.map(|t| t.outline().length(Edge::Sutured));
+        let mut nadir_unpinned_mm = None;
         let (path, depth, adjusted, spec) = match (nadirs, target) {
             (Some(n), _) => {
                 let mut spec = PathSpec::between(&cyl, &ca, &cb, hc, 0.0);
@@ -242,7 +243,9 @@ pub fn compute(
                 }
                 spec.nadir_angle = an;
                 spec.nadir_height = hn;
-                let p = suture::project(wall, &cyl, &spec, (ca, Some(n[k]), cb), ds);
+                let projected = suture::project(wall, &cyl, &spec, (ca, Some(n[k]), cb), ds);
+                nadir_unpinned_mm = projected.nadir_unpinned_mm;
+                let p = projected.points;
                 let depth = (spec.height_a + spec.height_b) / 2.0 - hc - hn;
                 (p, depth, false, spec)
             }
@@ -258,7 +261,7 @@ pub fn compute(
                 let depth = top - m.annulus_height_mm;
                 let spec = PathSpec::between(&cyl, &ca, &cb, hc, depth);
                 (
-                    suture::project(wall, &cyl, &spec, (ca, None, cb), ds),
+                    suture::project(wall, &cyl, &spec, (ca, None, cb), ds).points,
                     depth,
                     false,
                     spec,
@@ -274,6 +277,7 @@ pub fn compute(
             depth_mm: depth,
             adjusted,
             past_commissures_deg: suture::past_commissures_deg(&cyl, &spec, &path),
+            nadir_unpinned_mm,
         });
         paths.push(path);
     }
@@ -387,6 +391,17 @@ pub(super) fn path_findings(matches: &[LengthMatch]) -> std::result::Result<Vec<
         }
     }
     for (k, m) in matches.iter().enumerate() {
+        if let Some(d) = m.nadir_unpinned_mm {
+            out.push(format!(
+                "leaflet {} (C{} → C{}): its suture path does not pass through N{}: pinned there it would turn back on itself by more than {:.0}° (the rays from the axis at the nadir's height graze the sinus floor and cross the wall {d:.1} mm from it); it passes through the wall the rays meet at N{}'s angle and height",
+                k + 1,
+                k + 1,
+                (k + 1) % 3 + 1,
+                k + 1,
+                suture::NADIR_PIN_MAX_TURN_DEG,
+                k + 1
+            ));
+        }
         if m.past_commissures_deg > PATH_PAST_COMMISSURES_DEG {
             out.push(format!(
                 "leaflet {} (C{} → C{}): its suture path strays {:.1}° past its commissures about the axis: rays from the axis met no wall there and the nearest wall point was taken, so the leaflet placed on it overlaps its neighbour; check the surface's wall (region 0) around that sinus",

@@ -82,22 +82,44 @@ impl PathSpec {
     }
 }
 
+/// A projected suture path.
+pub struct Projected {
+    pub points: Vec<Point3>,
+    /// Set when the nadir landmark was not pinned: how far (mm) it lies
+    /// from the path's own nadir point (see [`project`]).
+    pub nadir_unpinned_mm: Option<f64>,
+}
+
+/// A nadir pin that turns the path by more than this (degrees, between the
+/// path's directions [`TURN_REACH_MM`] before and after it) is not taken.
+pub const NADIR_PIN_MAX_TURN_DEG: f64 = 90.0;
+/// How far along the path the directions at a pin are taken (mm): past
+/// the wall's voxel-scale roughness.
+const TURN_REACH_MM: f64 = 0.5;
+
 /// Project the curve onto the wall, pin commissures (and the nadir when it
-/// is a landmark) and resample to spacing ≤ `ds` by arc length.
+/// is a landmark) and resample to spacing ≤ `ds` by arc length. The path
+/// never turns back on itself (see [`despike`]).
+///
+/// The nadir landmark is snapped to the nearest wall point, on the sinus
+/// floor, where the horizontal rays at its height graze the wall and may
+/// cross it elsewhere: on the real CT's third path the rays past N3 jump
+/// from 8 to 12 mm off the axis, and pinned there the path ran 5 mm in to
+/// the pin and back out along the same line. A pin that would turn the
+/// path by more than [`NADIR_PIN_MAX_TURN_DEG`] is not taken: the path
+/// passes through the rays' own crossing at the nadir's angle and height,
+/// and the distance is reported.
 pub fn project(
     wall: &Wall,
     cyl: &CommissureCylinder,
     spec: &PathSpec,
     pins: (Point3, Option<Point3>, Point3),
     ds: f64,
-) -> Vec<Point3> {
+) -> Projected {
     // Dense samples in t: ~0.05 mm apart on the cylinder.
-    let mut raw = Vec::new();
-    let mut split = 0;
+    let mut raw: Vec<(Point3, bool)> = vec![(pins.0, true)];
+    let mut nadir_at = 0;
     for piece in 0..4 {
-        if piece == 2 {
-            split = raw.len();
-        }
         let (t0, t1) = (piece as f64, piece as f64 + 1.0);
         let (a0, h0) = spec.at(t0);
         let (a1, h1) = spec.at((t0 + t1) / 2.0);
@@ -106,24 +128,128 @@ pub fn project(
             (cyl.radius * (a1 - a0)).hypot(h1 - h0) + (cyl.radius * (a2 - a1)).hypot(h2 - h1);
         let n = ((approx / 0.05).ceil() as usize).max(4);
         for k in 0..n {
+            if k == 0 && piece == 0 {
+                continue;
+            }
             let t = t0 + (t1 - t0) * k as f64 / n as f64;
-            let p = if k == 0 && piece == 0 {
-                pins.0
-            } else if k == 0 && piece == 2 && pins.1.is_some() {
-                pins.1.unwrap()
-            } else {
-                let (a, h) = spec.at(t);
-                wall.radial(&cyl.axis_point(h), &cyl.dir(a), cyl.radius)
-            };
-            raw.push(p);
+            if k == 0 && piece == 2 {
+                nadir_at = raw.len();
+            }
+            let (a, h) = spec.at(t);
+            raw.push((wall.radial(&cyl.axis_point(h), &cyl.dir(a), cyl.radius), false));
         }
     }
-    raw.push(pins.2);
-    // Resample each half on its own so the nadir stays a path point.
-    let mut out = resample(&raw[..=split], ds);
+    raw.push((pins.2, true));
+    let mut nadir_unpinned_mm = None;
+    if let Some(pin) = pins.1 {
+        let ray = raw[nadir_at].0;
+        raw[nadir_at] = (pin, true);
+        let (pinned, split) = despike(&raw, nadir_at);
+        if turn_deg(&pinned, split, TURN_REACH_MM) <= NADIR_PIN_MAX_TURN_DEG {
+            return Projected {
+                points: resampled(&pinned, split, ds),
+                nadir_unpinned_mm: None,
+            };
+        }
+        raw[nadir_at] = (ray, false);
+        let (free, split) = despike(&raw, nadir_at);
+        nadir_unpinned_mm = Some((pin - free[split]).norm());
+        return Projected {
+            points: resampled(&free, split, ds),
+            nadir_unpinned_mm,
+        };
+    }
+    let (free, split) = despike(&raw, nadir_at);
+    Projected {
+        points: resampled(&free, split, ds),
+        nadir_unpinned_mm,
+    }
+}
+
+/// Each half resampled on its own, so the nadir (or the sample nearest it
+/// that is left) stays a path point.
+fn resampled(p: &[Point3], split: usize, ds: f64) -> Vec<Point3> {
+    let mut out = resample(&p[..=split], ds);
     out.pop();
-    out.extend(resample(&raw[split..], ds));
+    out.extend(resample(&p[split..], ds));
     out
+}
+
+/// The turn (degrees) of polyline `p` at point `k`: the angle between the
+/// chords to the points `reach` mm of arc before and after it.
+fn turn_deg(p: &[Point3], k: usize, reach: f64) -> f64 {
+    let along = |step: isize| {
+        let mut i = k as isize;
+        let mut s = 0.0;
+        while s < reach && i + step >= 0 && ((i + step) as usize) < p.len() {
+            s += (p[(i + step) as usize] - p[i as usize]).norm();
+            i += step;
+        }
+        p[i as usize]
+    };
+    let (a, b) = (p[k] - along(-1), along(1) - p[k]);
+    if a.norm() == 0.0 || b.norm() == 0.0 {
+        return 0.0;
+    }
+    (a.dot(&b) / (a.norm() * b.norm())).clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+/// The samples of a projected path without its spikes: a sample where the
+/// path turns back on itself (the two segments meeting there point more
+/// than 90° apart) is dropped, until no unpinned one is left. A rough
+/// segmented wall crossed at a grazing angle (the sinus floor) puts rays a
+/// fraction of a millimetre in or out of their neighbours, and on a tilted
+/// root the crossing jumps between the floor and the sinus wall at the
+/// nadir (the real CT's third path: from 8.2 to 12 mm off the axis); a
+/// suture line has no hairpins. Returns the samples and the index of the
+/// one left nearest (in sample order) to sample `mark`.
+fn despike(raw: &[(Point3, bool)], mark: usize) -> (Vec<Point3>, usize) {
+    let mut out: Vec<(Point3, bool, usize)> = Vec::with_capacity(raw.len());
+    for (i, &(q, pinned)) in raw.iter().enumerate() {
+        while let [.., (a, _, _), (b, false, _)] = out[..] {
+            if (b - a).dot(&(q - b)) < 0.0 {
+                out.pop();
+            } else {
+                break;
+            }
+        }
+        out.push((q, pinned, i));
+    }
+    let split = (0..out.len())
+        .min_by_key(|&k| out[k].2.abs_diff(mark))
+        .expect("the pinned ends stay");
+    (out.into_iter().map(|o| o.0).collect(), split)
+}
+
+#[cfg(test)]
+mod despike_tests {
+    use super::*;
+
+    #[test]
+    fn spikes_go_and_pins_stay() {
+        // Along x at 0.05 mm, with a spike 0.5 mm out at sample 10 and a
+        // V 0.2 and 0.4 mm in at samples 30–31, sample 20 pinned.
+        let mut raw: Vec<(Point3, bool)> = (0..50)
+            .map(|i| (Point3::new(0.05 * i as f64, 0.0, 0.0), i == 0 || i == 20 || i == 49))
+            .collect();
+        raw[10].0.y = 0.5;
+        raw[30].0.y = -0.2;
+        raw[31].0.y = -0.4;
+        let (p, split) = despike(&raw, 20);
+        assert_eq!(p.len(), 47);
+        assert!(p.iter().all(|q| q.y == 0.0));
+        assert_eq!(p[split], raw[20].0);
+        // The sample marked but dropped: the nearest one left is the split.
+        let (_, split) = despike(&raw, 10);
+        assert_eq!(p[split].x, 0.05 * 9.0);
+        // A pinned spike stays.
+        raw[20].0.y = 0.5;
+        let (p, split) = despike(&raw, 20);
+        assert_eq!(p[split], raw[20].0);
+        // Its chords to the samples beside it (0.5 mm off the line).
+        let expect = 180.0 - 2.0 * (0.05f64 / 0.5).atan().to_degrees();
+        assert!((turn_deg(&p, split, 0.5) - expect).abs() < 1e-9);
+    }
 }
 
 /// Length of the curve drawn on the commissure cylinder itself, before
@@ -186,6 +312,10 @@ pub struct LengthMatch {
     /// How far (degrees about the cylinder's axis) the path strays past
     /// the angles of its two commissures; 0 on every healthy path.
     pub past_commissures_deg: f64,
+    /// Set when the nadir landmark was not pinned (it would have turned
+    /// the path back on itself): its distance (mm) from the path's nadir.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nadir_unpinned_mm: Option<f64>,
 }
 
 /// How far (degrees) the points of `path` stray outside the angular range
@@ -222,7 +352,7 @@ pub fn match_length(
 ) -> Result<(Vec<Point3>, f64), String> {
     let eval = |hb: f64| {
         let spec = PathSpec::between(cyl, ca, cb, hc, hb);
-        let p = project(wall, cyl, &spec, (*ca, None, *cb), ds);
+        let p = project(wall, cyl, &spec, (*ca, None, *cb), ds).points;
         (length(&p), p)
     };
     let (lmin, _) = eval(hb_min);

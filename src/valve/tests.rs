@@ -340,6 +340,7 @@ fn a_path_may_gather_the_edge_but_not_stretch_it() {
             depth_mm: 10.0,
             adjusted: false,
             past_commissures_deg: 0.0,
+            nadir_unpinned_mm: None,
         }]
     };
     assert_eq!(path_findings(&one(72.0)).unwrap(), Vec::<String>::new());
@@ -392,6 +393,7 @@ fn a_path_straying_past_its_commissures_is_a_finding() {
         depth_mm: 8.0,
         adjusted: false,
         past_commissures_deg: past,
+        nadir_unpinned_mm: None,
     };
     let within = suture::LengthMatch {
         past_commissures_deg: 4.9,
@@ -403,4 +405,59 @@ fn a_path_straying_past_its_commissures_is_a_finding() {
         f[0].starts_with("leaflet 1 (C1 → C2)") && f[0].contains("12.0° past"),
         "{f:?}"
     );
+}
+
+/// Largest turn (degrees) between consecutive segments of a path.
+fn sharpest_turn_deg(p: &[crate::geom::Point3]) -> f64 {
+    p.windows(3)
+        .map(|w| {
+            let (a, b) = (w[1] - w[0], w[2] - w[1]);
+            (a.dot(&b) / (a.norm() * b.norm())).clamp(-1.0, 1.0).acos().to_degrees()
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn a_nadir_pin_that_turns_the_path_back_is_not_taken() {
+    let mesh = cylinder::mesh(R, -25.0, 30.0, 1440, 1.0);
+    let wall = Wall::new(&mesh).unwrap();
+    let (c, n) = cylinder::landmarks(R, HC, HB);
+    let (cyl, _) = super::frame::commissure_cylinder(&mesh, &c, Some(&n)).unwrap();
+    let spec_for = |nadir: &crate::geom::Point3| {
+        let mut spec = suture::PathSpec::between(&cyl, &c[0], &c[1], HC, 0.0);
+        let (h, a) = cyl.height_angle(nadir);
+        spec.nadir_angle = spec.angle_a + super::frame::wrap(a - spec.angle_a);
+        spec.nadir_height = h;
+        spec
+    };
+    // On the wall: pinned, and the path passes through it.
+    let on = suture::project(&wall, &cyl, &spec_for(&n[0]), (c[0], Some(n[0]), c[1]), 0.2);
+    assert!(on.nadir_unpinned_mm.is_none());
+    assert!(on.points.iter().any(|p| (p - n[0]).norm() < 1e-12));
+    // 3 mm inside the wall at the same angle and height (a landmark snapped
+    // to a sinus floor the rays do not meet there): pinned, the path would
+    // run 3 mm in and back out along the same line.
+    let inner = n[0] - crate::geom::Vector3::new(n[0].x, n[0].y, 0.0).normalize() * 3.0;
+    let off = suture::project(&wall, &cyl, &spec_for(&inner), (c[0], Some(inner), c[1]), 0.2);
+    let d = off.nadir_unpinned_mm.expect("the pin turns the path back");
+    assert!((d - 3.0).abs() < 1e-3, "reported {d} mm");
+    assert!(off.points.iter().all(|p| (p - inner).norm() > 2.9));
+    assert!(sharpest_turn_deg(&off.points) < 10.0, "{}", sharpest_turn_deg(&off.points));
+    // The same path as with the pin on the wall.
+    assert_eq!(off.points.len(), on.points.len());
+    for (a, b) in off.points.iter().zip(&on.points) {
+        assert!((a - b).norm() < 1e-9);
+    }
+    let found = suture::LengthMatch {
+        path_mm: 40.0,
+        on_cylinder_mm: 40.0,
+        target_mm: None,
+        relative_mismatch: None,
+        depth_mm: HB,
+        adjusted: false,
+        past_commissures_deg: 0.0,
+        nadir_unpinned_mm: Some(d),
+    };
+    let f = path_findings(&[found]).unwrap();
+    assert!(f.iter().any(|s| s.contains("does not pass through N1")), "{f:?}");
 }
