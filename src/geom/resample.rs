@@ -45,8 +45,10 @@ fn signed_permutation(src_dir: &Matrix3) -> Option<[(usize, f64); 3]> {
 
 impl LpsGrid {
     /// The grid covering the world box `[lo, hi]` (clipped to the source's
-    /// extent) at spacing ≤ `max_spacing` mm; `min_spacing` bounds an
-    /// oblique grid from below (the source's own spacing may be finer).
+    /// extent) at spacing ≤ `max_spacing` mm and ≥ `min_spacing` mm. A
+    /// permuted source keeps its own spacing between the two bounds (its
+    /// samples are grid points), a coarser one is divided, a finer one
+    /// sampled at `min_spacing`.
     pub fn covering<T>(
         src: &Volume<T>,
         lo: Point3,
@@ -74,7 +76,7 @@ impl LpsGrid {
             Some(perm) => {
                 let mut spacing = [0.0; 3];
                 for (c, &(a, _)) in perm.iter().enumerate() {
-                    spacing[a] = divide(sp[c]);
+                    spacing[a] = divide(sp[c]).max(min_spacing);
                 }
                 (spacing, Some(src.origin()))
             }
@@ -256,6 +258,33 @@ mod tests {
             (g.dims[2] - 1) as f64,
         ]);
         assert!((far - Point3::new(10.0 + 19.0 * 0.8, -5.0, 40.0)).norm() < 1e-9);
+    }
+
+    #[test]
+    fn a_finer_source_is_sampled_at_the_least_spacing() {
+        // 0.3 × 0.35 × 0.6 mm, axis-aligned: in-plane 0.5, slices kept.
+        let a = affine_from_parts([0.3, 0.35, 0.6], &Matrix3::identity(), Point3::origin());
+        let src = source(a, [40, 40, 20]);
+        let g = LpsGrid::covering(
+            &src,
+            Point3::new(-100.0, -100.0, -100.0),
+            Point3::new(100.0, 100.0, 100.0),
+            1.0,
+            0.5,
+        )
+        .unwrap();
+        assert_eq!(g.spacing, [0.5, 0.5, 0.6]);
+        let out = resample_i16(&src, &g, -1024).unwrap();
+        let mut worst = 0.0f64;
+        for k in 0..g.dims[2] {
+            for j in 0..g.dims[1] {
+                for i in 0..g.dims[0] {
+                    let p = out.index_to_world([i as f64, j as f64, k as f64]);
+                    worst = worst.max((out[[i, j, k]] as f64 - field(&p)).abs());
+                }
+            }
+        }
+        assert!(worst <= 1.0, "trilinear error {worst} HU on a linear field");
     }
 
     #[test]
