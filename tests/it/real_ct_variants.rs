@@ -101,7 +101,7 @@ pub fn resample_trilinear(src: &Volume<i16>, dims: [usize; 3], affine: Matrix4) 
 /// A grid with unit directions `dir` (columns) and isotropic `spacing` that
 /// covers the whole field of view of `src` (its voxel centres' bounding box
 /// in the new axes).
-fn covering_grid(src: &Volume<i16>, dir: &Matrix3, spacing: f64) -> ([usize; 3], Matrix4) {
+fn covering_grid(src: &Volume<i16>, dir: &Matrix3, spacing: [f64; 3]) -> ([usize; 3], Matrix4) {
     let mut lo = Vector3::repeat(f64::INFINITY);
     let mut hi = Vector3::repeat(f64::NEG_INFINITY);
     for p in src.corner_centres() {
@@ -110,9 +110,9 @@ fn covering_grid(src: &Volume<i16>, dir: &Matrix3, spacing: f64) -> ([usize; 3],
         hi = hi.sup(&w);
     }
     // 1e-6 mm slack: a corner that lies on a voxel centre stays inside.
-    let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / spacing + 1e-6).floor() as usize + 1);
+    let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / spacing[a] + 1e-6).floor() as usize + 1);
     let origin = Point3::from(dir * lo);
-    let affine = coapt::geom::volume::affine_from_parts([spacing; 3], dir, origin);
+    let affine = coapt::geom::volume::affine_from_parts(spacing, dir, origin);
     (dims, affine)
 }
 
@@ -185,8 +185,9 @@ fn rotation(axis: Vector3, deg: f64) -> Matrix3 {
 }
 
 /// Write the variants of the real CT in `real` under `out/<name>/`:
-/// `iso0.5`, `iso1.0`, `iso1.5`, `iso2.0` (trilinear, the original axes and
-/// first voxel centre, covering its field of view); `ras` (i and j reversed:
+/// `iso0.5`, `iso1.0`, `iso1.5`, `iso2.0` and `fine0.35x0.6` (0.35 mm in
+/// plane, 0.6 mm slices) (trilinear, the original axes and first voxel
+/// centre, covering its field of view); `ras` (i and j reversed:
 /// a RAS-ordered array), `kij` (LPS axes permuted: i runs along the original
 /// k), `flipk` (k reversed), exact; `oblique20` (1.5 mm, axes rotated 20°
 /// about (1, 2, 3), trilinear); `crop_arch` (the aorta's i/j bounding box +
@@ -216,7 +217,7 @@ pub fn write_variants(real: &Path, out: &Path) -> Vec<Variant> {
         });
     };
     for s in [0.5, 1.0, 1.5, 2.0] {
-        let (dims, affine) = covering_grid(&ct, &ct.direction(), s);
+        let (dims, affine) = covering_grid(&ct, &ct.direction(), [s; 3]);
         put(
             &format!("iso{s:.1}"),
             &resample_trilinear(&ct, dims, affine),
@@ -224,6 +225,14 @@ pub fn write_variants(real: &Path, out: &Path) -> Vec<Variant> {
             true,
         );
     }
+    // A thin-slice CTA's grid: 0.35 mm in plane, 0.6 mm slices.
+    let (dims, affine) = covering_grid(&ct, &ct.direction(), [0.35, 0.35, 0.6]);
+    put(
+        "fine0.35x0.6",
+        &resample_trilinear(&ct, dims, affine),
+        false,
+        true,
+    );
     put(
         "ras",
         &reorient(&ct, [0, 1, 2], [true, true, false]),
@@ -243,7 +252,7 @@ pub fn write_variants(real: &Path, out: &Path) -> Vec<Variant> {
         true,
     );
     let dir = rotation(Vector3::new(1.0, 2.0, 3.0), 20.0) * ct.direction();
-    let (dims, affine) = covering_grid(&ct, &dir, 1.5);
+    let (dims, affine) = covering_grid(&ct, &dir, [1.5; 3]);
     put(
         "oblique20",
         &resample_trilinear(&ct, dims, affine),
@@ -384,6 +393,7 @@ mod tests {
                 "iso1.0",
                 "iso1.5",
                 "iso2.0",
+                "fine0.35x0.6",
                 "ras",
                 "kij",
                 "flipk",
