@@ -215,20 +215,25 @@ mod tests {
         v
     }
 
+    /// The work grid over all of `src` (spacing 0.5–1 mm).
+    fn whole(src: &Volume<i16>) -> LpsGrid {
+        LpsGrid::covering(
+            src,
+            Point3::new(-100.0, -100.0, -100.0),
+            Point3::new(100.0, 100.0, 100.0),
+            1.0,
+            0.5,
+        )
+        .unwrap()
+    }
+
     #[test]
     fn permuted_source_is_copied_sample_for_sample() {
         // i → −z (feet), j → +x, k → −y at 1.5 / 0.8 / 2 mm.
         let dir = Matrix3::from_columns(&[-Vector3::z(), Vector3::x(), -Vector3::y()]);
         let a = affine_from_parts([1.5, 0.8, 2.0], &dir, Point3::new(10.0, -5.0, 40.0));
         let src = source(a, [12, 20, 9]);
-        let g = LpsGrid::covering(
-            &src,
-            Point3::new(-100.0, -100.0, -100.0),
-            Point3::new(100.0, 100.0, 100.0),
-            1.0,
-            0.5,
-        )
-        .unwrap();
+        let g = whole(&src);
         // 1.5 → 2 × 0.75 along z, 0.8 kept along x, 2 → 2 × 1 along y.
         assert_eq!(g.spacing, [0.8, 1.0, 0.75]);
         let out = resample_i16(&src, &g, -1024).unwrap();
@@ -265,14 +270,7 @@ mod tests {
         // 0.3 × 0.35 × 0.6 mm, axis-aligned: in-plane 0.5, slices kept.
         let a = affine_from_parts([0.3, 0.35, 0.6], &Matrix3::identity(), Point3::origin());
         let src = source(a, [40, 40, 20]);
-        let g = LpsGrid::covering(
-            &src,
-            Point3::new(-100.0, -100.0, -100.0),
-            Point3::new(100.0, 100.0, 100.0),
-            1.0,
-            0.5,
-        )
-        .unwrap();
+        let g = whole(&src);
         assert_eq!(g.spacing, [0.5, 0.5, 0.6]);
         let out = resample_i16(&src, &g, -1024).unwrap();
         let mut worst = 0.0f64;

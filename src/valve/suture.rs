@@ -103,9 +103,10 @@ const TURN_REACH_MM: f64 = 0.5;
 ///
 /// The nadir landmark is snapped to the nearest wall point, on the sinus
 /// floor, where the horizontal rays at its height graze the wall and may
-/// cross it elsewhere: on the real CT's third path the rays past N3 jump
-/// from 8 to 12 mm off the axis, and pinned there the path ran 5 mm in to
-/// the pin and back out along the same line. A pin that would turn the
+/// cross it elsewhere: on the real CT resampled to 0.35 × 0.35 × 0.6 mm,
+/// N2 pinned 0.5 mm inside its neighbouring rays' crossings made a spike
+/// that left a 0.07 mm suture edge, which suturing could not sew. A pin
+/// that would turn the
 /// path by more than [`NADIR_PIN_MAX_TURN_DEG`] is not taken: the path
 /// passes through the rays' own crossing at the nadir's angle and height,
 /// and the distance is reported.
@@ -140,7 +141,6 @@ pub fn project(
         }
     }
     raw.push((pins.2, true));
-    let mut nadir_unpinned_mm = None;
     if let Some(pin) = pins.1 {
         let ray = raw[nadir_at].0;
         raw[nadir_at] = (pin, true);
@@ -153,16 +153,15 @@ pub fn project(
         }
         raw[nadir_at] = (ray, false);
         let (free, split) = despike(&raw, nadir_at);
-        nadir_unpinned_mm = Some((pin - free[split]).norm());
         return Projected {
             points: resampled(&free, split, ds),
-            nadir_unpinned_mm,
+            nadir_unpinned_mm: Some((pin - free[split]).norm()),
         };
     }
     let (free, split) = despike(&raw, nadir_at);
     Projected {
         points: resampled(&free, split, ds),
-        nadir_unpinned_mm,
+        nadir_unpinned_mm: None,
     }
 }
 
@@ -200,7 +199,8 @@ fn turn_deg(p: &[Point3], k: usize, reach: f64) -> f64 {
 /// segmented wall crossed at a grazing angle (the sinus floor) puts rays a
 /// fraction of a millimetre in or out of their neighbours, and on a tilted
 /// root the crossing jumps between the floor and the sinus wall at the
-/// nadir (the real CT's third path: from 8.2 to 12 mm off the axis); a
+/// nadir (the real CT's third path: from 7 mm off the commissure axis to
+/// 12, and the path ran 5 mm back out along the line it came in on); a
 /// suture line has no hairpins. Returns the samples and the index of the
 /// one left nearest (in sample order) to sample `mark`.
 fn despike(raw: &[(Point3, bool)], mark: usize) -> (Vec<Point3>, usize) {

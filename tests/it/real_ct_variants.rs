@@ -98,7 +98,7 @@ pub fn resample_trilinear(src: &Volume<i16>, dims: [usize; 3], affine: Matrix4) 
     Volume::from_fortran_vec(dims, affine, values).expect("sizes match")
 }
 
-/// A grid with unit directions `dir` (columns) and isotropic `spacing` that
+/// A grid with unit directions `dir` (columns) and per-axis `spacing` that
 /// covers the whole field of view of `src` (its voxel centres' bounding box
 /// in the new axes).
 fn covering_grid(src: &Volume<i16>, dir: &Matrix3, spacing: [f64; 3]) -> ([usize; 3], Matrix4) {

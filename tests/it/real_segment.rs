@@ -507,8 +507,9 @@ fn real_ct_variants_segment_alike_and_the_chain_runs_to_a_report() {
         ));
         // Sewn to ε_sew = 0.01 on every copy. Before suture paths lost
         // their hairpins (`valve/suture.rs` `despike`, the nadir pin rule),
-        // the 0.5 mm copy stalled at 0.0103 and the 0.35 × 0.6 mm one failed
-        // at K = 1024 N/mm (a 0.07 mm suture edge across a spike); before
+        // the 0.5 mm copy stalled at 0.0103, and a 0.35 × 0.6 mm copy made
+        // with scipy failed at K = 1024 N/mm (a 0.07 mm suture edge across
+        // a spike; this copy was not run before the fix); before
         // the sutured triangles sharing a free vertex shared its wall
         // normal (`mech/suture.rs` `shared_normals`), the 1 mm and 2 mm
         // copies stalled at 0.045 and 0.026.
