@@ -137,7 +137,10 @@ pub fn project(
                 nadir_at = raw.len();
             }
             let (a, h) = spec.at(t);
-            raw.push((wall.radial(&cyl.axis_point(h), &cyl.dir(a), cyl.radius), false));
+            raw.push((
+                wall.radial(&cyl.axis_point(h), &cyl.dir(a), cyl.radius),
+                false,
+            ));
         }
     }
     raw.push((pins.2, true));
@@ -190,7 +193,10 @@ fn turn_deg(p: &[Point3], k: usize, reach: f64) -> f64 {
     if a.norm() == 0.0 || b.norm() == 0.0 {
         return 0.0;
     }
-    (a.dot(&b) / (a.norm() * b.norm())).clamp(-1.0, 1.0).acos().to_degrees()
+    (a.dot(&b) / (a.norm() * b.norm()))
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees()
 }
 
 /// The samples of a projected path without its spikes: a sample where the
@@ -230,7 +236,12 @@ mod despike_tests {
         // Along x at 0.05 mm, with a spike 0.5 mm out at sample 10 and a
         // V 0.2 and 0.4 mm in at samples 30–31, sample 20 pinned.
         let mut raw: Vec<(Point3, bool)> = (0..50)
-            .map(|i| (Point3::new(0.05 * i as f64, 0.0, 0.0), i == 0 || i == 20 || i == 49))
+            .map(|i| {
+                (
+                    Point3::new(0.05 * i as f64, 0.0, 0.0),
+                    i == 0 || i == 20 || i == 49,
+                )
+            })
             .collect();
         raw[10].0.y = 0.5;
         raw[30].0.y = -0.2;

@@ -412,7 +412,10 @@ fn sharpest_turn_deg(p: &[crate::geom::Point3]) -> f64 {
     p.windows(3)
         .map(|w| {
             let (a, b) = (w[1] - w[0], w[2] - w[1]);
-            (a.dot(&b) / (a.norm() * b.norm())).clamp(-1.0, 1.0).acos().to_degrees()
+            (a.dot(&b) / (a.norm() * b.norm()))
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
         })
         .fold(0.0, f64::max)
 }
@@ -438,11 +441,21 @@ fn a_nadir_pin_that_turns_the_path_back_is_not_taken() {
     // to a sinus floor the rays do not meet there): pinned, the path would
     // run 3 mm in and back out along the same line.
     let inner = n[0] - crate::geom::Vector3::new(n[0].x, n[0].y, 0.0).normalize() * 3.0;
-    let off = suture::project(&wall, &cyl, &spec_for(&inner), (c[0], Some(inner), c[1]), 0.2);
+    let off = suture::project(
+        &wall,
+        &cyl,
+        &spec_for(&inner),
+        (c[0], Some(inner), c[1]),
+        0.2,
+    );
     let d = off.nadir_unpinned_mm.expect("the pin turns the path back");
     assert!((d - 3.0).abs() < 1e-3, "reported {d} mm");
     assert!(off.points.iter().all(|p| (p - inner).norm() > 2.9));
-    assert!(sharpest_turn_deg(&off.points) < 10.0, "{}", sharpest_turn_deg(&off.points));
+    assert!(
+        sharpest_turn_deg(&off.points) < 10.0,
+        "{}",
+        sharpest_turn_deg(&off.points)
+    );
     // The same path as with the pin on the wall.
     assert_eq!(off.points.len(), on.points.len());
     for (a, b) in off.points.iter().zip(&on.points) {
@@ -459,5 +472,8 @@ fn a_nadir_pin_that_turns_the_path_back_is_not_taken() {
         nadir_unpinned_mm: Some(d),
     };
     let f = path_findings(&[found]).unwrap();
-    assert!(f.iter().any(|s| s.contains("does not pass through N1")), "{f:?}");
+    assert!(
+        f.iter().any(|s| s.contains("does not pass through N1")),
+        "{f:?}"
+    );
 }
