@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 
 use serde_json::{Value as Json, json};
 
+use super::ozaki_rule::OzakiRule;
 use super::recommend::{Outcome, Recommendation};
 use crate::pipeline::params::Value;
 
@@ -18,7 +19,7 @@ fn opt(x: Option<f64>) -> Json {
 pub fn build(
     outcomes: &[Outcome],
     rec: &Recommendation,
-    intercommissural: Option<[f64; 3]>,
+    rule: Option<&OzakiRule>,
     sections: &BTreeMap<String, BTreeMap<String, Value>>,
 ) -> Json {
     let sizes: Vec<Json> = outcomes
@@ -36,6 +37,7 @@ pub fn build(
                     "criteria_passed": m.passed,
                     "criteria_judged": m.judged,
                     "failures": m.failures,
+                    "criteria_shortfall_mm": m.shortfall_mm,
                     "coaptation_height_mm": opt(m.coaptation_height_mm),
                     "central_coaptation_height_mm": opt(m.central_coaptation_height_mm),
                     "effective_height_mm": opt(m.effective_height_mm),
@@ -53,6 +55,7 @@ pub fn build(
                     "criteria_passed": null,
                     "criteria_judged": null,
                     "failures": [],
+                    "criteria_shortfall_mm": null,
                     "coaptation_height_mm": null,
                     "central_coaptation_height_mm": null,
                     "effective_height_mm": null,
@@ -85,7 +88,9 @@ pub fn build(
         "recommended_size": rec.size,
         "shown_size": rec.shown,
         "reason": rec.reason,
-        "intercommissural_distance_mm": intercommissural.map(|d| d.to_vec()),
+        "intercommissural_distance_mm": rule.map(|r| r.distances_mm.to_vec()),
+        "ozaki_rule_sizes": rule.map(|r| r.sizes.to_vec()),
+        "ozaki_rule": rule.map(|r| r.sentence(rec.size)),
         "sizes": sizes,
         "parameters": parameters,
     })

@@ -13,6 +13,7 @@
 //! count, and a second `coapt design` skips every size whose inputs hold.
 
 pub mod document;
+pub mod ozaki_rule;
 pub mod recommend;
 pub mod settings;
 pub mod sweep;
@@ -51,6 +52,8 @@ pub struct Summary {
     pub design_dir: PathBuf,
     pub outcomes: Vec<Outcome>,
     pub recommendation: Recommendation,
+    /// Ozaki's rule for the root, when its valve frame could be read.
+    pub ozaki_rule: Option<ozaki_rule::OzakiRule>,
 }
 
 /// Inputs the sizes take from the patient's run but do not need: the CT
@@ -174,14 +177,10 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
     let frame = upstream
         .get("valve")
         .and_then(|p| crate::io::valve_json::read_frame(p).ok());
-    let doc = document::build(
-        &outcomes,
-        &rec,
-        frame
-            .as_ref()
-            .map(crate::geom::ValveFrame::intercommissural_mm),
-        &cfg.sections,
-    );
+    let rule = frame
+        .as_ref()
+        .map(|f| ozaki_rule::OzakiRule::of(f.intercommissural_mm()));
+    let doc = document::build(&outcomes, &rec, rule.as_ref(), &cfg.sections);
     let design_json = design_dir.join("design.json");
     let text = serde_json::to_string_pretty(&doc).expect("json") + "\n";
     write_atomic(&design_json, |w| {
@@ -204,6 +203,7 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
         design_dir,
         outcomes,
         recommendation: rec,
+        ozaki_rule: rule,
     })
 }
 
@@ -279,5 +279,9 @@ pub fn table(s: &Summary) -> String {
     }
     t.push_str(&s.recommendation.reason);
     t.push('\n');
+    if let Some(rule) = &s.ozaki_rule {
+        t.push_str(&rule.sentence(s.recommendation.size));
+        t.push('\n');
+    }
     t
 }

@@ -14,6 +14,10 @@ pub struct Measured {
     pub judged: usize,
     /// The failed criteria in words ("Central coaptation height 3.20 mm, needs > 4 mm").
     pub failures: Vec<String>,
+    /// How far the failed criteria measured in millimetres miss their
+    /// thresholds, summed (mm): between sizes that fail as many criteria,
+    /// the one nearer to passing them.
+    pub shortfall_mm: f64,
     pub coaptation_height_mm: Option<f64>,
     pub central_coaptation_height_mm: Option<f64>,
     pub effective_height_mm: Option<f64>,
@@ -94,8 +98,12 @@ pub fn recommend(outcomes: &[Outcome]) -> Recommendation {
             reason,
         };
     }
-    // Nothing passes: show the closest (most criteria met; then the taller
-    // central coaptation; then the smaller size).
+    // Nothing passes: show the closest (most criteria met; then the least
+    // shortfall; then the taller central coaptation; then the smaller
+    // size). The shortfall decides before the central coaptation: on the
+    // real CT every size 19–29 failed the same three criteria, and the
+    // tallest central coaptation (29, 3.48 mm) came with its leaflets
+    // 10.65 mm above the STJ against 4.36 mm at 19.
     let closest = outcomes
         .iter()
         .filter_map(|o| o.result.as_ref().ok().map(|m| (o, m)))
@@ -103,6 +111,7 @@ pub fn recommend(outcomes: &[Outcome]) -> Recommendation {
             // A size that cannot be judged is never closer than one that can.
             (ma.assessable, ma.passed)
                 .cmp(&(mb.assessable, mb.passed))
+                .then(mb.shortfall_mm.total_cmp(&ma.shortfall_mm))
                 .then(
                     ma.central_coaptation_height_mm
                         .unwrap_or(f64::NEG_INFINITY)
@@ -149,6 +158,7 @@ mod tests {
             passed,
             judged: 5,
             failures: (passed..5).map(|i| format!("criterion {i}")).collect(),
+            shortfall_mm: 0.0,
             coaptation_height_mm: Some(central + 2.0),
             central_coaptation_height_mm: Some(central),
             effective_height_mm: Some(10.0),
@@ -212,6 +222,19 @@ mod tests {
         let mut short = m(4, 5.0);
         short.assessable = false;
         let r = recommend(&[o(17, Ok(short)), o(19, Ok(m(3, 2.0)))]);
+        assert_eq!(r.shown, Some(19), "{}", r.reason);
+        // As many failed, the size nearer to passing them is closer, even
+        // with the shorter central coaptation (the real CT's sweep: 19
+        // missed by 10.1 mm in all, 29 by 17.8 mm).
+        let near = Measured {
+            shortfall_mm: 10.1,
+            ..m(3, 0.4)
+        };
+        let far = Measured {
+            shortfall_mm: 17.8,
+            ..m(3, 3.5)
+        };
+        let r = recommend(&[o(19, Ok(near)), o(29, Ok(far))]);
         assert_eq!(r.shown, Some(19), "{}", r.reason);
         let r = recommend(&[o(19, Err("a".into())), o(21, Err("b".into()))]);
         assert_eq!((r.size, r.shown), (None, None));

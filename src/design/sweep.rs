@@ -134,6 +134,11 @@ pub fn measured(doc: &Json) -> Measured {
             }
         })
         .collect();
+    let shortfall_mm = criteria
+        .iter()
+        .filter(|c| c["pass"] == Json::Bool(false) && c["unit"] == "mm")
+        .filter_map(|c| Some((c["value"].as_f64()? - c["threshold"].as_f64()?).abs()))
+        .sum();
     let m = &doc["metrics"];
     let passed = criteria.len() - failures.len();
     // A closure that cannot be judged (crossing leaflets, no convergence)
@@ -157,6 +162,7 @@ pub fn measured(doc: &Json) -> Measured {
         passed,
         judged: criteria.len(),
         failures,
+        shortfall_mm,
         coaptation_height_mm: m["coaptation_height_mm"].as_f64(),
         central_coaptation_height_mm: m["central_coaptation_height_mm"].as_f64(),
         effective_height_mm: m["effective_height_mm"].as_f64(),
@@ -229,6 +235,8 @@ mod tests {
                 "No prolapse not measurable"
             ]
         );
+        // Only the failed millimetre criterion counts: 4.0 − 3.2.
+        assert!((m.shortfall_mm - 0.8).abs() < 1e-12, "{}", m.shortfall_mm);
         assert_eq!(m.leaflet_area_mm2, Some(310.0));
         assert_eq!(m.free_edge_length_mm, None);
         assert_eq!(m.central_coaptation_height_mm, None);

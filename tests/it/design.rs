@@ -145,6 +145,22 @@ fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_ha
             );
         }
     }
+    // Ozaki's rule beside the answer: the sample's intercommissural
+    // distances (22.4 / 23.4 / 23.8 mm) are all nearest 23.
+    assert_eq!(d["ozaki_rule_sizes"], serde_json::json!([23, 23, 23]));
+    let rule = d["ozaki_rule"].as_str().unwrap();
+    assert!(rule.contains("cuts 23 / 23 / 23"), "{rule}");
+    assert!(table.contains(rule), "{table}");
+    if let Some(best) = best {
+        let below = (23 - best) / 2;
+        assert!(rule.contains(&format!("is {below} size")), "{rule}");
+    }
+    // The shown size misses the criteria it fails by the least.
+    let missed: Vec<f64> = sizes
+        .iter()
+        .map(|e| e["criteria_shortfall_mm"].as_f64().unwrap())
+        .collect();
+    assert!(missed.iter().all(|&x| x >= 0.0), "{missed:?}");
     // Leaflet area grows with size (same template family, same mesher).
     let areas: Vec<f64> = sizes
         .iter()
@@ -168,6 +184,10 @@ fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_ha
         None => "No size of the sweep meets every criterion.".to_string(),
     }));
     assert!(html.contains("id=\"fig-sizing-heights\"") && html.contains("id=\"fig-sizing-areas\""));
+    assert!(
+        html.contains("<p>Ozaki&#39;s rule (the sizer size nearest"),
+        "no Ozaki's rule in the design page"
+    );
     if let Some(b) = browser() {
         let (v, code) = check(&b, &page);
         assert!(strings(&v["console_errors"]).is_empty(), "{v}");

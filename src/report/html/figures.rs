@@ -98,6 +98,9 @@ pub(super) fn sizing(h: &mut String, d: &Value, figures: &[Figure]) {
             esc(&mm(ic.get(2)))
         );
     }
+    if let Some(rule) = d.get("ozaki_rule").and_then(Value::as_str) {
+        let _ = writeln!(h, "<p>{}</p>", esc(rule));
+    }
     h.push_str(
         "<table>\n<thead><tr><th>Size</th><th>Leaflet area (mm²)</th><th>Coaptation height (mm)</th>\
          <th>Central coaptation (mm)</th><th>Effective height (mm)</th><th>Criteria met</th><th>Result</th></tr></thead>\n<tbody>\n",
