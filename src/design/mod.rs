@@ -54,6 +54,16 @@ pub struct Summary {
     pub recommendation: Recommendation,
     /// Ozaki's rule for the root, when its valve frame could be read.
     pub ozaki_rule: Option<ozaki_rule::OzakiRule>,
+    /// The valve closed as Ozaki's rule cuts it, when it could be cut.
+    pub rule_outcome: Option<RuleOutcome>,
+}
+
+/// The closure of Ozaki's rule: its run directory (its own, or the sweep's
+/// size when the rule cuts that size for all three) and what it gave.
+#[derive(Debug, Clone)]
+pub struct RuleOutcome {
+    pub run: String,
+    pub result: std::result::Result<recommend::Measured, String>,
 }
 
 /// Inputs the sizes take from the patient's run but do not need: the CT
@@ -140,47 +150,90 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
 
     let design_dir = run_dir.join("design");
     std::fs::create_dir_all(&design_dir).map_err(|e| Error::write(&design_dir, e))?;
-    let mut sub = inv.clone();
-    sub.log.quiet = true; // no progress bars racing each other
-    tracing::info!(event = "design", sizes = ?sizes, "design: closing {} sizes ({})", sizes.len(), sizes.iter().map(u32::to_string).collect::<Vec<_>>().join(", "));
-    // One bar for the sweep (the sizes' own are silenced), with the time
-    // left estimated from the sizes done, and a line as each size ends.
-    let bar = Progress::new("design", inv.log);
-    let done = AtomicUsize::new(0);
-    let outcomes = sizes
-        .par_iter()
-        .map(|&size| {
-            let _span = tracing::info_span!("size", message = %format!("size {size}")).entered();
-            let t0 = Instant::now();
-            let text = sweep::size_config(size, &for_sizes, &cfg.sections);
-            let o = sweep::run_size(size, &design_dir, &text, registry, &sub, opts.force)?;
-            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-            bar.suspend(|| {
-                tracing::info!(
-                    event = "size_done",
-                    size,
-                    done = k,
-                    of = sizes.len(),
-                    "{} ({:.1} s; {k} of {} sizes done)",
-                    recommend::fails(&o),
-                    t0.elapsed().as_secs_f64(),
-                    sizes.len()
-                )
-            });
-            bar.set(k as f64 / sizes.len() as f64);
-            Ok(o)
-        })
-        .collect::<Result<Vec<_>>>()?;
-    bar.finish();
-    let rec = recommend::recommend(&outcomes);
-
     let frame = upstream
         .get("valve")
         .and_then(|p| crate::io::valve_json::read_frame(p).ok());
     let rule = frame
         .as_ref()
         .map(|f| ozaki_rule::OzakiRule::of(f.intercommissural_mm()));
-    let doc = document::build(&outcomes, &rec, rule.as_ref(), &cfg.sections);
+    // Ozaki's rule is closed too, unless it is a size of the sweep already
+    // (one size for all three) or a distance lies beyond the sizer.
+    let rule_sizes: Option<Vec<u32>> = rule
+        .as_ref()
+        .and_then(|r| r.sizes.iter().copied().collect());
+    let rule_in_sweep = rule_sizes
+        .as_ref()
+        .filter(|s| s.iter().all(|&x| x == s[0]) && sizes.contains(&s[0]))
+        .map(|s| s[0]);
+    let mut cuts: Vec<sweep::Cut> = sizes.iter().map(|&s| sweep::Cut::Size(s)).collect();
+    if rule_sizes.is_some() && rule_in_sweep.is_none() {
+        cuts.push(sweep::Cut::Rule);
+    }
+
+    let mut sub = inv.clone();
+    sub.log.quiet = true; // no progress bars racing each other
+    tracing::info!(event = "design", sizes = ?sizes, "design: closing {} sizes ({}){}", sizes.len(), sizes.iter().map(u32::to_string).collect::<Vec<_>>().join(", "), if cuts.len() > sizes.len() { " and Ozaki's rule" } else { "" });
+    // One bar for the sweep (the sizes' own are silenced), with the time
+    // left estimated from the closures done, and a line as each ends.
+    let bar = Progress::new("design", inv.log);
+    let done = AtomicUsize::new(0);
+    let results = cuts
+        .par_iter()
+        .map(|&cut| {
+            let _span = tracing::info_span!("size", message = %cut.name()).entered();
+            let t0 = Instant::now();
+            let text = sweep::config(cut, &for_sizes, &cfg.sections);
+            let result = sweep::run_cut(cut, &design_dir, &text, registry, &sub, opts.force)?;
+            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+            let o = Outcome { size: 0, result };
+            bar.suspend(|| {
+                tracing::info!(
+                    event = "size_done",
+                    run = %cut.dir(),
+                    done = k,
+                    of = cuts.len(),
+                    "{} ({:.1} s; {k} of {} closures done)",
+                    recommend::fails(&o),
+                    t0.elapsed().as_secs_f64(),
+                    cuts.len()
+                )
+            });
+            bar.set(k as f64 / cuts.len() as f64);
+            Ok((cut, o.result))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    bar.finish();
+    let mut outcomes = Vec::new();
+    let mut rule_outcome = None;
+    for (cut, result) in results {
+        match cut {
+            sweep::Cut::Size(size) => outcomes.push(Outcome { size, result }),
+            sweep::Cut::Rule => {
+                rule_outcome = Some(RuleOutcome {
+                    run: sweep::RULE_DIR.to_string(),
+                    result,
+                })
+            }
+        }
+    }
+    if let Some(size) = rule_in_sweep {
+        rule_outcome = outcomes
+            .iter()
+            .find(|o| o.size == size)
+            .map(|o| RuleOutcome {
+                run: sweep::size_dir(size),
+                result: o.result.clone(),
+            });
+    }
+    let rec = recommend::recommend(&outcomes);
+
+    let doc = document::build(
+        &outcomes,
+        &rec,
+        rule.as_ref(),
+        rule_outcome.as_ref(),
+        &cfg.sections,
+    );
     let design_json = design_dir.join("design.json");
     let text = serde_json::to_string_pretty(&doc).expect("json") + "\n";
     write_atomic(&design_json, |w| {
@@ -204,6 +257,7 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
         outcomes,
         recommendation: rec,
         ozaki_rule: rule,
+        rule_outcome,
     })
 }
 
@@ -282,6 +336,27 @@ pub fn table(s: &Summary) -> String {
     if let Some(rule) = &s.ozaki_rule {
         t.push_str(&rule.sentence(s.recommendation.size));
         t.push('\n');
+    }
+    if let Some(r) = &s.rule_outcome {
+        let o = Outcome {
+            size: 0,
+            result: r.result.clone(),
+        };
+        let numbers = match &r.result {
+            Ok(m) => format!(
+                ": central coaptation {} mm, effective height {} mm, {}/{} criteria",
+                f(m.central_coaptation_height_mm, 2),
+                f(m.effective_height_mm, 2),
+                m.passed,
+                m.judged
+            ),
+            Err(_) => String::new(),
+        };
+        t.push_str(&format!(
+            "Closed as Ozaki's rule cuts it ({}/){numbers}; {}.\n",
+            r.run,
+            recommend::fails(&o)
+        ));
     }
     t
 }

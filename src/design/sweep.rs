@@ -26,6 +26,45 @@ pub fn size_dir(size: u32) -> String {
     format!("size-{size}")
 }
 
+/// Where the closure of Ozaki's own rule lives, relative to the design
+/// directory.
+pub const RULE_DIR: &str = "ozaki-rule";
+
+/// What one closure of the sweep cuts: one sizer size for all three
+/// leaflets, or each leaflet by Ozaki's rule (the sizer size nearest its
+/// intercommissural distance).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Cut {
+    Size(u32),
+    Rule,
+}
+
+impl Cut {
+    pub fn dir(self) -> String {
+        match self {
+            Cut::Size(s) => size_dir(s),
+            Cut::Rule => RULE_DIR.to_string(),
+        }
+    }
+
+    /// In words, for the log and the run config's header.
+    pub fn name(self) -> String {
+        match self {
+            Cut::Size(s) => format!("size {s}"),
+            Cut::Rule => "Ozaki's rule".to_string(),
+        }
+    }
+
+    pub fn template(self) -> String {
+        match self {
+            Cut::Size(s) => template(s),
+            Cut::Rule => "# Each leaflet at the Ozaki sizer size nearest its intercommissural distance (written by `coapt design`).\n\
+                 [template]\nkind = \"ozaki_size\"\nsize = \"measured\"\n"
+                .to_string(),
+        }
+    }
+}
+
 fn toml_string(s: &str) -> String {
     toml::Value::String(s.to_string()).to_string()
 }
@@ -38,8 +77,21 @@ pub fn size_config(
     inputs: &BTreeMap<String, PathBuf>,
     sections: &BTreeMap<String, BTreeMap<String, Value>>,
 ) -> String {
+    config(Cut::Size(size), inputs, sections)
+}
+
+/// [`size_config`] for any [`Cut`].
+pub fn config(
+    cut: Cut,
+    inputs: &BTreeMap<String, PathBuf>,
+    sections: &BTreeMap<String, BTreeMap<String, Value>>,
+) -> String {
+    let what = match cut {
+        Cut::Size(s) => format!("Ozaki size {s}"),
+        Cut::Rule => "Ozaki's rule".to_string(),
+    };
     let mut t = format!(
-        "# Ozaki size {size}, written by `coapt design`; run alone with `coapt run` on this file.\n\
+        "# {what}, written by `coapt design`; run alone with `coapt run` on this file.\n\
          [run]\ndir = \".\"\n\n[inputs]\ntemplate = \"template.toml\"\n"
     );
     for (name, path) in inputs {
@@ -76,11 +128,33 @@ pub fn run_size(
     inv: &Invocation,
     force: bool,
 ) -> Result<Outcome> {
-    let dir = design_dir.join(size_dir(size));
+    let result = run_cut(
+        Cut::Size(size),
+        design_dir,
+        config_text,
+        registry,
+        inv,
+        force,
+    )?;
+    Ok(Outcome { size, result })
+}
+
+/// Run one cut in its directory and measure it: `Err` only when the sweep
+/// itself cannot go on (its files cannot be written); a failure of the
+/// cut's own chain is the inner `Err`.
+pub fn run_cut(
+    cut: Cut,
+    design_dir: &Path,
+    config_text: &str,
+    registry: &[&'static StageSpec],
+    inv: &Invocation,
+    force: bool,
+) -> Result<std::result::Result<Measured, String>> {
+    let dir = design_dir.join(cut.dir());
     std::fs::create_dir_all(&dir).map_err(|e| Error::write(&dir, e))?;
     let config = dir.join("run.toml");
     for (path, text) in [
-        (dir.join("template.toml"), template(size)),
+        (dir.join("template.toml"), cut.template()),
         (config.clone(), config_text.to_string()),
     ] {
         // Rewriting an unchanged file would be harmless, but leaving it
@@ -96,7 +170,7 @@ pub fn run_size(
         until: None,
         force,
     };
-    let result = match runner::run(&opts, registry, inv) {
+    Ok(match runner::run(&opts, registry, inv) {
         Ok(_) => {
             let path = dir.join("report.json");
             let doc: Json =
@@ -105,8 +179,7 @@ pub fn run_size(
             Ok(measured(&doc))
         }
         Err(e) => Err(e.to_string()),
-    };
-    Ok(Outcome { size, result })
+    })
 }
 
 fn mean(v: &Json) -> Option<f64> {

@@ -113,7 +113,9 @@ fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_ha
         let size = e["size"].as_u64().unwrap();
         let line = log
             .lines()
-            .find(|l| l.starts_with(&format!("size {size}: ")) && l.ends_with(" of 3 sizes done)"))
+            .find(|l| {
+                l.starts_with(&format!("size {size}: ")) && l.ends_with(" of 4 closures done)")
+            })
             .unwrap_or_else(|| panic!("no end-of-size line for size {size}:\n{log}"));
         let meets = e["meets_all_criteria"].as_bool() == Some(true);
         assert_eq!(line.contains(": meets every criterion ("), meets, "{line}");
@@ -155,6 +157,22 @@ fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_ha
         let below = (23 - best) / 2;
         assert!(rule.contains(&format!("is {below} size")), "{rule}");
     }
+    // The rule is closed too (23 for all three is not a size of this
+    // sweep), in its own run directory, and judged like a size.
+    let c = &d["ozaki_rule_closure"];
+    assert_eq!(c["run"], "ozaki-rule", "{c}");
+    assert_eq!(c["leaflet_sizes"], serde_json::json!([23, 23, 23]));
+    assert_eq!(c["status"], "measured", "{c}");
+    let rule_rep = json(&run.join("ozaki-rule/report.json"));
+    assert_eq!(
+        c["meets_all_criteria"], rule_rep["verdict"]["meets_all_criteria"],
+        "{c}"
+    );
+    let rule_line = table
+        .lines()
+        .find(|l| l.starts_with("Closed as Ozaki's rule cuts it (ozaki-rule/)"))
+        .unwrap_or_else(|| panic!("no rule closure line:\n{table}"));
+    assert!(rule_line.contains(" criteria"), "{rule_line}");
     // The shown size misses the criteria it fails by the least.
     let missed: Vec<f64> = sizes
         .iter()
@@ -188,6 +206,10 @@ fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_ha
         html.contains("<p>Ozaki&#39;s rule (the sizer size nearest"),
         "no Ozaki's rule in the design page"
     );
+    assert!(
+        html.contains("<a href=\"ozaki-rule/report.html\">"),
+        "no link to the rule's closure"
+    );
     if let Some(b) = browser() {
         let (v, code) = check(&b, &page);
         assert!(strings(&v["console_errors"]).is_empty(), "{v}");
@@ -199,10 +221,10 @@ fn design_recommends_the_smallest_size_meeting_every_criterion_stable_under_h_ha
     // Again: every size is skipped, the answer is the same bytes.
     let before = std::fs::read(run.join("design.json")).unwrap();
     design(&cfg, &[]);
-    for size in [13, 15, 17] {
-        let m = json(&run.join(format!("size-{size}/manifest.json")));
+    for dir in ["size-13", "size-15", "size-17", "ozaki-rule"] {
+        let m = json(&run.join(format!("{dir}/manifest.json")));
         for st in m["stages"].as_array().unwrap() {
-            assert_eq!(st["status"], "skipped", "size {size}: {st}");
+            assert_eq!(st["status"], "skipped", "{dir}: {st}");
         }
     }
     assert_eq!(std::fs::read(run.join("design.json")).unwrap(), before);

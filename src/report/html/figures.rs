@@ -101,6 +101,37 @@ pub(super) fn sizing(h: &mut String, d: &Value, figures: &[Figure]) {
     if let Some(rule) = d.get("ozaki_rule").and_then(Value::as_str) {
         let _ = writeln!(h, "<p>{}</p>", esc(rule));
     }
+    if let Some(c) = d.get("ozaki_rule_closure").filter(|c| c.is_object()) {
+        let run = text_or(c.get("run"), "ozaki-rule");
+        let said = match c.get("status").and_then(Value::as_str) {
+            Some("measured") => {
+                let failures: Vec<String> = array(c.get("failures"))
+                    .iter()
+                    .filter_map(|f| f.as_str().map(esc))
+                    .collect();
+                let n = |k: &str| c.get(k).and_then(Value::as_f64);
+                format!(
+                    "central coaptation {} mm, effective height {} mm; {}",
+                    n("central_coaptation_height_mm").map_or("—".into(), |v| format!("{v:.2}")),
+                    n("effective_height_mm").map_or("—".into(), |v| format!("{v:.2}")),
+                    if failures.is_empty() {
+                        format!("{} every criterion", result_tag(Some(true)))
+                    } else {
+                        format!("{} {}", result_tag(Some(false)), failures.join("; "))
+                    }
+                )
+            }
+            _ => format!(
+                "<span class=\"tag na\">NOT COMPUTED</span> {}",
+                esc(&text_or(c.get("error"), "no reason recorded"))
+            ),
+        };
+        let _ = writeln!(
+            h,
+            "<p>Closed as Ozaki&#39;s rule cuts it (<a href=\"{0}/report.html\">{0}/report.html</a>): {said}.</p>",
+            esc(&run)
+        );
+    }
     h.push_str(
         "<table>\n<thead><tr><th>Size</th><th>Leaflet area (mm²)</th><th>Coaptation height (mm)</th>\
          <th>Central coaptation (mm)</th><th>Effective height (mm)</th><th>Criteria met</th><th>Result</th></tr></thead>\n<tbody>\n",
