@@ -18,9 +18,21 @@ fn series(design: &Json, key: &str) -> Vec<(f64, f64)> {
 }
 
 fn recommended(design: &Json) -> String {
-    match design["recommended_size"].as_u64() {
+    let answer = match design["recommended_size"].as_u64() {
         Some(s) => format!("Recommended: size {s}, the smallest meeting every criterion."),
         None => "No size of the sweep meets every criterion.".to_string(),
+    };
+    // Ozaki's rule cuts a size per leaflet, so it is no point of these
+    // uniform-size charts; its closure is stated under the table.
+    match design["ozaki_rule_sizes"].as_array() {
+        Some(r) if r.len() == 3 => {
+            let sizes: Vec<String> = r
+                .iter()
+                .map(|x| x.as_u64().map_or("—".to_string(), |v| v.to_string()))
+                .collect();
+            format!("{answer} Ozaki's rule cuts {}.", sizes.join(" / "))
+        }
+        _ => answer,
     }
 }
 
@@ -96,6 +108,7 @@ mod tests {
     fn sweep_is_drawn_with_thresholds_and_gaps() {
         let d = json!({
             "recommended_size": 21,
+            "ozaki_rule_sizes": [21, 23, null],
             "sizes": [
                 {"size": 19, "coaptation_height_mm": 6.0, "central_coaptation_height_mm": 3.0, "effective_height_mm": 8.0,
                  "leaflet_area_mm2": 300.0, "coaptation_area_mm2": 40.0},
@@ -111,6 +124,11 @@ mod tests {
             f[0].caption.contains("Recommended: size 21"),
             "{}",
             f[0].caption
+        );
+        assert!(
+            f[1].caption.ends_with("Ozaki's rule cuts 21 / 23 / —."),
+            "{}",
+            f[1].caption
         );
         let img = decode(&f[0].png);
         // Three series colours; the thresholds are dashed in their
