@@ -343,13 +343,16 @@ pub fn table(s: &Summary) -> String {
             result: r.result.clone(),
         };
         let numbers = match &r.result {
-            Ok(m) => format!(
-                ": central coaptation {} mm, effective height {} mm, {}/{} criteria",
-                f(m.central_coaptation_height_mm, 2),
-                f(m.effective_height_mm, 2),
-                m.passed,
-                m.judged
-            ),
+            Ok(m) => {
+                let mm = |x: Option<f64>| x.map_or("none".to_string(), |v| format!("{v:.2} mm"));
+                format!(
+                    ": central coaptation {}, effective height {}, {}/{} criteria",
+                    mm(m.central_coaptation_height_mm),
+                    mm(m.effective_height_mm),
+                    m.passed,
+                    m.judged
+                )
+            }
             Err(_) => String::new(),
         };
         t.push_str(&format!(

@@ -110,10 +110,11 @@ pub(super) fn sizing(h: &mut String, d: &Value, figures: &[Figure]) {
                     .filter_map(|f| f.as_str().map(esc))
                     .collect();
                 let n = |k: &str| c.get(k).and_then(Value::as_f64);
+                let mm = |k: &str| n(k).map_or("none".to_string(), |v| format!("{v:.2} mm"));
                 format!(
-                    "central coaptation {} mm, effective height {} mm; {}",
-                    n("central_coaptation_height_mm").map_or("—".into(), |v| format!("{v:.2}")),
-                    n("effective_height_mm").map_or("—".into(), |v| format!("{v:.2}")),
+                    "central coaptation {}, effective height {}; {}",
+                    mm("central_coaptation_height_mm"),
+                    mm("effective_height_mm"),
                     if failures.is_empty() {
                         format!("{} every criterion", result_tag(Some(true)))
                     } else {
