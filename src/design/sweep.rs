@@ -203,6 +203,13 @@ pub fn measured(doc: &Json) -> Measured {
                     c["comparison"].as_str().unwrap_or(">"),
                     c["threshold"]
                 ),
+                // A length with no value failed because there is nothing to
+                // measure: no triple zone for the central coaptation.
+                (_, None, Some(u)) if !u.is_empty() && c["value"].is_null() => format!(
+                    "{name}: none (needs {} {} {u})",
+                    c["comparison"].as_str().unwrap_or(">"),
+                    c["threshold"]
+                ),
                 _ => format!("{name}: no"),
             }
         })
@@ -292,20 +299,22 @@ mod tests {
                 {"name": "Central coaptation height", "value": 3.2, "unit": "mm", "comparison": ">", "threshold": 4.0, "pass": false},
                 {"name": "Effective height", "value": 9.5, "unit": "mm", "comparison": ">", "threshold": 9.0, "pass": true},
                 {"name": "Valve closed", "value": false, "unit": "", "comparison": "is", "threshold": true, "pass": false},
-                {"name": "No prolapse", "value": null, "unit": "", "comparison": "is", "threshold": true, "pass": null}
+                {"name": "No prolapse", "value": null, "unit": "", "comparison": "is", "threshold": true, "pass": null},
+                {"name": "Central coaptation height", "value": null, "unit": "mm", "comparison": ">", "threshold": 4.0, "pass": false}
             ],
             "metrics": {"closed": false, "coaptation_height_mm": 5.0, "central_coaptation_height_mm": null,
                         "effective_height_mm": 9.5, "coaptation_area_mm2": {"max": 40.0},
                         "leaflet_area_mm2": [300.0, 310.0, 320.0], "free_edge_length_mm": [30.0, null, 30.0]}
         });
         let m = measured(&doc);
-        assert_eq!((m.passed, m.judged, m.meets_all), (1, 4, false));
+        assert_eq!((m.passed, m.judged, m.meets_all), (1, 5, false));
         assert_eq!(
             m.failures,
             [
                 "Central coaptation height 3.20 mm (needs > 4.0 mm)",
                 "Valve closed: no",
-                "No prolapse not measurable"
+                "No prolapse not measurable",
+                "Central coaptation height: none (needs > 4.0 mm)"
             ]
         );
         // Only the failed millimetre criterion counts: 4.0 − 3.2.
