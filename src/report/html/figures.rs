@@ -66,6 +66,28 @@ pub(super) fn figure(h: &mut String, f: &Figure, number: usize, used: &mut Vec<S
     );
 }
 
+/// One closure of the sweep (a size, or Ozaki's rule) judged: its tag and
+/// failed criteria, or why it could not be computed.
+fn closure_result(c: &Value) -> String {
+    match c.get("status").and_then(Value::as_str) {
+        Some("measured") => {
+            let failures: Vec<String> = array(c.get("failures"))
+                .iter()
+                .filter_map(|f| f.as_str().map(esc))
+                .collect();
+            if failures.is_empty() {
+                result_tag(Some(true)).to_string()
+            } else {
+                format!("{} {}", result_tag(Some(false)), failures.join("; "))
+            }
+        }
+        _ => format!(
+            "<span class=\"tag na\">NOT COMPUTED</span> {}",
+            esc(&text_or(c.get("error"), "no reason recorded"))
+        ),
+    }
+}
+
 /// The leaflet-size sweep of `coapt design`, when the report has one: the
 /// recommendation and its reason first, then every size, then the charts.
 pub(super) fn sizing(h: &mut String, d: &Value, figures: &[Figure]) {
@@ -105,27 +127,19 @@ pub(super) fn sizing(h: &mut String, d: &Value, figures: &[Figure]) {
         let run = text_or(c.get("run"), "ozaki-rule");
         let said = match c.get("status").and_then(Value::as_str) {
             Some("measured") => {
-                let failures: Vec<String> = array(c.get("failures"))
-                    .iter()
-                    .filter_map(|f| f.as_str().map(esc))
-                    .collect();
-                let n = |k: &str| c.get(k).and_then(Value::as_f64);
-                let mm = |k: &str| n(k).map_or("none".to_string(), |v| format!("{v:.2} mm"));
+                let mm = |k: &str| {
+                    c.get(k)
+                        .and_then(Value::as_f64)
+                        .map_or("none".to_string(), |v| format!("{v:.2} mm"))
+                };
                 format!(
                     "central coaptation {}, effective height {}; {}",
                     mm("central_coaptation_height_mm"),
                     mm("effective_height_mm"),
-                    if failures.is_empty() {
-                        format!("{} every criterion", result_tag(Some(true)))
-                    } else {
-                        format!("{} {}", result_tag(Some(false)), failures.join("; "))
-                    }
+                    closure_result(c)
                 )
             }
-            _ => format!(
-                "<span class=\"tag na\">NOT COMPUTED</span> {}",
-                esc(&text_or(c.get("error"), "no reason recorded"))
-            ),
+            _ => closure_result(c),
         };
         let _ = writeln!(
             h,
@@ -144,23 +158,7 @@ pub(super) fn sizing(h: &mut String, d: &Value, figures: &[Figure]) {
         } else {
             ""
         };
-        let result = match s.get("status").and_then(Value::as_str) {
-            Some("measured") => {
-                let failures: Vec<String> = array(s.get("failures"))
-                    .iter()
-                    .filter_map(|f| f.as_str().map(esc))
-                    .collect();
-                if failures.is_empty() {
-                    result_tag(Some(true)).to_string()
-                } else {
-                    format!("{} {}", result_tag(Some(false)), failures.join("; "))
-                }
-            }
-            _ => format!(
-                "<span class=\"tag na\">NOT COMPUTED</span> {}",
-                esc(&text_or(s.get("error"), "no reason recorded"))
-            ),
-        };
+        let result = closure_result(s);
         let met = match (
             s.get("criteria_passed").and_then(Value::as_u64),
             s.get("criteria_judged").and_then(Value::as_u64),
