@@ -80,6 +80,13 @@ fn value_against_threshold(c: &Json) -> String {
             };
             format!("{}{need}", mm(v.as_f64(), unit))
         }
+        // Failed with no value: there was nothing to measure (no triple
+        // zone for the central coaptation), which is not the same as a
+        // criterion that could not be judged (pass null).
+        (Json::Null, t) if c["pass"] == Json::Bool(false) => match t.as_f64() {
+            Some(t) => format!("none (needs {cmp} {})", mm(Some(t), unit)),
+            None => "none".to_string(),
+        },
         _ => "not measurable".to_string(),
     }
 }
@@ -118,6 +125,7 @@ mod tests {
                 {"name": "No residual regurgitation", "value": 0.5994, "unit": "mm2", "comparison": "<=", "threshold": 1.0, "pass": true},
                 {"name": "Valve closed", "value": true, "unit": "", "comparison": "is", "threshold": true, "pass": true},
                 {"name": "Leaflets below the STJ", "value": null, "unit": "mm", "comparison": ">", "threshold": 0.0, "pass": null},
+                {"name": "Central coaptation height", "value": null, "unit": "mm", "comparison": ">", "threshold": 4.0, "pass": false},
             ],
             "metrics": {
                 "effective_height_pressure_mmhg": 3.0,
@@ -137,6 +145,7 @@ mod tests {
              \x20 pass  No residual regurgitation  0.60 mm² (needs <= 1.00 mm²)\n\
              \x20 pass  Valve closed               yes\n\
              \x20 n/a   Leaflets below the STJ     not measurable\n\
+             \x20 FAIL  Central coaptation height  none (needs > 4.00 mm)\n\
              \x20 (effective height judged at 3 mmHg; coaptation height 13.97 mm, regurgitant orifice 0.60 mm²)\n\
              \x20 note: Ozaki's rule cuts 21 / 25 / 25.\n\
              \x20 warning: The free edges are too short to meet.\n\
