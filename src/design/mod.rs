@@ -185,7 +185,6 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
             let text = sweep::config(cut, &for_sizes, &cfg.sections);
             let result = sweep::run_cut(cut, &design_dir, &text, registry, &sub, opts.force)?;
             let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-            let o = Outcome { size: 0, result };
             bar.suspend(|| {
                 tracing::info!(
                     event = "size_done",
@@ -193,13 +192,13 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
                     done = k,
                     of = cuts.len(),
                     "{} ({:.1} s; {k} of {} closures done)",
-                    recommend::fails(&o),
+                    recommend::fails(&result),
                     t0.elapsed().as_secs_f64(),
                     cuts.len()
                 )
             });
             bar.set(k as f64 / cuts.len() as f64);
-            Ok((cut, o.result))
+            Ok((cut, result))
         })
         .collect::<Result<Vec<_>>>()?;
     bar.finish();
@@ -338,10 +337,6 @@ pub fn table(s: &Summary) -> String {
         t.push('\n');
     }
     if let Some(r) = &s.rule_outcome {
-        let o = Outcome {
-            size: 0,
-            result: r.result.clone(),
-        };
         let numbers = match &r.result {
             Ok(m) => {
                 let mm = |x: Option<f64>| x.map_or("none".to_string(), |v| format!("{v:.2} mm"));
@@ -358,7 +353,7 @@ pub fn table(s: &Summary) -> String {
         t.push_str(&format!(
             "Closed as Ozaki's rule cuts it ({}/){numbers}; {}.\n",
             r.run,
-            recommend::fails(&o)
+            recommend::fails(&r.result)
         ));
     }
     t

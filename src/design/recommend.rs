@@ -48,8 +48,8 @@ pub struct Recommendation {
 }
 
 /// What became of one size, in words ("meets every criterion", "fails …").
-pub fn fails(o: &Outcome) -> String {
-    match &o.result {
+pub fn fails(result: &Result<Measured, String>) -> String {
+    match result {
         Ok(m) if m.failures.is_empty() => "meets every criterion".to_string(),
         Ok(m) => format!("fails {}", m.failures.join("; ")),
         Err(e) => format!("could not be computed ({e})"),
@@ -73,7 +73,7 @@ pub fn recommend(outcomes: &[Outcome]) -> Recommendation {
             Some(below) => reason.push_str(&format!(
                 "; size {} {}.",
                 below.size,
-                fails(below)
+                fails(&below.result)
             )),
             None => reason.push_str(
                 " — it is the smallest size tried, so a smaller one may do as well: widen the sweep downwards.",
@@ -84,7 +84,7 @@ pub fn recommend(outcomes: &[Outcome]) -> Recommendation {
         let above: Vec<String> = outcomes[i + 1..]
             .iter()
             .filter(|o| !ok(o))
-            .map(|o| format!("size {} {}", o.size, fails(o)))
+            .map(|o| format!("size {} {}", o.size, fails(&o.result)))
             .collect();
         if !above.is_empty() {
             reason.push_str(&format!(
@@ -128,7 +128,7 @@ pub fn recommend(outcomes: &[Outcome]) -> Recommendation {
                 o.size,
                 m.passed,
                 m.judged,
-                fails(o)
+                fails(&o.result)
             ),
         },
         None => Recommendation {
@@ -138,7 +138,7 @@ pub fn recommend(outcomes: &[Outcome]) -> Recommendation {
                 "No size could be closed and measured: {}.",
                 outcomes
                     .iter()
-                    .map(|o| format!("size {} {}", o.size, fails(o)))
+                    .map(|o| format!("size {} {}", o.size, fails(&o.result)))
                     .collect::<Vec<_>>()
                     .join("; ")
             ),

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value as Json;
 
-use super::recommend::{Measured, Outcome};
+use super::recommend::Measured;
 use crate::io::atomic::write_atomic;
 use crate::pipeline::execute::Invocation;
 use crate::pipeline::params::Value;
@@ -69,18 +69,9 @@ fn toml_string(s: &str) -> String {
     toml::Value::String(s.to_string()).to_string()
 }
 
-/// The run config of one size: every upstream artifact by absolute path,
+/// The run config of one cut: every upstream artifact by absolute path,
 /// the sizer template beside it, and the patient config's sections of the
 /// stages it runs (canonical text, so it reads back to the same values).
-pub fn size_config(
-    size: u32,
-    inputs: &BTreeMap<String, PathBuf>,
-    sections: &BTreeMap<String, BTreeMap<String, Value>>,
-) -> String {
-    config(Cut::Size(size), inputs, sections)
-}
-
-/// [`size_config`] for any [`Cut`].
 pub fn config(
     cut: Cut,
     inputs: &BTreeMap<String, PathBuf>,
@@ -116,27 +107,6 @@ pub fn template(size: u32) -> String {
         "# Ozaki sizer size {size} for all three leaflets (written by `coapt design`).\n\
          [template]\nkind = \"ozaki_size\"\nsize = {size}\n"
     )
-}
-
-/// Run one size (writing its config and template first) and measure it.
-/// A failure of the size's own chain is its outcome, not an error of the sweep.
-pub fn run_size(
-    size: u32,
-    design_dir: &Path,
-    config_text: &str,
-    registry: &[&'static StageSpec],
-    inv: &Invocation,
-    force: bool,
-) -> Result<Outcome> {
-    let result = run_cut(
-        Cut::Size(size),
-        design_dir,
-        config_text,
-        registry,
-        inv,
-        force,
-    )?;
-    Ok(Outcome { size, result })
 }
 
 /// Run one cut in its directory and measure it: `Err` only when the sweep
@@ -258,7 +228,7 @@ mod tests {
     use crate::pipeline::config::RunConfig;
 
     #[test]
-    fn size_config_reads_back_with_the_same_values() {
+    fn a_cuts_config_reads_back_with_the_same_values() {
         let registry = crate::pipeline::registry();
         let mut sections = BTreeMap::new();
         let mut leaflets = BTreeMap::new();
@@ -277,7 +247,7 @@ mod tests {
             "valve".to_string(),
             PathBuf::from("/runs/p \"1\"/valve.json"),
         );
-        let text = size_config(21, &inputs, &sections);
+        let text = config(Cut::Size(21), &inputs, &sections);
         let cfg = RunConfig::parse(Path::new("/d/size-21/run.toml"), &text, registry).unwrap();
         assert_eq!(cfg.inputs["valve"], Path::new("/runs/p \"1\"/valve.json"));
         assert_eq!(
