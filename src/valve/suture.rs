@@ -106,10 +106,9 @@ const TURN_REACH_MM: f64 = 0.5;
 /// cross it elsewhere: on the real CT resampled to 0.35 × 0.35 × 0.6 mm,
 /// N2 pinned 0.5 mm inside its neighbouring rays' crossings made a spike
 /// that left a 0.07 mm suture edge, which suturing could not sew. A pin
-/// that would turn the
-/// path by more than [`NADIR_PIN_MAX_TURN_DEG`] is not taken: the path
-/// passes through the rays' own crossing at the nadir's angle and height,
-/// and the distance is reported.
+/// that would turn the path by more than [`NADIR_PIN_MAX_TURN_DEG`] is not
+/// taken: the path passes through the rays' own crossing at the nadir's
+/// angle and height, and the distance is reported.
 pub fn project(
     wall: &Wall,
     cyl: &CommissureCylinder,
@@ -144,6 +143,7 @@ pub fn project(
         }
     }
     raw.push((pins.2, true));
+    let mut refused = None;
     if let Some(pin) = pins.1 {
         let ray = raw[nadir_at].0;
         raw[nadir_at] = (pin, true);
@@ -155,16 +155,12 @@ pub fn project(
             };
         }
         raw[nadir_at] = (ray, false);
-        let (free, split) = despike(&raw, nadir_at);
-        return Projected {
-            points: resampled(&free, split, ds),
-            nadir_unpinned_mm: Some((pin - free[split]).norm()),
-        };
+        refused = Some(pin);
     }
     let (free, split) = despike(&raw, nadir_at);
     Projected {
         points: resampled(&free, split, ds),
-        nadir_unpinned_mm: None,
+        nadir_unpinned_mm: refused.map(|pin| (pin - free[split]).norm()),
     }
 }
 
