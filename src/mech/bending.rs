@@ -371,6 +371,43 @@ impl Term for Bending {
     }
 }
 
+/// A w × len rectangle as a structured grid of n × 3n/4 cells, diagonals
+/// alternating, interior nodes jiggled by up to 0.2 of a cell (tests).
+#[cfg(test)]
+pub(crate) fn jiggled_grid(
+    w: f64,
+    len: f64,
+    n: usize,
+    r: &mut crate::rng::SplitMix64,
+) -> (Vec<(f64, f64)>, Vec<[u32; 3]>) {
+    let (nx, ny) = (n, (n * 3) / 4);
+    let mut uv = Vec::new();
+    for j in 0..=ny {
+        for i in 0..=nx {
+            let (mut u, mut v) = (w * i as f64 / nx as f64, len * j as f64 / ny as f64);
+            if i > 0 && i < nx && j > 0 && j < ny {
+                u += r.range(-0.2, 0.2) * w / nx as f64;
+                v += r.range(-0.2, 0.2) * len / ny as f64;
+            }
+            uv.push((u, v));
+        }
+    }
+    let id = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
+    let mut tris = Vec::new();
+    for j in 0..ny {
+        for i in 0..nx {
+            if (i + j) % 2 == 0 {
+                tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            } else {
+                tris.push([id(i, j), id(i + 1, j), id(i, j + 1)]);
+                tris.push([id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+    }
+    (uv, tris)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -522,32 +559,7 @@ mod tests {
         let mut r = SplitMix64::new(5);
         let mut errs = Vec::new();
         for n in [8usize, 16, 32] {
-            // Structured grid, diagonals alternating, interior nodes jiggled.
-            let (nx, ny) = (n, (n * 3) / 4);
-            let mut uv = Vec::new();
-            for j in 0..=ny {
-                for i in 0..=nx {
-                    let (mut u, mut v) = (w * i as f64 / nx as f64, len * j as f64 / ny as f64);
-                    if i > 0 && i < nx && j > 0 && j < ny {
-                        u += r.range(-0.2, 0.2) * w / nx as f64;
-                        v += r.range(-0.2, 0.2) * len / ny as f64;
-                    }
-                    uv.push((u, v));
-                }
-            }
-            let id = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
-            let mut tris = Vec::new();
-            for j in 0..ny {
-                for i in 0..nx {
-                    if (i + j) % 2 == 0 {
-                        tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-                        tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-                    } else {
-                        tris.push([id(i, j), id(i + 1, j), id(i, j + 1)]);
-                        tris.push([id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
-                    }
-                }
-            }
+            let (uv, tris) = jiggled_grid(w, len, n, &mut r);
             let flat: Vec<V3> = uv.iter().map(|&(u, v)| V3::new(u, v, 0.0)).collect();
             let rolled: Vec<V3> = uv
                 .iter()

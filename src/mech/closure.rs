@@ -11,6 +11,7 @@ use super::contact::leaflet_barrier::LeafletBarrier;
 use super::contact::planes::Plane;
 use super::contact::wall_barrier::{WallBarrier, WallGeometry, WallShape, WallSummary};
 use super::element::{RefTri, V3};
+use super::flat_bending::FlatBending;
 use super::reference_blend;
 use super::solve::{self, NewtonOptions, Outcome, RelaxOptions, Stop, Stopped};
 use super::sparse::Dofs;
@@ -925,11 +926,14 @@ pub fn close_watched(
         None
     };
     if cfg.bending {
-        terms.push(Box::new(Bending::new(
-            &ref_x,
-            &l.tris,
-            bending::stiffness(cfg.plane_strain_modulus(), cfg.thickness),
-        )));
+        let d = bending::stiffness(cfg.plane_strain_modulus(), cfg.thickness);
+        // A flat rest state (the cut pericardium) bends by the quadratic
+        // stencil, which a collapsing triangle cannot make singular; a
+        // curved one needs the hinges' rest angles.
+        match FlatBending::new(&ref_x, &l.tris, d) {
+            Some(flat) => terms.push(Box::new(flat)),
+            None => terms.push(Box::new(Bending::new(&ref_x, &l.tris, d))),
+        }
     }
     let mut sys = System {
         tris: l.tris.clone(),

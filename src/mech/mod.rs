@@ -15,6 +15,7 @@
 pub mod bending;
 pub mod contact;
 pub mod element;
+pub mod flat_bending;
 pub mod gmres;
 pub mod material;
 pub mod pressure;
