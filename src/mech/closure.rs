@@ -9,15 +9,16 @@ use super::config::{CloseConfig, ContactKind, Reference, SolverKind};
 use super::contact::barrier::BarrierParams;
 use super::contact::leaflet_barrier::LeafletBarrier;
 use super::contact::planes::Plane;
-use super::contact::wall_barrier::{WallBarrier, WallGeometry, WallShape, WallSummary};
+use super::contact::wall_barrier::{WallBarrier, WallGeometry, WallSummary};
 use super::element::{RefTri, V3};
 use super::flat_bending::FlatBending;
 use super::reference_blend;
 use super::solve::{self, NewtonOptions, Outcome, RelaxOptions, Stop, Stopped};
 use super::sparse::Dofs;
-use super::suture::{self, Sutured, Wall};
+use super::suture::{self, Sutured};
 use super::system::{PressureMode, System, Term, norm};
 use super::terms::PlaneContact;
+use super::wall::Wall;
 
 /// Largest nodal move of one Newton step (mm).
 const MAX_STEP_MM: f64 = 0.5;
@@ -743,7 +744,7 @@ pub fn sew(
         stop: stop.clone(),
         ..nopt
     };
-    let cyl = Wall::Cylinder(axis);
+    let cyl = sutured_wall(l, &axis);
     // With true contact the leaflets are sewn without crossing each other
     // too (the closure's barrier cannot undo it).
     let contact = (cfg.contact == ContactKind::Leaflets).then(|| {
@@ -898,13 +899,8 @@ pub fn close_watched(
             );
         }
         let shape = match wall {
-            Some(Wall::Mesh { x, tris, bvh }) => WallShape::Mesh {
-                x: x.clone(),
-                tris: tris.clone(),
-                bvh: bvh.clone(),
-            },
-            Some(Wall::Cylinder(a)) => sutured_cylinder(l, a),
-            None => sutured_cylinder(l, &axis),
+            Some(w) => w.clone(),
+            None => sutured_wall(l, &axis),
         };
         // One node–wall pair per node (nothing pushes back from the wall):
         // twice the leaflet pairs' κ rests a pressed sheet at s = d̂/2
@@ -1145,8 +1141,8 @@ pub fn close_watched(
 }
 
 /// The cylinder about `axis` through the sutured nodes (their mean
-/// distance from it): the wall a suture line sewn to `Wall::Cylinder` lies on.
-fn sutured_cylinder(l: &Leaflets, axis: &Axis) -> WallShape {
+/// distance from it): the wall of a leaflet placed on an ideal root.
+pub fn sutured_wall(l: &Leaflets, axis: &Axis) -> Wall {
     let r: Vec<f64> = (0..l.x.len())
         .filter(|&i| l.boundary[i] == 1)
         .map(|i| {
@@ -1154,7 +1150,7 @@ fn sutured_cylinder(l: &Leaflets, axis: &Axis) -> WallShape {
             (d - axis.dir * d.dot(&axis.dir)).norm()
         })
         .collect();
-    WallShape::Cylinder {
+    Wall::Cylinder {
         origin: axis.origin,
         dir: axis.dir,
         radius: r.iter().sum::<f64>() / r.len().max(1) as f64,

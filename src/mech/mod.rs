@@ -25,6 +25,7 @@ pub mod solve;
 pub mod sparse;
 pub mod system;
 pub mod verify;
+pub mod wall;
 
 pub mod closure;
 pub mod config;

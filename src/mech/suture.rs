@@ -43,8 +43,7 @@ use super::solve::{self, NewtonOptions, Outcome, Stop};
 use super::sparse::{Dofs, Pattern, SolveStats};
 use super::system::{PressureMode, System, Term, norm};
 use super::terms::PlaneContact;
-use crate::geom::bvh::Bvh;
-use crate::geom::closest_point::closest_point;
+use super::wall::Wall;
 use crate::units::MMHG_IN_MPA;
 
 /// When the pre-stage runs.
@@ -248,58 +247,6 @@ impl Term for SutureForce {
     }
 }
 
-/// Where the wall's tangent plane comes from.
-pub enum Wall {
-    /// An ideal cylinder about the axis (benchmarks, tests).
-    Cylinder(Axis),
-    /// A wall mesh: area-weighted normals of the wall triangles within
-    /// [`NORMAL_RADIUS_MM`] of the point (a segmented wall is bumpy at the
-    /// triangle scale).
-    Mesh {
-        x: Vec<V3>,
-        tris: Vec<[u32; 3]>,
-        bvh: Bvh,
-    },
-}
-
-pub const NORMAL_RADIUS_MM: f64 = 1.0;
-
-impl Wall {
-    pub fn mesh(x: Vec<V3>, tris: Vec<[u32; 3]>) -> Wall {
-        let bvh = Bvh::build(&x, &tris);
-        Wall::Mesh { x, tris, bvh }
-    }
-
-    /// A unit normal of the wall near `p` (either orientation).
-    pub fn normal(&self, p: &V3) -> Option<V3> {
-        match self {
-            Wall::Cylinder(axis) => {
-                let d = p - axis.origin;
-                let r = d - axis.dir * d.dot(&axis.dir);
-                (r.norm() > 0.0).then(|| r.normalize())
-            }
-            Wall::Mesh { x, tris, bvh } => {
-                let mut r = NORMAL_RADIUS_MM;
-                for _ in 0..8 {
-                    let mut acc = V3::zeros();
-                    bvh.query_sphere(p, r, |t| {
-                        let [a, b, c] = tris[t as usize].map(|i| x[i as usize]);
-                        let d = (closest_point(p, &a, &b, &c).point - p).norm();
-                        if d <= r {
-                            acc += (b - a).cross(&(c - a)) * (1.0 - d / r);
-                        }
-                    });
-                    if acc.norm() > 0.0 {
-                        return Some(acc.normalize());
-                    }
-                    r *= 4.0;
-                }
-                None
-            }
-        }
-    }
-}
-
 /// A sutured triangle before its leaflet's vote: edge a → b as the mesh
 /// runs it, and the wall normal at the edge's midpoint (either
 /// orientation).
@@ -422,7 +369,7 @@ pub fn sutured_triangles(l: &Leaflets, wall: &Wall) -> Result<Vec<SuturedTri>, S
     // stays what it was.
     let normals = match wall {
         Wall::Mesh { .. } => shared_normals(&found),
-        Wall::Cylinder(_) => found.iter().map(|f| f.n_wall).collect(),
+        Wall::Cylinder { .. } => found.iter().map(|f| f.n_wall).collect(),
     };
     let mut sides = Vec::with_capacity(found.len());
     for (f, nw) in found.iter().zip(normals) {
@@ -1078,7 +1025,7 @@ mod tests {
         let (l, axis) = peer::ozaki_cylinder(1.0).unwrap();
         let s = Settings::default();
         let (stop, nopt) = peer_solver();
-        let wall = Wall::Cylinder(axis);
+        let wall = closure::sutured_wall(&l, &axis);
         let out = suture(&l, &s, &axis, &wall, &stop, &nopt, None, None).unwrap();
         assert_eq!(out.status, Status::Sewn, "{}", out.reason);
         assert!(out.max_sin_phi < 0.01);

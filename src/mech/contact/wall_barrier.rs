@@ -109,6 +109,7 @@ use crate::geom::closest_point::{Feature, closest_point};
 use crate::mech::element::V3;
 use crate::mech::sparse::{Dofs, Pattern};
 use crate::mech::system::Term;
+use crate::mech::wall::Wall;
 
 /// Contact-mask bit of a node within the margin of the wall.
 pub const WALL_BIT: u8 = 1 << 7;
@@ -116,33 +117,6 @@ pub const WALL_BIT: u8 = 1 << 7;
 /// Farthest (mm) a node's start distance and side are looked for; a node
 /// farther from the wall counts as inside the lumen with the full offset.
 const START_SEARCH_MM: f64 = 4.0;
-
-/// The wall, fixed.
-#[derive(Clone)]
-pub enum WallShape {
-    /// Inside of the cylinder of `radius` about the line through `origin`
-    /// along `dir` (unit).
-    Cylinder { origin: V3, dir: V3, radius: f64 },
-    /// Wall triangles and their tree.
-    Mesh {
-        x: Vec<V3>,
-        tris: Vec<[u32; 3]>,
-        bvh: Bvh,
-    },
-}
-
-impl WallShape {
-    pub fn mesh(x: Vec<V3>, tris: Vec<[u32; 3]>) -> WallShape {
-        let bvh = Bvh::build(&x, &tris);
-        WallShape::Mesh { x, tris, bvh }
-    }
-
-    /// The cylinder's radial vector of `p` (from the axis).
-    fn radial(origin: &V3, dir: &V3, p: &V3) -> V3 {
-        let d = p - origin;
-        d - dir * d.dot(dir)
-    }
-}
 
 /// What the term records in `closure.json`.
 #[derive(Debug, Clone, Serialize)]
@@ -170,7 +144,7 @@ pub struct WallSummary {
 
 /// Everything fixed after the start: wall, offsets, areas, who acts.
 pub struct WallGeometry {
-    shape: WallShape,
+    shape: Wall,
     pub params: BarrierParams,
     /// The offset ξ before lowering (mm).
     offset: f64,
@@ -213,7 +187,7 @@ impl WallGeometry {
     /// `free`: nodes with a free coordinate; `offset`: ξ (half the
     /// thickness).
     pub fn new(
-        shape: WallShape,
+        shape: Wall,
         x: &[V3],
         tris: &[[u32; 3]],
         free: &[bool],
@@ -234,18 +208,18 @@ impl WallGeometry {
         // Per node: start distance (∞ beyond the search) and side
         // (+1 lumen, −1 beyond the wall, 0 on it or unknown).
         let start: Vec<(f64, f64)> = match &shape {
-            WallShape::Cylinder {
+            Wall::Cylinder {
                 origin,
                 dir,
                 radius,
             } => x
                 .iter()
                 .map(|p| {
-                    let d = radius - WallShape::radial(origin, dir, p).norm();
+                    let d = radius - Wall::radial(origin, dir, p).norm();
                     (d.abs(), d.signum() * (d != 0.0) as u8 as f64)
                 })
                 .collect(),
-            WallShape::Mesh {
+            Wall::Mesh {
                 x: wx,
                 tris: wt,
                 bvh,
@@ -322,12 +296,12 @@ impl WallGeometry {
         let (xi, dhat) = (self.xi[i], self.dhat[i]);
         let ka = self.params.kappa * self.area[i];
         match &self.shape {
-            WallShape::Cylinder {
+            Wall::Cylinder {
                 origin,
                 dir,
                 radius,
             } => {
-                let rv = WallShape::radial(origin, dir, y);
+                let rv = Wall::radial(origin, dir, y);
                 let r = rv.norm();
                 let s = radius - r - xi;
                 if !(s > 0.0) {
@@ -346,7 +320,7 @@ impl WallGeometry {
                 });
                 Some((ka * b, g, h))
             }
-            WallShape::Mesh {
+            Wall::Mesh {
                 x: wx,
                 tris: wt,
                 bvh,
@@ -386,10 +360,10 @@ impl WallGeometry {
 
     /// The PSD part of node i's Hessian at `y` (see the module doc).
     fn node_psd(&self, i: usize, y: &V3) -> Option<Matrix3<f64>> {
-        if let WallShape::Cylinder { .. } = self.shape {
+        if let Wall::Cylinder { .. } = self.shape {
             return self.node_eval(i, y, true)?.2;
         }
-        let WallShape::Mesh {
+        let Wall::Mesh {
             x: wx,
             tris: wt,
             bvh,
@@ -420,15 +394,15 @@ impl WallGeometry {
     fn node_gap(&self, i: usize, y: &V3, reach: f64) -> (f64, usize) {
         let xi = self.xi[i];
         match &self.shape {
-            WallShape::Cylinder {
+            Wall::Cylinder {
                 origin,
                 dir,
                 radius,
             } => {
-                let s = radius - WallShape::radial(origin, dir, y).norm() - xi;
+                let s = radius - Wall::radial(origin, dir, y).norm() - xi;
                 (s, (s < self.dhat[i]) as usize)
             }
-            WallShape::Mesh {
+            Wall::Mesh {
                 x: wx,
                 tris: wt,
                 bvh,
@@ -454,7 +428,7 @@ impl WallGeometry {
         }
         let xi = self.xi[i];
         match &self.shape {
-            WallShape::Cylinder {
+            Wall::Cylinder {
                 origin,
                 dir,
                 radius,
@@ -462,7 +436,7 @@ impl WallGeometry {
                 // s(t) ≥ KEEP s₀ ⇔ |ρ₀ + t ρ_d|² ≤ r_max², a quadratic in t
                 // that is negative at t = 0: the step may go to its
                 // larger root.
-                let r0 = WallShape::radial(origin, dir, y);
+                let r0 = Wall::radial(origin, dir, y);
                 let rd = dx - dir * dx.dot(dir);
                 let s0 = radius - r0.norm() - xi;
                 if !(s0 > 0.0) {
@@ -484,7 +458,7 @@ impl WallGeometry {
                 };
                 t.clamp(0.0, 1.0)
             }
-            WallShape::Mesh {
+            Wall::Mesh {
                 x: wx,
                 tris: wt,
                 bvh,
@@ -536,8 +510,8 @@ impl WallGeometry {
         let gaps = self.per_node(|i| self.node_gap(i, &x[i], reach));
         let mut out = WallSummary {
             wall: match self.shape {
-                WallShape::Cylinder { .. } => "cylinder",
-                WallShape::Mesh { .. } => "mesh",
+                Wall::Cylinder { .. } => "cylinder",
+                Wall::Mesh { .. } => "mesh",
             },
             offset_mm: self.offset,
             margin_mm: self.params.dhat,

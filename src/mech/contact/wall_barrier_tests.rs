@@ -52,8 +52,8 @@ fn far_start(n_tris: usize) -> (Vec<V3>, Vec<[u32; 3]>) {
     (x, tris)
 }
 
-fn cylinder_shape() -> WallShape {
-    WallShape::Cylinder {
+fn cylinder_shape() -> Wall {
+    Wall::Cylinder {
         origin: V3::zeros(),
         dir: V3::z(),
         radius: R,
@@ -62,12 +62,12 @@ fn cylinder_shape() -> WallShape {
 
 /// A coarse cylinder mesh (z in [−3, 3]): nodes near it meet faces, the
 /// edges between them and, beyond its end, its rim edges and vertices.
-fn mesh_shape() -> WallShape {
+fn mesh_shape() -> Wall {
     let (x, tris) = shapes::cylinder(R, 6.0, 24, 5);
-    WallShape::mesh(x, tris)
+    Wall::mesh(x, tris)
 }
 
-fn geometry(shape: WallShape, n_tris: usize) -> Arc<WallGeometry> {
+fn geometry(shape: Wall, n_tris: usize) -> Arc<WallGeometry> {
     let (x, tris) = far_start(n_tris);
     let free = vec![true; x.len()];
     Arc::new(WallGeometry::new(
@@ -150,7 +150,7 @@ fn rel(a: &[f64], b: &[f64]) -> f64 {
         / scale
 }
 
-fn check_derivatives(shape: WallShape, seed: u64) {
+fn check_derivatives(shape: Wall, seed: u64) {
     let n_tris = 6;
     let geo = geometry(shape, n_tris);
     let x = near_wall(&geo, 3 * n_tris, seed);
@@ -218,7 +218,7 @@ fn mesh_forces_and_tangent_match_finite_differences() {
     // The draw met every kind of closest feature.
     let geo = geometry(mesh_shape(), 6);
     let x = near_wall(&geo, 18, 1);
-    let WallShape::Mesh {
+    let Wall::Mesh {
         x: wx, tris: wt, ..
     } = mesh_shape()
     else {
@@ -254,7 +254,7 @@ fn the_cylinder_exact_tangent_is_psd_and_its_own_projection() {
 
 /// Every step `max_step` allows keeps each node's s at or above KEEP × its
 /// start; a step away from the wall is never cut.
-fn check_steps(shape: WallShape) {
+fn check_steps(shape: Wall) {
     let geo = geometry(shape, 6);
     let x = near_wall(&geo, 18, 5);
     let term = WallBarrier::new(geo.clone());
@@ -355,7 +355,7 @@ fn nodes_starting_near_or_beyond_the_wall_get_narrowed_margins_or_none() {
 /// wall of a 12 mm cylinder with its centre 0.4 mm inside R − t/2, blown
 /// outward at 80 mmHg: its free bulge (Hencky, about 1.2 mm) would cross
 /// the wall; with the wall barrier no node comes closer than t/2.
-fn blow_patch_onto(wall: Option<WallShape>) -> (Vec<V3>, bool, Vec<u8>) {
+fn blow_patch_onto(wall: Option<Wall>) -> (Vec<V3>, bool, Vec<u8>) {
     let a = 3.0;
     let (uv, tris, rim) = shapes::disc(a, 0.3);
     let c = 11.2;
@@ -425,7 +425,7 @@ fn a_patch_blown_outward_stays_off_the_cylinder_wall_only_with_the_term() {
     let (free, ok, _) = blow_patch_onto(None);
     assert!(ok);
     assert!(r(&free) > big, "free bulge to r = {}", r(&free));
-    let shape = WallShape::Cylinder {
+    let shape = Wall::Cylinder {
         origin: V3::zeros(),
         dir: V3::z(),
         radius: big,
@@ -447,7 +447,7 @@ fn a_patch_blown_outward_stays_off_the_cylinder_wall_only_with_the_term() {
 fn a_patch_blown_outward_stays_off_the_mesh_wall() {
     let big = 12.0;
     let (wx, wt) = shapes::cylinder(big, 10.0, 240, 38);
-    let shape = WallShape::mesh(wx.clone(), wt.clone());
+    let shape = Wall::mesh(wx.clone(), wt.clone());
     let (held, ok, mask) = blow_patch_onto(Some(shape));
     assert!(ok);
     // Every node inside and at least t/2 from every wall triangle.
@@ -474,7 +474,6 @@ fn a_leaflet_pushed_outward_lies_on_the_cylinder_wall() {
     use crate::bench::close::{R as RC, config_text_with, ozaki_cylinder};
     use crate::mech::closure::close_on;
     use crate::mech::config;
-    use crate::mech::suture::Wall;
     let (l, axis) = ozaki_cylinder(1.0).unwrap();
     let text = config_text_with("neo-hookean", "newton", 120.0, true)
         .replace("contact = \"planes\"", "contact = \"none\"");
@@ -494,7 +493,7 @@ fn a_leaflet_pushed_outward_lies_on_the_cylinder_wall() {
             .map(|i| x[i].xy().norm())
             .fold(0.0, f64::max)
     };
-    let wall = Wall::Cylinder(axis);
+    let wall = crate::mech::closure::sutured_wall(&l, &axis);
     let free = close_on(&l, &cfg, Some(axis), Some(&wall), None).unwrap();
     let act = acting(&free.suturing.as_ref().unwrap().x);
     let rmax = |x: &[V3]| rmax_of(x, &act);
