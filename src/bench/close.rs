@@ -19,9 +19,10 @@ use crate::geom::{Point3, Vector3};
 use crate::leaflet::aft;
 use crate::leaflet::place::{self, Path3};
 use crate::leaflet::template::{OzakiTemplate, Template};
-use crate::mech::closure::{self, Axis, Closed, Leaflets};
+use crate::mech::closure::{self, Closed};
 use crate::mech::config;
 use crate::mech::element::V3;
+use crate::mech::model::{self, Axis, Leaflets};
 use crate::valve::suture::PathSpec;
 use crate::{Error, Result};
 
@@ -200,7 +201,7 @@ pub fn zones(x: &[V3], tris: &[[u32; 3]], dist: &[[f64; 2]], tau: f64) -> [(f64,
 /// Signed distances of `x` to the two planes through the +z axis that
 /// bound the placed leaflet `l`'s 120° sector, positive on its side.
 pub fn plane_distances(l: &Leaflets, x: &[V3]) -> Vec<[f64; 2]> {
-    let c = closure::corners(l);
+    let c = model::corners(l);
     let rad = |p: &V3| V3::new(p.x, p.y, 0.0);
     let centroid = rad(&(l.x.iter().sum::<V3>() / l.x.len() as f64));
     // Split the corners by the side of the centroid's radial line.
@@ -220,7 +221,7 @@ pub fn plane_distances(l: &Leaflets, x: &[V3]) -> Vec<[f64; 2]> {
     let middle = (ends[0] + ends[1]).normalize();
     let mut normals = Vec::new();
     for e in &ends {
-        let m = closure::sector_edge(&V3::z(), &middle, e);
+        let m = model::sector_edge(&V3::z(), &middle, e);
         let mut n = V3::z().cross(&m).normalize();
         if n.dot(&centroid) < 0.0 {
             n = -n;
@@ -901,7 +902,7 @@ mod tests {
                 }
             }
             // The two lug corners sit at the commissure height.
-            let c = closure::corners(&l);
+            let c = model::corners(&l);
             assert!(c.len() >= 2);
             let top =
                 l.x.iter()

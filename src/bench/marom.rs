@@ -23,8 +23,9 @@ use clap::{Arg, ArgMatches, Command};
 
 use super::marom_geometry as geo;
 use crate::geom::Point3;
-use crate::mech::closure::{self, Closed, Leaflets};
+use crate::mech::closure::{self, Closed};
 use crate::mech::config;
+use crate::mech::model::Leaflets;
 use crate::report::ClosedValve;
 use crate::report::coaptation::{self, Options as ZoneOptions};
 use crate::report::metrics::{self, Options as MetricOptions};

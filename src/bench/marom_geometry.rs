@@ -44,8 +44,8 @@ use crate::geom::{Point3, ValveFrame, Vector3};
 use crate::leaflet::aft;
 use crate::leaflet::place::{self, Path3};
 use crate::leaflet::template::{OzakiTemplate, Template};
-use crate::mech::closure::{Axis, Leaflets};
 use crate::mech::element::V3;
+use crate::mech::model::{Axis, Leaflets};
 use crate::valve::suture::PathSpec;
 
 /// Annulus diameter d_AA (mm), the seed's.
@@ -233,7 +233,7 @@ mod tests {
             assert!(p.z <= COMMISSURE_HEIGHT + 1e-9 && p.z >= -1e-9);
             assert!(p.x.hypot(p.y) <= R + 1e-9);
         }
-        let (cross, _sewn) = crate::mech::closure::leaflet_crossings(&l, &l.x);
+        let (cross, _sewn) = crate::mech::model::leaflet_crossings(&l, &l.x);
         assert!(
             cross.is_empty(),
             "{} crossing pairs when placed",

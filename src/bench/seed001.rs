@@ -15,9 +15,10 @@ use clap::{Arg, ArgMatches, Command};
 
 use super::close::{plane_distances, zones};
 use crate::leaflet::{aft, place, seed001::Seed001};
-use crate::mech::closure::{self, Axis, Leaflets};
+use crate::mech::closure::{self};
 use crate::mech::config;
 use crate::mech::element::V3;
+use crate::mech::model::{Axis, Leaflets};
 use crate::{Error, Result};
 
 pub const R: f64 = 15.0;

@@ -18,6 +18,7 @@ pub mod element;
 pub mod flat_bending;
 pub mod gmres;
 pub mod material;
+pub mod model;
 pub mod pressure;
 pub mod reference_blend;
 pub mod shapes;

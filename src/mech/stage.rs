@@ -3,10 +3,11 @@
 
 use serde_json::{Value as Json, json};
 
-use super::closure::{self, Axis, Leaflets};
+use super::closure::{self};
 use super::config;
 use super::contact::wall_barrier::WALL_BIT;
 use super::element::V3;
+use super::model::{Axis, Leaflets};
 use super::suture;
 use super::wall::Wall;
 use crate::geom::bvh::Bvh;

@@ -33,12 +33,12 @@ use nalgebra::Matrix3;
 use serde::Serialize;
 
 use super::bending::{self, Bending};
-use super::closure::{self, Axis, Leaflets};
 use super::contact::barrier::BarrierParams;
 use super::contact::leaflet_barrier::LeafletBarrier;
 use super::contact::planes::Plane;
 use super::element::{RefTri, V3};
 use super::material::NeoHookean;
+use super::model::{self, Axis, Leaflets};
 use super::solve::{self, NewtonOptions, Outcome, Stop};
 use super::sparse::{Dofs, Pattern, SolveStats};
 use super::system::{PressureMode, System, Term, norm};
@@ -321,7 +321,7 @@ fn shared_normals(found: &[Candidate]) -> Vec<V3> {
 /// changes).
 pub fn sutured_triangles(l: &Leaflets, wall: &Wall) -> Result<Vec<SuturedTri>, String> {
     let n_leaflets = l.leaflet.iter().map(|&k| k as usize + 1).max().unwrap_or(0);
-    let corners = closure::corners(l);
+    let corners = model::corners(l);
     let mut node_leaf = vec![0u16; l.x.len()];
     for (t, tri) in l.tris.iter().enumerate() {
         for &i in tri {
@@ -513,7 +513,7 @@ fn solve_round(
     let mut tried = 0;
     if let Some(first_iterations) = first {
         let start = x.clone();
-        closure::set_projected(sys, false);
+        solve::set_projected(sys, false);
         sys.pressure_tangent = true;
         let o = solve::newton_reusing(
             sys,
@@ -545,7 +545,7 @@ fn solve_round(
         ..fallback
     };
     // The round's count includes the Newton attempt that failed.
-    let mut o = closure::newton_with_continuation(sys, x, &left, nopt, false);
+    let mut o = solve::newton_with_continuation(sys, x, &left, nopt, false);
     o.iterations += tried;
     o
 }
@@ -596,7 +596,7 @@ fn middle_planes(
     sides: &[(Plane, Vec<u32>)],
     eta1: f64,
 ) -> Result<Vec<(Plane, Vec<u32>)>, String> {
-    let corners = closure::corners(l);
+    let corners = model::corners(l);
     let rad = |p: &V3| {
         let d = p - axis.origin;
         (d - axis.dir * d.dot(&axis.dir)).norm()
@@ -660,8 +660,8 @@ pub fn suture(
         );
     }
     let fixed: Vec<[bool; 3]> = l.boundary.iter().map(|&b| [b == 1; 3]).collect();
-    let signs = closure::pressure_signs(l, axis, n_leaflets);
-    let sides = closure::planes_for(l, axis, n_leaflets, 4.0 * s.pressure, 0.0)?;
+    let signs = model::pressure_signs(l, axis, n_leaflets);
+    let sides = model::planes_for(l, axis, n_leaflets, 4.0 * s.pressure, 0.0)?;
     let middle = middle_planes(l, axis, &sides, 3.0 * s.pressure)?;
     let planes = sides.into_iter().chain(middle).collect();
     let force = SutureForce::new(tris.clone(), s.k0);
@@ -1025,7 +1025,7 @@ mod tests {
         let (l, axis) = peer::ozaki_cylinder(1.0).unwrap();
         let s = Settings::default();
         let (stop, nopt) = peer_solver();
-        let wall = closure::sutured_wall(&l, &axis);
+        let wall = model::sutured_wall(&l, &axis);
         let out = suture(&l, &s, &axis, &wall, &stop, &nopt, None, None).unwrap();
         assert_eq!(out.status, Status::Sewn, "{}", out.reason);
         assert!(out.max_sin_phi < 0.01);

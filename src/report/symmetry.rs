@@ -61,7 +61,7 @@ fn planes(v: &ClosedValve) -> Option<[Vector3; 2]> {
     );
     let middle = (a + b).try_normalize(1e-9)?;
     let normal = |end: &Vector3| {
-        let edge = crate::mech::closure::sector_edge(&f.axis, &middle, end);
+        let edge = crate::mech::model::sector_edge(&f.axis, &middle, end);
         let n = f.axis.cross(&edge).try_normalize(1e-9)?;
         Some(if n.dot(&mid) < 0.0 { -n } else { n })
     };

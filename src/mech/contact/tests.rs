@@ -200,7 +200,7 @@ fn bvh_is_deterministic_and_handles_nonfinite() {
 
 /// Three copies of the peer leaflet (`bench close`'s Ozaki cylinder) turned
 /// by 0°, 120° and 240° about the axis: a symmetric valve.
-fn three_peer_leaflets(h: f64) -> (crate::mech::closure::Leaflets, crate::mech::closure::Axis) {
+fn three_peer_leaflets(h: f64) -> (crate::mech::model::Leaflets, crate::mech::model::Axis) {
     use crate::bench::close::{circumferential_fibres, ozaki_cylinder};
     let (one, axis) = ozaki_cylinder(h).expect("peer leaflet");
     let mut l = one.clone();
@@ -225,7 +225,7 @@ fn three_peer_leaflets(h: f64) -> (crate::mech::closure::Leaflets, crate::mech::
 /// Coaptation height as the report counts it, on nodes: the largest axial
 /// extent, over pairs of leaflets, of the nodes of one within 1.8 × the
 /// thickness of the other's surface.
-fn node_coaptation_height(l: &crate::mech::closure::Leaflets, x: &[V3], margin: f64) -> f64 {
+fn node_coaptation_height(l: &crate::mech::model::Leaflets, x: &[V3], margin: f64) -> f64 {
     let n_leaflets = l.leaflet.iter().map(|&k| k as usize + 1).max().unwrap_or(0);
     let mut node_leaflet = vec![0u16; x.len()];
     for (t, &k) in l.tris.iter().zip(&l.leaflet) {

@@ -493,7 +493,7 @@ fn a_leaflet_pushed_outward_lies_on_the_cylinder_wall() {
             .map(|i| x[i].xy().norm())
             .fold(0.0, f64::max)
     };
-    let wall = crate::mech::closure::sutured_wall(&l, &axis);
+    let wall = crate::mech::model::sutured_wall(&l, &axis);
     let free = close_on(&l, &cfg, Some(axis), Some(&wall), None).unwrap();
     let act = acting(&free.suturing.as_ref().unwrap().x);
     let rmax = |x: &[V3]| rmax_of(x, &act);

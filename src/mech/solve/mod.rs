@@ -3,10 +3,12 @@
 //! (seed 001 Algorithm 3) and their combination (Algorithm 2).
 
 mod combined;
+mod continuation;
 mod newton;
 mod relax;
 
 pub use combined::combined;
+pub use continuation::{merge, newton_with_continuation, set_projected};
 pub use newton::{
     Creep, MAX_STEP_GROWTH, NONMONOTONE, NewtonOptions, Plateau, newton, newton_reusing,
 };
