@@ -168,7 +168,7 @@ mod tests {
     use super::super::bending::{Bending, Hinge, jiggled_grid};
     use super::*;
     use crate::rng::SplitMix64;
-    use nalgebra::{DMatrix, Rotation3};
+    use nalgebra::Rotation3;
 
     fn flat(uv: &[(f64, f64)]) -> Vec<V3> {
         uv.iter().map(|&(u, v)| V3::new(u, v, 0.0)).collect()
@@ -283,21 +283,7 @@ mod tests {
             .map(|p| p + V3::new(r.range(-0.1, 0.1), r.range(-0.1, 0.1), r.range(-0.1, 0.1)))
             .collect();
         let n = x.len();
-        let dofs = Dofs::new(&vec![[false; 3]; n]);
-        let mut pairs = Vec::new();
-        b.couplings(&mut pairs);
-        let pat = Pattern::new(n, &dofs, &pairs);
-        let mut vals = vec![0.0; pat.nnz()];
-        b.add_tangent(&x, &dofs, &pat, &mut vals);
-        let mut k = DMatrix::zeros(3 * n, 3 * n);
-        for j in 0..3 * n {
-            let mut e = vec![0.0; dofs.n_eq];
-            e[dofs.eq[j] as usize] = 1.0;
-            let col = pat.mul(&vals, &e);
-            for i in 0..3 * n {
-                k[(i, j)] = col[dofs.eq[i] as usize];
-            }
-        }
+        let k = crate::mech::system::dense_tangent(&b, &x);
         let f = forces(&b, &x);
         let s = 1e-6;
         let (mut worst_f, mut worst_k) = (0.0f64, 0.0f64);

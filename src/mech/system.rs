@@ -310,3 +310,26 @@ pub fn norm(f: &[V3]) -> f64 {
 pub fn max_norm(f: &[V3]) -> f64 {
     f.iter().map(|v| v.norm()).fold(0.0, f64::max)
 }
+
+/// A term's assembled tangent as a dense matrix, every coordinate free
+/// (tests: held against central differences of its forces).
+#[cfg(test)]
+pub(crate) fn dense_tangent(term: &dyn Term, x: &[V3]) -> nalgebra::DMatrix<f64> {
+    let n = x.len();
+    let dofs = Dofs::new(&vec![[false; 3]; n]);
+    let mut pairs = Vec::new();
+    term.couplings(&mut pairs);
+    let pat = Pattern::new(n, &dofs, &pairs);
+    let mut vals = vec![0.0; pat.nnz()];
+    term.add_tangent(x, &dofs, &pat, &mut vals);
+    let mut k = nalgebra::DMatrix::zeros(3 * n, 3 * n);
+    for j in 0..3 * n {
+        let mut e = vec![0.0; dofs.n_eq];
+        e[dofs.eq[j] as usize] = 1.0;
+        let col = pat.mul(&vals, &e);
+        for i in 0..3 * n {
+            k[(i, j)] = col[dofs.eq[i] as usize];
+        }
+    }
+    k
+}

@@ -116,23 +116,8 @@ fn force(term: &WallBarrier, x: &[V3]) -> Vec<V3> {
     f
 }
 
-/// The assembled tangent as a dense matrix (every coordinate free).
 fn tangent(term: &WallBarrier, x: &[V3]) -> DMatrix<f64> {
-    let n = x.len();
-    let dofs = Dofs::new(&vec![[false; 3]; n]);
-    let pat = Pattern::new(n, &dofs, &[]);
-    let mut vals = vec![0.0; pat.nnz()];
-    term.add_tangent(x, &dofs, &pat, &mut vals);
-    let mut k = DMatrix::zeros(3 * n, 3 * n);
-    for j in 0..3 * n {
-        let mut e = vec![0.0; dofs.n_eq];
-        e[dofs.eq[j] as usize] = 1.0;
-        let col = pat.mul(&vals, &e);
-        for i in 0..3 * n {
-            k[(i, j)] = col[dofs.eq[i] as usize];
-        }
-    }
-    k
+    crate::mech::system::dense_tangent(term, x)
 }
 
 fn moved(x: &[V3], i: usize, c: usize, h: f64) -> Vec<V3> {
