@@ -35,9 +35,8 @@
 
 use rayon::prelude::*;
 
-use super::barrier::{BarrierParams, Hess12};
+use super::barrier::{BarrierParams, CCD_ITER, Hess12, KEEP, least_near, start_offset};
 use super::edge_barrier::{self, mollifier_eps};
-use super::leaflet_barrier::{CCD_ITER, KEEP, least_near, start_offset};
 use crate::geom::bvh::{Aabb, Bvh};
 use crate::geom::segment_distance::SegProximity;
 use crate::mech::element::V3;

@@ -78,18 +78,15 @@ use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
 
-use super::barrier::{self, BarrierParams, Hess12, Proximity};
+use super::barrier::{
+    self, BarrierParams, CCD_ITER, Hess12, KEEP, Proximity, least_near, start_offset,
+};
 use super::edge_pairs::{Cand, EdgePairs};
 use crate::geom::bvh::{Aabb, Bvh};
 use crate::geom::tri_tri;
 use crate::mech::element::V3;
 use crate::mech::sparse::{Dofs, Pattern};
 use crate::mech::system::Term;
-
-/// Fraction of its gap a pair keeps over one step (additive CCD's s).
-pub(super) const KEEP: f64 = 0.1;
-/// Work bound of one pair's CCD.
-pub(super) const CCD_ITER: usize = 60;
 
 #[derive(Debug, Clone, Copy)]
 struct Group {
@@ -232,35 +229,6 @@ fn node_areas(x: &[V3], tris: &[[u32; 3]]) -> Vec<f64> {
         }
     }
     a
-}
-
-/// The offset of an item (node or edge) that starts `d0` from another
-/// leaflet: ξ, lowered to d₀ − d̂ where that is closer (no force at the
-/// start), but not below d₀/2 (the start is admissible).
-pub(super) fn start_offset(xi: f64, dhat: f64, d0: f64) -> f64 {
-    xi.min((d0 - dhat).max(0.5 * d0))
-}
-
-/// Per item i (in parallel) the least of `f(i, t)` over the triangles t
-/// whose boxes the tree finds within `sphere(i)` = (centre, radius); ∞
-/// when there are none. What both halves of the barrier ask of the tree:
-/// start distances (offsets) and times of impact (collision-free steps).
-pub(super) fn least_near(
-    bvh: &Bvh,
-    n: usize,
-    sphere: impl Fn(usize) -> (V3, f64) + Sync,
-    f: impl Fn(usize, u32) -> f64 + Sync,
-) -> Vec<f64> {
-    (0..n)
-        .into_par_iter()
-        .with_min_len(64)
-        .map(|i| {
-            let (c, r) = sphere(i);
-            let mut m = f64::INFINITY;
-            bvh.query_sphere(&c, r, |t| m = m.min(f(i, t)));
-            m
-        })
-        .collect()
 }
 
 impl LeafletBarrier {

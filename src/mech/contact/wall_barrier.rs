@@ -100,10 +100,9 @@ use nalgebra::Matrix3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::barrier::{self, BarrierParams};
 #[cfg(doc)]
-use super::leaflet_barrier::start_offset;
-use super::leaflet_barrier::{CCD_ITER, KEEP};
+use super::barrier::start_offset;
+use super::barrier::{self, BarrierParams, CCD_ITER, KEEP};
 use crate::geom::bvh::Bvh;
 use crate::geom::closest_point::{Feature, closest_point};
 use crate::mech::element::V3;
