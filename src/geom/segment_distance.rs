@@ -9,7 +9,7 @@
 //! endpoint to endpoint), smooth inside the region; across borders the
 //! distance is C¹.
 
-use crate::mech::element::V3;
+use super::Vector3 as V3;
 
 /// Where the closest points of segments a = (a0, a1) and b = (b0, b1) lie.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
