@@ -269,8 +269,12 @@ pub struct Bending {
 
 impl Bending {
     pub fn new(x_ref: &[V3], tris: &[[u32; 3]], d: f64) -> Bending {
+        Bending::from_hinges(hinges(x_ref, tris, d))
+    }
+
+    pub fn from_hinges(hinges: Vec<Hinge>) -> Bending {
         Bending {
-            hinges: hinges(x_ref, tris, d),
+            hinges,
             gauss_newton: false,
         }
     }
@@ -291,6 +295,15 @@ impl Bending {
                     .map(|e| (e.energy, e.grad))
             })
             .collect()
+    }
+}
+
+/// The node pairs a four-node hinge stencil couples.
+pub(super) fn couple(d: [u32; 4], out: &mut Vec<[u32; 2]>) {
+    for a in 0..4 {
+        for b in a + 1..4 {
+            out.push([d[a], d[b]]);
+        }
     }
 }
 
@@ -333,12 +346,7 @@ impl Term for Bending {
 
     fn couplings(&self, out: &mut Vec<[u32; 2]>) {
         for h in &self.hinges {
-            let d = h.nodes;
-            for a in 0..4 {
-                for b in a + 1..4 {
-                    out.push([d[a], d[b]]);
-                }
-            }
+            couple(h.nodes, out);
         }
     }
 

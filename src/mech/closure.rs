@@ -266,7 +266,15 @@ pub fn sew(
         stop: stop.clone(),
         ..nopt
     };
-    let cyl = sutured_wall(l, &axis);
+    // Without a wall mesh the suture line is sewn to the ideal root.
+    let cyl;
+    let wall = match wall {
+        Some(w) => w,
+        None => {
+            cyl = sutured_wall(l, &axis);
+            &cyl
+        }
+    };
     // With true contact the leaflets are sewn without crossing each other
     // too (the closure's barrier cannot undo it).
     let contact = (cfg.contact == ContactKind::Leaflets).then(|| {
@@ -280,7 +288,7 @@ pub fn sew(
         l,
         &cfg.suture,
         &axis,
-        wall.unwrap_or(&cyl),
+        wall,
         &stop,
         &nopt,
         contact,
@@ -448,9 +456,10 @@ pub fn close_watched(
         // A flat rest state (the cut pericardium) bends by the quadratic
         // stencil, which a collapsing triangle cannot make singular; a
         // curved one needs the hinges' rest angles.
-        match FlatBending::new(&ref_x, &l.tris, d) {
+        let hinges = bending::hinges(&ref_x, &l.tris, d);
+        match FlatBending::from_hinges(&hinges, &ref_x, d) {
             Some(flat) => terms.push(Box::new(flat)),
-            None => terms.push(Box::new(Bending::new(&ref_x, &l.tris, d))),
+            None => terms.push(Box::new(Bending::from_hinges(hinges))),
         }
     }
     let mut sys = System {

@@ -36,6 +36,7 @@
 //! 1.1 mm²) and is what keeps triangles narrower than the thickness from
 //! collapsing.
 
+use super::bending::Hinge;
 use super::element::V3;
 use super::sparse::{Dofs, Pattern};
 use super::system::Term;
@@ -99,7 +100,11 @@ impl FlatBending {
     /// than two consistently oriented triangles are left out, as in
     /// [`super::bending::hinges`]); `None` unless every hinge is flat there.
     pub fn new(x_ref: &[V3], tris: &[[u32; 3]], d: f64) -> Option<FlatBending> {
-        let hinges = super::bending::hinges(x_ref, tris, d);
+        FlatBending::from_hinges(&super::bending::hinges(x_ref, tris, d), x_ref, d)
+    }
+
+    /// From hinges already found on `x_ref` (bending stiffness `d`).
+    pub fn from_hinges(hinges: &[Hinge], x_ref: &[V3], d: f64) -> Option<FlatBending> {
         if hinges.iter().any(|h| h.rest.abs() > FLAT) {
             return None;
         }
@@ -136,12 +141,7 @@ impl Term for FlatBending {
 
     fn couplings(&self, out: &mut Vec<[u32; 2]>) {
         for s in &self.stencils {
-            let d = s.nodes;
-            for a in 0..4 {
-                for b in a + 1..4 {
-                    out.push([d[a], d[b]]);
-                }
-            }
+            super::bending::couple(s.nodes, out);
         }
     }
 
