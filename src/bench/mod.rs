@@ -8,6 +8,7 @@ pub mod close_grid;
 pub mod close_grid_plot;
 pub mod cpu_time;
 pub mod displacement_error;
+pub mod limit_load;
 pub mod marom;
 pub mod marom_geometry;
 pub mod phantom;

@@ -19,6 +19,7 @@ use super::close::{circumferential_fibres, ozaki_cylinder};
 use crate::mech::closure;
 use crate::mech::config;
 use crate::mech::element::V3;
+use crate::mech::model;
 use crate::rng::SplitMix64;
 use crate::{Error, Result};
 
@@ -190,6 +191,23 @@ fn perturb(c: &Case, x: &mut [V3], tris: &[[u32; 3]], boundary: &[u8]) {
     }
 }
 
+/// The case's leaflet, perturbed, its axis and its settings: what
+/// [`run_case`] closes, and what the pressure ladder
+/// ([`super::limit_load`]) closes again at lower pressures.
+pub(crate) fn prepare(
+    c: &Case,
+    time_limit_s: f64,
+) -> std::result::Result<(model::Leaflets, model::Axis, config::CloseConfig), String> {
+    let cfg = config::parse(&config_text(c, time_limit_s))
+        .map_err(|e| format!("settings refused: {e}"))?;
+    let (mut l, axis) = ozaki_cylinder(c.h_mm).map_err(|e| format!("mesh refused: {e}"))?;
+    perturb(c, &mut l.x, &l.tris, &l.boundary);
+    if c.model == "goh" {
+        l.fibers = circumferential_fibres(&l);
+    }
+    Ok((l, axis, cfg))
+}
+
 /// Run one case; `time_limit_s` is the solver's own limit, and a case still
 /// running at twice that plus 10 s counts as a hang.
 pub fn run_case(c: &Case, time_limit_s: f64) -> Run {
@@ -202,32 +220,10 @@ pub fn run_case(c: &Case, time_limit_s: f64) -> Run {
         residual_n,
         wall_s: t0.elapsed().as_secs_f64(),
     };
-    let cfg = match config::parse(&config_text(c, time_limit_s)) {
-        Ok(cfg) => cfg,
-        Err(e) => {
-            return finish(
-                Verdict::Failed(format!("settings refused: {e}")),
-                0,
-                0,
-                f64::NAN,
-            );
-        }
-    };
-    let (mut l, axis) = match ozaki_cylinder(c.h_mm) {
+    let (l, axis, cfg) = match prepare(c, time_limit_s) {
         Ok(v) => v,
-        Err(e) => {
-            return finish(
-                Verdict::Failed(format!("mesh refused: {e}")),
-                0,
-                0,
-                f64::NAN,
-            );
-        }
+        Err(e) => return finish(Verdict::Failed(e), 0, 0, f64::NAN),
     };
-    perturb(c, &mut l.x, &l.tris, &l.boundary);
-    if c.model == "goh" {
-        l.fibers = circumferential_fibres(&l);
-    }
     let nodes = l.x.len();
     let res = closure::close(&l, &cfg, Some(axis));
     let mut r = match res {

@@ -65,3 +65,43 @@ fn stress_close_reports_each_case_as_it_finishes_and_counts_them() {
         "{table}"
     );
 }
+
+/// `--explain` closes a failed case again at fractions of its pressure.
+/// Plausible case 25 of seed 1 (linear springs, E 0.32 MPa, t 0.29 mm,
+/// h 1.45 mm) fails at 100.5 mmHg: its path from rest softens towards a
+/// limit load below that, which the ladder must find between the highest
+/// pressure that converged and the case's own.
+#[test]
+fn explain_finds_the_limit_load_of_a_ballooning_case() {
+    let o = coapt(&[
+        "bench",
+        "stress-close",
+        "--plausible",
+        "--h-max",
+        "2",
+        "--only",
+        "25",
+        "--explain",
+        "--threads",
+        "1",
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let line = out
+        .lines()
+        .find(|l| l.trim_start().starts_with("case   25 at 100.5 mmHg"))
+        .unwrap_or_else(|| panic!("{out}"));
+    let number_after = |key: &str| -> f64 {
+        let rest = &line[line.find(key).unwrap_or_else(|| panic!("{line}")) + key.len()..];
+        rest.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let top = number_after("up to ");
+    let limit = number_after("limit load of about ");
+    assert!(line.contains("no equilibrium"), "{line}");
+    assert!(top > 60.0 && top < limit && limit < 100.5, "{line}");
+    assert!(
+        out.contains("1 failed case(s) lie beyond their limit load"),
+        "{out}"
+    );
+}
