@@ -17,7 +17,8 @@ use super::model::{
 };
 use super::reference_blend;
 use super::solve::{
-    self, NewtonOptions, Outcome, RelaxOptions, Stop, Stopped, merge, newton_with_continuation,
+    self, NewtonOptions, Outcome, RelaxOptions, Stop, Stopped, load_steps, merge,
+    newton_with_continuation,
 };
 use super::sparse::Dofs;
 use super::suture::{self, Sutured};
@@ -297,6 +298,125 @@ pub fn sew(
     .map(Some)
 }
 
+/// The closure's system on the sewn leaflets `l`: membrane, pressure and
+/// the terms the settings ask for, each in its starting state. The load
+/// steps build a fresh one, since terms keep state from their last update
+/// (a hinge's branch, a barrier's candidates) that a jump back to the start
+/// would leave behind.
+#[allow(clippy::too_many_arguments)]
+fn build_system(
+    cfg: &CloseConfig,
+    l: &Leaflets,
+    axis: &Axis,
+    n_leaflets: usize,
+    wall: Option<&Wall>,
+    ref_x: &[V3],
+    refs: Vec<RefTri>,
+    signs: &[f64],
+    watch: Option<&Watch>,
+) -> Result<(System, Option<Arc<WallGeometry>>), String> {
+    let fixed: Vec<[bool; 3]> = l.boundary.iter().map(|&b| [b == 1; 3]).collect();
+    let tri_pressure: Vec<f64> = l
+        .leaflet
+        .iter()
+        .map(|&k| signs[k as usize] * cfg.pressure)
+        .collect();
+    let mut terms: Vec<Box<dyn Term>> = Vec::new();
+    match cfg.contact {
+        ContactKind::Leaflets if n_leaflets < 2 => {
+            return Err(format!(
+                "contact = \"leaflets\" is contact between leaflets and there is {n_leaflets} leaflet; a lone leaflet of a symmetric valve closes against its neighbours' planes: contact = \"planes\""
+            ));
+        }
+        ContactKind::Leaflets => {
+            if cfg.solver != SolverKind::Newton {
+                return Err(
+                    "contact = \"leaflets\" needs solver = \"newton\" (its steps are filtered so that nothing crosses)"
+                        .into(),
+                );
+            }
+            let params = BarrierParams::from_pressure(cfg.contact_margin, cfg.pressure.max(1e-6));
+            let node_fixed: Vec<bool> = l.boundary.iter().map(|&b| b == 1).collect();
+            // κ puts two sheets pressed by the closing pressure at
+            // s = d̂/2; an offset of the thickness less d̂/2 puts their
+            // mid-surfaces a thickness apart there, where two touching
+            // leaflets are (leaflet_barrier.rs, "Offset").
+            let xi = (cfg.thickness - 0.5 * params.dhat).max(0.0);
+            terms.push(Box::new(LeafletBarrier::new(
+                &l.x,
+                &l.tris,
+                &l.leaflet,
+                &node_fixed,
+                params,
+                xi,
+                2.0 * MAX_STEP_MM,
+            )));
+        }
+        ContactKind::Planes => {
+            let planes = planes_for(l, axis, n_leaflets, 1.1 * cfg.pressure, cfg.plane_offset)?;
+            terms.push(Box::new(PlaneContact::new(planes, &l.x, &l.tris)));
+        }
+        _ => {}
+    }
+    let wall_geo = if cfg.wall_contact {
+        if cfg.solver != SolverKind::Newton {
+            return Err(
+                "wall_contact = true needs solver = \"newton\" (its steps are filtered so that no node passes the wall)"
+                    .into(),
+            );
+        }
+        let shape = match wall {
+            Some(w) => w.clone(),
+            None => sutured_wall(l, axis),
+        };
+        // One node–wall pair per node (nothing pushes back from the wall):
+        // twice the leaflet pairs' κ rests a pressed sheet at s = d̂/2
+        // (|P|: a library caller may reverse the load onto the wall).
+        let params =
+            BarrierParams::from_pressure(cfg.contact_margin, 2.0 * cfg.pressure.abs().max(1e-6));
+        let free: Vec<bool> = l.boundary.iter().map(|&b| b != 1).collect();
+        let geo = Arc::new(WallGeometry::new(
+            shape,
+            &l.x,
+            &l.tris,
+            &free,
+            params,
+            0.5 * cfg.thickness,
+        ));
+        terms.push(Box::new(WallBarrier::new(geo.clone())));
+        Some(geo)
+    } else {
+        None
+    };
+    if cfg.bending {
+        let d = bending::stiffness(cfg.plane_strain_modulus(), cfg.thickness);
+        // A flat rest state (the cut pericardium) bends by the quadratic
+        // stencil, which a collapsing triangle cannot make singular; a
+        // curved one needs the hinges' rest angles.
+        let hinges = bending::hinges(ref_x, &l.tris, d);
+        match FlatBending::from_hinges(&hinges, ref_x, d) {
+            Some(flat) => terms.push(Box::new(flat)),
+            None => terms.push(Box::new(Bending::from_hinges(hinges))),
+        }
+    }
+    let sys = System {
+        tris: l.tris.clone(),
+        refs,
+        materials: vec![cfg.membrane()],
+        tri_material: vec![0; l.tris.len()],
+        dofs: Dofs::new(&fixed),
+        fixed,
+        tri_pressure,
+        pressure_scale: 1.0,
+        pressure_mode: PressureMode::Follower,
+        terms,
+        project: false,
+        pressure_tangent: true,
+        watch: watching(watch, Solve::Close),
+    };
+    Ok((sys, wall_geo))
+}
+
 /// [`close_on`], telling `watch` how each solve goes.
 pub fn close_watched(
     l: &Leaflets,
@@ -377,106 +497,18 @@ pub fn close_watched(
         }
     };
     let refs = reference_triangles(cfg.reference, cfg.thickness, l, &placed.x, &ref_x)?;
-    let fixed: Vec<[bool; 3]> = l.boundary.iter().map(|&b| [b == 1; 3]).collect();
     let signs = pressure_signs(l, &axis, n_leaflets);
-    let tri_pressure: Vec<f64> = l
-        .leaflet
-        .iter()
-        .map(|&k| signs[k as usize] * cfg.pressure)
-        .collect();
-    let mut terms: Vec<Box<dyn Term>> = Vec::new();
-    match cfg.contact {
-        ContactKind::Leaflets if n_leaflets < 2 => {
-            return Err(format!(
-                "contact = \"leaflets\" is contact between leaflets and there is {n_leaflets} leaflet; a lone leaflet of a symmetric valve closes against its neighbours' planes: contact = \"planes\""
-            ));
-        }
-        ContactKind::Leaflets => {
-            if cfg.solver != SolverKind::Newton {
-                return Err(
-                    "contact = \"leaflets\" needs solver = \"newton\" (its steps are filtered so that nothing crosses)"
-                        .into(),
-                );
-            }
-            let params = BarrierParams::from_pressure(cfg.contact_margin, cfg.pressure.max(1e-6));
-            let node_fixed: Vec<bool> = l.boundary.iter().map(|&b| b == 1).collect();
-            // κ puts two sheets pressed by the closing pressure at
-            // s = d̂/2; an offset of the thickness less d̂/2 puts their
-            // mid-surfaces a thickness apart there, where two touching
-            // leaflets are (leaflet_barrier.rs, "Offset").
-            let xi = (cfg.thickness - 0.5 * params.dhat).max(0.0);
-            terms.push(Box::new(LeafletBarrier::new(
-                &l.x,
-                &l.tris,
-                &l.leaflet,
-                &node_fixed,
-                params,
-                xi,
-                2.0 * MAX_STEP_MM,
-            )));
-        }
-        ContactKind::Planes => {
-            let planes = planes_for(l, &axis, n_leaflets, 1.1 * cfg.pressure, cfg.plane_offset)?;
-            terms.push(Box::new(PlaneContact::new(planes, &l.x, &l.tris)));
-        }
-        _ => {}
-    }
-    let wall_geo = if cfg.wall_contact {
-        if cfg.solver != SolverKind::Newton {
-            return Err(
-                "wall_contact = true needs solver = \"newton\" (its steps are filtered so that no node passes the wall)"
-                    .into(),
-            );
-        }
-        let shape = match wall {
-            Some(w) => w.clone(),
-            None => sutured_wall(l, &axis),
-        };
-        // One node–wall pair per node (nothing pushes back from the wall):
-        // twice the leaflet pairs' κ rests a pressed sheet at s = d̂/2
-        // (|P|: a library caller may reverse the load onto the wall).
-        let params =
-            BarrierParams::from_pressure(cfg.contact_margin, 2.0 * cfg.pressure.abs().max(1e-6));
-        let free: Vec<bool> = l.boundary.iter().map(|&b| b != 1).collect();
-        let geo = Arc::new(WallGeometry::new(
-            shape,
-            &l.x,
-            &l.tris,
-            &free,
-            params,
-            0.5 * cfg.thickness,
-        ));
-        terms.push(Box::new(WallBarrier::new(geo.clone())));
-        Some(geo)
-    } else {
-        None
-    };
-    if cfg.bending {
-        let d = bending::stiffness(cfg.plane_strain_modulus(), cfg.thickness);
-        // A flat rest state (the cut pericardium) bends by the quadratic
-        // stencil, which a collapsing triangle cannot make singular; a
-        // curved one needs the hinges' rest angles.
-        let hinges = bending::hinges(&ref_x, &l.tris, d);
-        match FlatBending::from_hinges(&hinges, &ref_x, d) {
-            Some(flat) => terms.push(Box::new(flat)),
-            None => terms.push(Box::new(Bending::from_hinges(hinges))),
-        }
-    }
-    let mut sys = System {
-        tris: l.tris.clone(),
-        refs,
-        materials: vec![cfg.membrane()],
-        tri_material: vec![0; l.tris.len()],
-        dofs: Dofs::new(&fixed),
-        fixed,
-        tri_pressure,
-        pressure_scale: 1.0,
-        pressure_mode: PressureMode::Follower,
-        terms,
-        project: false,
-        pressure_tangent: true,
-        watch: watching(watch, Solve::Close),
-    };
+    let (mut sys, mut wall_geo) = build_system(
+        cfg,
+        l,
+        &axis,
+        n_leaflets,
+        wall,
+        &ref_x,
+        refs.clone(),
+        &signs,
+        watch,
+    )?;
     let setup_s = t0.elapsed().as_secs_f64() - (sew_s - sewn_before);
     let t1 = Instant::now();
     let mut x = l.x.clone();
@@ -532,7 +564,58 @@ pub fn close_watched(
             o.reason = notes.join("; ");
             o
         }
-        SolverKind::Newton => newton_with_continuation(&mut sys, &mut x, &stop, &nopt, unprojected),
+        SolverKind::Newton => {
+            let start = x.clone();
+            let o = newton_with_continuation(&mut sys, &mut x, &stop, &nopt, unprojected);
+            if o.converged || o.stopped_by == Stopped::TimeLimit {
+                o
+            } else {
+                // The full load at once failed: raise it in steps, each from
+                // the last equilibrium (`solve::load_steps`), with a budget of
+                // its own and what is left of the time.
+                let left = Stop {
+                    max_seconds: (stop.max_seconds - t1.elapsed().as_secs_f64()).max(0.0),
+                    ..stop.clone()
+                };
+                let mut geos = Vec::new();
+                let stepped = {
+                    let mut build = || {
+                        let (s, g) = build_system(
+                            cfg,
+                            l,
+                            &axis,
+                            n_leaflets,
+                            wall,
+                            &ref_x,
+                            refs.clone(),
+                            &signs,
+                            watch,
+                        )?;
+                        geos.push(g);
+                        Ok(s)
+                    };
+                    load_steps(&mut build, &start, &left, &nopt, unprojected)?
+                };
+                match stepped.done {
+                    Some((xs, s)) => {
+                        let first = o.reason.clone();
+                        let mut all = merge(Some(o), stepped.outcome);
+                        all.reason = format!("{}; the full load at once: {first}", stepped.note);
+                        x = xs;
+                        sys = s;
+                        wall_geo = geos.pop().flatten();
+                        all
+                    }
+                    None => {
+                        let mut o = o;
+                        o.reason = format!("{}; then {}", o.reason, stepped.note);
+                        o.iterations += stepped.outcome.iterations;
+                        o.seconds += stepped.outcome.seconds;
+                        o
+                    }
+                }
+            }
+        }
         SolverKind::Relax => {
             // An explicit step costs about a hundredth of a Newton step, so
             // `max_iterations` counts hundreds of them here.

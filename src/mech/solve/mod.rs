@@ -4,11 +4,13 @@
 
 mod combined;
 mod continuation;
+mod load_steps;
 mod newton;
 mod relax;
 
 pub use combined::combined;
 pub use continuation::{merge, newton_with_continuation, set_projected};
+pub use load_steps::{Stepped, load_steps};
 pub use newton::{
     Creep, MAX_STEP_GROWTH, NONMONOTONE, NewtonOptions, Plateau, newton, newton_reusing,
 };
