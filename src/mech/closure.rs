@@ -58,7 +58,7 @@ pub struct Closed {
     /// Triangle pairs (i < j) of different leaflets that cross in the final
     /// state, and the pairs that only meet where neighbours are sewn to the
     /// same commissure post (both triangles with a sutured node): the rule
-    /// of leaflets.json ([`crate::leaflet::crossings`]).
+    /// of leaflets.json ([`crate::geom::crossings`]).
     pub crossings: Vec<(u32, u32)>,
     pub sewn_contacts: Vec<(u32, u32)>,
 }
@@ -498,17 +498,20 @@ pub fn close_watched(
     };
     let refs = reference_triangles(cfg.reference, cfg.thickness, l, &placed.x, &ref_x)?;
     let signs = pressure_signs(l, &axis, n_leaflets);
-    let (mut sys, mut wall_geo) = build_system(
-        cfg,
-        l,
-        &axis,
-        n_leaflets,
-        wall,
-        &ref_x,
-        refs.clone(),
-        &signs,
-        watch,
-    )?;
+    let build = || {
+        build_system(
+            cfg,
+            l,
+            &axis,
+            n_leaflets,
+            wall,
+            &ref_x,
+            refs.clone(),
+            &signs,
+            watch,
+        )
+    };
+    let (mut sys, mut wall_geo) = build()?;
     let setup_s = t0.elapsed().as_secs_f64() - (sew_s - sewn_before);
     let t1 = Instant::now();
     let mut x = l.x.clone();
@@ -579,22 +582,12 @@ pub fn close_watched(
                 };
                 let mut geos = Vec::new();
                 let stepped = {
-                    let mut build = || {
-                        let (s, g) = build_system(
-                            cfg,
-                            l,
-                            &axis,
-                            n_leaflets,
-                            wall,
-                            &ref_x,
-                            refs.clone(),
-                            &signs,
-                            watch,
-                        )?;
+                    let mut fresh = || {
+                        let (s, g) = build()?;
                         geos.push(g);
                         Ok(s)
                     };
-                    load_steps(&mut build, &start, &left, &nopt, unprojected)?
+                    load_steps(&mut fresh, &start, &left, &nopt, unprojected)?
                 };
                 match stepped.done {
                     Some((xs, s)) => {

@@ -7,8 +7,10 @@
 //! with bending, case 49) of their pressure along a path that is still
 //! stiffening: an equilibrium exists, and the full load applied at once
 //! starts the solver too far from it. Natural-parameter continuation in the
-//! pressure starts each step next to the last equilibrium. It runs only
-//! after a failure, so a closure that converges is unchanged.
+//! pressure starts each step next to the last equilibrium: case 42 then
+//! converges; case 49 reaches 3/4 of its load and fails from there to
+//! 0.81, where its path from rest ends too. It runs only after a failure,
+//! so a closure that converges is unchanged, bit for bit.
 
 use std::time::Instant;
 
