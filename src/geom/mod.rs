@@ -8,6 +8,7 @@ pub mod attributes;
 pub mod basis;
 pub mod bvh;
 pub mod closest_point;
+pub mod crossings;
 pub mod frame;
 pub mod free_edge_reach;
 pub mod landmarks;

@@ -37,7 +37,7 @@ pub struct Axis {
 /// [`super::closure::Closed::sewn_contacts`] of the leaflets at `x`.
 pub fn leaflet_crossings(l: &Leaflets, x: &[V3]) -> (Vec<(u32, u32)>, Vec<(u32, u32)>) {
     let sutured: Vec<bool> = l.boundary.iter().map(|&b| b == 1).collect();
-    crate::leaflet::crossings::leaflet_pairs_at(x, &l.tris, &l.leaflet, &sutured)
+    crate::geom::crossings::leaflet_pairs_at(x, &l.tris, &l.leaflet, &sutured)
 }
 
 /// Lug corners: sutured nodes that share a triangle edge with a free-edge node.

@@ -12,9 +12,9 @@ use super::suture;
 use super::wall::Wall;
 use crate::geom::bvh::Bvh;
 use crate::geom::closest_point::closest_point;
+use crate::geom::crossings;
 use crate::geom::{DataArray, DataValues, Frame, Point3, TriMesh};
 use crate::io::{Transaction, atomic, vtp};
-use crate::leaflet::crossings;
 use crate::pipeline::{ArtifactKind, Params, Port, Progress, StageIo, StageSpec};
 use crate::{Error, Result};
 

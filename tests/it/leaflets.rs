@@ -104,7 +104,7 @@ fn phantom_leaflets_stay_in_their_wedges_and_inside_the_wall() {
 /// must say the same.
 #[test]
 fn sample_leaflets_cross_neither_each_other_nor_the_wall() {
-    use coapt::leaflet::crossings::{leaflet_pairs, wall_pairs};
+    use coapt::geom::crossings::{leaflet_pairs, wall_pairs};
     for template in [
         "pipelines/templates/ozaki_default.toml",
         "pipelines/templates/ozaki_sizes.toml",

@@ -8,6 +8,7 @@ mod close;
 mod cohort;
 mod common;
 mod ct_formats_chain;
+mod dependencies;
 mod design;
 mod dicom;
 mod end_to_end;

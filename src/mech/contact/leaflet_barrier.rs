@@ -66,7 +66,7 @@
 //! can keep them apart, and every step was refused there. That, not a
 //! missing edge pair, was what stalled the sample (GOH, h 0.5 mm, sutured
 //! first) at 0.36 N: with the exception alone it converges as well. It is
-//! the rule of leaflets.json (`leaflet::crossings`), by which `closure.json`
+//! the rule of leaflets.json (`geom::crossings`), by which `closure.json`
 //! judges the final state too: those pairs are counted as `sewn_contacts`,
 //! every other pair as a crossing (on the sample and the real CT the sewn
 //! ones meet in a point at the post, the sutured nodes of both leaflets

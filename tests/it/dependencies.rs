@@ -1,0 +1,311 @@
+//! Which module may import which (the architecture issue), read from the
+//! production source: test code (`#[cfg(test)]` items and the files they
+//! declare) may reach anywhere.
+//!
+//! - The libraries (`units`, `rng`, `geom`, `io`, `mech` but its
+//!   `stage.rs`) import only libraries below them, never a stage, the
+//!   pipeline, a benchmark or the CLI.
+//! - Nothing but the CLI (and `main.rs`) imports `bench`; nothing imports
+//!   `cli`.
+//! - Between a stage and another stage, or the pipeline and a stage, only
+//!   the imports in [`DEBT`] exist: the circles the architecture issue
+//!   still has to break. A new one fails this test, and so does one that
+//!   is gone and still listed, so the list shrinks as they are broken.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// What each library may import.
+const LIBRARIES: [(&str, &[&str]); 5] = [
+    ("units", &[]),
+    ("rng", &[]),
+    ("geom", &["units"]),
+    ("io", &["geom", "units"]),
+    ("mech", &["geom", "io", "units"]),
+];
+
+/// The modules every layer may use: the crate root's error type.
+const ROOT: [&str; 2] = ["error", "lib"];
+
+/// Imports between stages and from the pipeline into stages that exist
+/// today (module → module). The pipeline registers every stage; the valve
+/// stage reads the leaflet template and the leaflet stage the valve's wall;
+/// design sweeps leaflets; the report reads the design document and the
+/// leaflet template.
+const DEBT: [(&str, &str); 14] = [
+    ("design", "leaflet"),
+    ("leaflet", "valve"),
+    ("pipeline", "design"),
+    ("pipeline", "landmarks"),
+    ("pipeline", "leaflet"),
+    ("pipeline", "mech/stage"),
+    ("pipeline", "phantom"),
+    ("pipeline", "report"),
+    ("pipeline", "segment"),
+    ("pipeline", "surface"),
+    ("pipeline", "valve"),
+    ("report", "design"),
+    ("report", "leaflet"),
+    ("valve", "leaflet"),
+];
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let mut entries: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            rust_files(&p, out);
+        } else if p.extension().is_some_and(|e| e == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+/// The module path of a file under `src/` ("a/b.rs" → [a, b],
+/// "a/mod.rs" → [a], "lib.rs" → []).
+fn module_path(rel: &Path) -> Vec<String> {
+    let mut parts: Vec<String> = rel
+        .iter()
+        .map(|c| c.to_string_lossy().trim_end_matches(".rs").to_string())
+        .collect();
+    if matches!(
+        parts.last().map(String::as_str),
+        Some("mod" | "lib" | "main")
+    ) {
+        parts.pop();
+    }
+    parts
+}
+
+/// The production lines of `text`, and the modules it declares for tests
+/// only (`#[cfg(test)] mod name;`; "path:f" for one given a `#[path]`).
+fn production(text: &str) -> (String, Vec<String>) {
+    let (mut out, mut test_mods) = (String::new(), Vec::new());
+    let mut lines = text.lines();
+    while let Some(l) = lines.next() {
+        if l.trim() != "#[cfg(test)]" {
+            out.push_str(l);
+            out.push('\n');
+            continue;
+        }
+        // Skip the item the attribute gates: further attributes, then
+        // lines until its braces balance or it ends with `;`.
+        let (mut depth, mut opened, mut file) = (0i64, false, None);
+        for n in lines.by_ref() {
+            let t = n.trim();
+            if !opened && t.starts_with("#[") {
+                // `#[path = "x_tests.rs"]`: the module's file, beside this one.
+                file = t
+                    .strip_prefix("#[path = \"")
+                    .and_then(|r| r.split('"').next())
+                    .map(|f| format!("path:{f}"));
+                continue;
+            }
+            if !opened && t.ends_with(';') && !t.contains('{') {
+                let words: Vec<&str> = t.trim_end_matches(';').split_whitespace().collect();
+                if let Some(i) = words.iter().position(|w| *w == "mod") {
+                    if let Some(name) = file.take().or(words.get(i + 1).map(|w| w.to_string())) {
+                        test_mods.push(name);
+                    }
+                }
+                break;
+            }
+            depth += n.matches('{').count() as i64 - n.matches('}').count() as i64;
+            opened |= n.contains('{');
+            if opened && depth <= 0 {
+                break;
+            }
+        }
+    }
+    (out, test_mods)
+}
+
+/// The top-level module a path starts with, or "mech/stage" for the close
+/// stage inside the mechanics library.
+fn stage_or_module(path: &str) -> String {
+    let top: String = path
+        .chars()
+        .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+        .collect();
+    if top == "mech" && path[top.len()..].starts_with("::stage") {
+        "mech/stage".into()
+    } else {
+        top
+    }
+}
+
+/// Top-level modules `code` (in the module at `path`) refers to through
+/// `crate::x` or `super::…::x` that climbs to the crate root.
+fn references(code: &str, path: &[String]) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    let ident = |s: &str| -> String {
+        s.chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+            .collect()
+    };
+    for (i, _) in code.match_indices("crate::") {
+        if i > 0 && code[..i].ends_with(|c: char| c.is_ascii_alphanumeric() || c == '_' || c == '$')
+        {
+            continue;
+        }
+        let rest = &code[i + "crate::".len()..];
+        if let Some(group) = rest.strip_prefix('{') {
+            for item in group.split('}').next().unwrap_or("").split(',') {
+                out.insert(ident(item.trim()));
+            }
+        } else {
+            out.insert(stage_or_module(rest));
+        }
+    }
+    for (i, _) in code.match_indices("super::") {
+        if i > 0 && code[..i].ends_with("super::") {
+            continue;
+        }
+        let mut rest = &code[i..];
+        let mut up = 0;
+        while let Some(r) = rest.strip_prefix("super::") {
+            rest = r;
+            up += 1;
+        }
+        if up >= path.len() {
+            out.insert(stage_or_module(rest));
+        }
+    }
+    out.retain(|m| !m.is_empty() && m.chars().next().is_some_and(|c| c.is_ascii_lowercase()));
+    out
+}
+
+/// module (with "x/stage" for a library's stage file) → modules it imports.
+fn graph() -> BTreeMap<String, BTreeSet<String>> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let mut test_only: BTreeSet<PathBuf> = BTreeSet::new();
+    let mut code = BTreeMap::new();
+    for f in &files {
+        let rel = f.strip_prefix(&src).unwrap().to_path_buf();
+        let (prod, mods) = production(&std::fs::read_to_string(f).unwrap());
+        let dir = match rel.file_name().and_then(|n| n.to_str()) {
+            Some("mod.rs" | "lib.rs" | "main.rs") => rel.parent().unwrap().to_path_buf(),
+            _ => rel.with_extension(""),
+        };
+        for m in mods {
+            if let Some(f) = m.strip_prefix("path:") {
+                test_only.insert(rel.parent().unwrap().join(f));
+            } else {
+                test_only.insert(dir.join(format!("{m}.rs")));
+                test_only.insert(dir.join(&m).join("mod.rs"));
+            }
+        }
+        code.insert(rel, prod);
+    }
+    let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for (rel, prod) in &code {
+        if test_only
+            .iter()
+            .any(|t| rel.starts_with(t.with_extension("")) || rel == t)
+        {
+            continue;
+        }
+        let path = module_path(rel);
+        let Some(top) = path.first() else { continue };
+        let name = if path.len() == 2 && path[1] == "stage" && top == "mech" {
+            "mech/stage".to_string()
+        } else {
+            top.clone()
+        };
+        let refs = references(prod, &path);
+        let e = g.entry(name).or_default();
+        e.extend(refs.into_iter().filter(|r| r != top));
+    }
+    g
+}
+
+#[test]
+fn modules_import_only_downwards_and_the_known_circles() {
+    let g = graph();
+    let show = || {
+        g.iter()
+            .map(|(m, to)| {
+                format!(
+                    "{m} -> {}",
+                    to.iter().cloned().collect::<Vec<_>>().join(", ")
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    let libraries: BTreeMap<&str, &[&str]> = LIBRARIES.into_iter().collect();
+    // The graph is read at all: every library and the stages are there.
+    for m in [
+        "geom",
+        "io",
+        "mech",
+        "mech/stage",
+        "pipeline",
+        "segment",
+        "report",
+    ] {
+        assert!(g.contains_key(m), "{m} missing from\n{}", show());
+    }
+    let mut wrong = Vec::new();
+    let mut debt_seen = BTreeSet::new();
+    for (m, to) in &g {
+        for t in to {
+            if ROOT.contains(&t.as_str()) {
+                continue;
+            }
+            if t == "cli" {
+                wrong.push(format!("{m} -> cli"));
+            } else if t == "bench" && m != "cli" {
+                wrong.push(format!("{m} -> bench"));
+            } else if let Some(allowed) = libraries.get(m.as_str()) {
+                if !allowed.contains(&t.as_str()) {
+                    wrong.push(format!("library {m} -> {t}"));
+                }
+            } else if libraries.contains_key(t.as_str())
+                || t == "pipeline"
+                || m == "cli"
+                || m == "bench"
+            {
+                // Anything above the libraries may use them and the
+                // pipeline; the CLI and the benchmarks sit on top.
+            } else if DEBT.contains(&(m.as_str(), t.as_str())) {
+                debt_seen.insert((m.clone(), t.clone()));
+            } else {
+                wrong.push(format!("{m} -> {t}"));
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "wrong-way imports: {wrong:?}\n{}", show());
+    let gone: Vec<_> = DEBT
+        .iter()
+        .filter(|(m, t)| !debt_seen.contains(&(m.to_string(), t.to_string())))
+        .collect();
+    assert!(
+        gone.is_empty(),
+        "listed in DEBT but no longer imported (strike them): {gone:?}\n{}",
+        show()
+    );
+}
+
+#[test]
+fn test_code_is_left_out_and_super_paths_climb_to_the_root() {
+    let (prod, mods) = production(
+        "use crate::geom::X;\n#[cfg(test)]\nmod tests {\n    use crate::bench::close;\n    fn f() { if true { } }\n}\n#[cfg(test)]\nmod fixtures;\n#[cfg(test)]\n#[path = \"w_tests.rs\"]\nmod tests;\n#[cfg(test)]\npub(crate) fn grid(\n    r: &mut crate::rng::R,\n) -> u32 {\n    1\n}\nfn g() {}\n",
+    );
+    assert_eq!(prod, "use crate::geom::X;\nfn g() {}\n");
+    assert_eq!(
+        mods,
+        vec!["fixtures".to_string(), "path:w_tests.rs".to_string()]
+    );
+    let path = vec!["leaflet".to_string(), "crossings".to_string()];
+    let refs = references(
+        "use super::super::geom::bvh;\nuse super::place;\nuse crate::{io, Error};",
+        &path,
+    );
+    assert_eq!(refs, ["geom", "io"].map(String::from).into_iter().collect());
+}
