@@ -213,7 +213,7 @@ fn command() -> Command {
                     .arg(Arg::new("csv").long("csv").value_name("FILE").value_parser(clap::value_parser!(PathBuf)).help("one row per case"))
                     .arg(Arg::new("only").long("only").value_name("I,J,…").value_delimiter(',').value_parser(bench::bounded::count(0, 1_000_000)).help("replay these cases of the seed's sequence (0-based indices, as in the CSV) instead of 0..N"))
                     .arg(Arg::new("plausible").long("plausible").action(clap::ArgAction::SetTrue).help("draw only from the plausible range: E 0.3–10 MPa, 40–120 mmHg, 0.2–0.8 mm, jittered but unsqueezed meshes (use with --h-max 2)"))
-                    .arg(Arg::new("explain").long("explain").action(clap::ArgAction::SetTrue).help("close each failed case again at fractions of its pressure (6–11 closures each) and say whether it lies beyond its limit load or the solver missed an equilibrium")),
+                    .arg(Arg::new("explain").long("explain").action(clap::ArgAction::SetTrue).help("close each failed case again at fractions of its pressure (3–11 closures each) and say whether it lies beyond its limit load or the solver missed an equilibrium")),
             )
             .subcommand(
                 Command::new("segment")

@@ -43,9 +43,10 @@ pub struct Stepped {
 
 /// Raise the load from 0 to 1 in steps from `start`, each solved by
 /// [`newton_with_continuation`] on a fresh system from `build` (terms keep
-/// state from their last update, such as a hinge's branch, that a step
-/// begun again from the last equilibrium must not inherit). `stop` is the
-/// whole fallback's budget of iterations and seconds.
+/// state from their last update, such as a hinge's branch or a barrier's
+/// candidate lists, which a step begun again after a failed one must not
+/// inherit). `stop` is the whole fallback's budget of iterations and
+/// seconds.
 pub fn load_steps(
     build: &mut dyn FnMut() -> Result<System, String>,
     start: &[V3],
