@@ -11,7 +11,7 @@ use super::ozaki_rule::OzakiRule;
 use super::recommend::{Measured, Outcome, Recommendation};
 use crate::pipeline::params::Value;
 
-pub const SCHEMA: &str = "coapt-design/1";
+pub use crate::io::design_json::SCHEMA;
 
 fn opt(x: Option<f64>) -> Json {
     x.filter(|v| v.is_finite()).map_or(Json::Null, |v| json!(v))

@@ -21,10 +21,7 @@ use crate::{Error, Result};
 /// comes from the patient's run.
 pub const STAGES: [&str; 3] = ["leaflets", "close", "report"];
 
-/// Where one size's run lives, relative to the design directory.
-pub fn size_dir(size: u32) -> String {
-    format!("size-{size}")
-}
+pub use crate::io::design_json::size_dir;
 
 /// Where the closure of Ozaki's own rule lives, relative to the design
 /// directory.

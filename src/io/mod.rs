@@ -4,6 +4,7 @@
 //! errors that name the file and the problem; writers are atomic.
 
 pub mod atomic;
+pub mod design_json;
 pub mod dicom;
 pub mod leaflet_mesh;
 pub mod markups;

@@ -140,7 +140,7 @@ fn row(run: &Path, case: &str) -> Result<Vec<String>> {
         {
             from = run
                 .join("design")
-                .join(crate::design::sweep::size_dir(size as u32));
+                .join(crate::io::design_json::size_dir(size as u32));
         }
     }
     if let Some(l) = read(&from.join("leaflets.json"))? {

@@ -210,12 +210,12 @@ const MARGIN_PER_THICKNESS: f64 = 1.8;
 /// A `coapt design` sweep; only its own schema is taken.
 fn read_design(path: &Path) -> Result<Json> {
     let d = read_json(path)?;
-    if d["schema"] != json!(crate::design::document::SCHEMA) || !d["sizes"].is_array() {
+    if d["schema"] != json!(crate::io::design_json::SCHEMA) || !d["sizes"].is_array() {
         return Err(Error::bad_input(
             path,
             format!(
                 "not a design sweep (expected schema \"{}\" with a sizes list, as `coapt design` writes)",
-                crate::design::document::SCHEMA
+                crate::io::design_json::SCHEMA
             ),
         ));
     }
