@@ -264,7 +264,7 @@ impl Ladder {
             .iter()
             .filter(|r| r.converged)
             .map(|r| r.pressure_mmhg)
-            .fold(None, |m, p| Some(m.map_or(p, |m: f64| m.max(p))))
+            .reduce(f64::max)
     }
 
     /// One line for the table.

@@ -36,8 +36,7 @@ pub struct Stepped {
     pub done: Option<(Vec<V3>, System)>,
     /// Every step's solve, merged in order.
     pub outcome: Outcome,
-    /// The highest fraction of the load at which a step converged.
-    pub reached: f64,
+    /// The steps tried, and the highest fraction of the load reached.
     pub note: String,
 }
 
@@ -110,7 +109,6 @@ pub fn load_steps(
     Ok(Stepped {
         done,
         outcome,
-        reached,
         note,
     })
 }
