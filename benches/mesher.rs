@@ -16,7 +16,7 @@ use std::collections::HashSet;
 use std::time::Instant;
 
 use coapt::leaflet::aft::{self, shape};
-use coapt::leaflet::template::Template;
+use coapt::template::Template;
 use serde_json::json;
 use spade::{
     AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation,
@@ -88,7 +88,7 @@ fn spade_mesh(bpts: &[[f64; 2]], h: f64) -> Vec<[[f64; 2]; 3]> {
 }
 
 fn all_templates() -> Vec<Template> {
-    coapt::leaflet::template::reference_templates()
+    coapt::template::reference_templates()
 }
 
 fn main() {

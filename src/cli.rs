@@ -11,7 +11,7 @@ use crate::pipeline::{
     self, ArtifactKind, LogMode, Param, ParamKind, Params, StageIo, StageSpec, params, provenance,
     runner,
 };
-use crate::{Error, Result, bench, design, inspect};
+use crate::{Error, Result, bench, design, inspect, stages};
 
 /// Run the CLI with the process's arguments; returns the exit code.
 pub fn main() -> i32 {
@@ -128,7 +128,7 @@ fn command() -> Command {
             )
             .arg(Arg::new("force").long("force").action(ArgAction::SetTrue).help("re-run every stage even if unchanged")),
     );
-    for spec in pipeline::registry() {
+    for spec in stages::registry() {
         cmd = cmd.subcommand(stage_command(spec));
     }
     cmd.subcommand(
@@ -396,7 +396,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 until: sub.get_one::<String>("until").cloned(),
                 force: sub.get_flag("force"),
             };
-            let report = runner::run(&opts, pipeline::registry(), &inv)?;
+            let report = runner::run(&opts, stages::registry(), &inv)?;
             if !log.quiet && !log.json && !report.stages.is_empty() {
                 eprintln!("run directory: {}", report.run_dir.display());
             }
@@ -449,7 +449,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 sizes,
                 force: sub.get_flag("force"),
             };
-            let summary = design::run(&opts, pipeline::registry(), &inv)?;
+            let summary = design::run(&opts, stages::registry(), &inv)?;
             print!("{}", design::table(&summary));
             if !log.quiet && !log.json {
                 eprintln!(
@@ -619,7 +619,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
             )),
         },
         stage => {
-            let spec = pipeline::registry()
+            let spec = stages::registry()
                 .iter()
                 .find(|s| s.name == stage)
                 .expect("clap only accepts registered stages");

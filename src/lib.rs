@@ -22,7 +22,9 @@ pub mod pipeline;
 pub mod report;
 pub mod rng;
 pub mod segment;
+pub mod stages;
 pub mod surface;
+pub mod template;
 pub mod units;
 pub mod valve;
 

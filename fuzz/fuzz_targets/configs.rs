@@ -10,11 +10,11 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let _ = coapt::mech::config::parse(text);
-    let _ = coapt::leaflet::template::parse_templates(text, None);
-    let _ = coapt::leaflet::template::parse_templates(text, Some([22.4, 23.8, 23.1]));
+    let _ = coapt::template::parse_templates(text, None);
+    let _ = coapt::template::parse_templates(text, Some([22.4, 23.8, 23.1]));
     let _ = coapt::pipeline::config::RunConfig::parse(
         Path::new("/fuzz/pipelines/run.toml"),
         text,
-        coapt::pipeline::registry(),
+        coapt::stages::registry(),
     );
 });

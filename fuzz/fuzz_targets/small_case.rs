@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use coapt::pipeline::execute::Invocation;
-use coapt::pipeline::{self, Params, StageIo, params, runner};
+use coapt::pipeline::{Params, StageIo, params, runner};
 
 /// Run one stage on these inputs with these parameters (as the user writes
 /// them), every output under `out`.
@@ -17,7 +17,7 @@ pub fn stage(
     given: &[(&str, &str)],
     out: &Path,
 ) -> coapt::Result<()> {
-    let spec = *pipeline::registry()
+    let spec = *coapt::stages::registry()
         .iter()
         .find(|s| s.name == name)
         .expect("a registered stage");

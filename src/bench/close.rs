@@ -18,11 +18,11 @@ use clap::{Arg, ArgMatches, Command};
 use crate::geom::{Point3, Vector3};
 use crate::leaflet::aft;
 use crate::leaflet::place::{self, Path3};
-use crate::leaflet::template::{OzakiTemplate, Template};
 use crate::mech::closure::{self, Closed};
 use crate::mech::config;
 use crate::mech::element::V3;
 use crate::mech::model::{self, Axis, Leaflets};
+use crate::template::{OzakiTemplate, Template};
 use crate::valve::suture::PathSpec;
 use crate::{Error, Result};
 

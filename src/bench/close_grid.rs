@@ -24,11 +24,12 @@ use crate::mech::closure::{self, Closed};
 use crate::mech::config;
 use crate::mech::element::V3;
 use crate::mech::model::{Axis, Leaflets};
+use crate::pipeline::LogMode;
 use crate::pipeline::execute::Invocation;
 use crate::pipeline::runner::{self, RunOptions};
-use crate::pipeline::{LogMode, registry};
 use crate::report::ClosedValve;
 use crate::report::{coaptation, metrics};
+use crate::stages::registry;
 use crate::{Error, Result};
 
 /// The grid.

@@ -43,9 +43,9 @@ use std::f64::consts::PI;
 use crate::geom::{Point3, ValveFrame, Vector3};
 use crate::leaflet::aft;
 use crate::leaflet::place::{self, Path3};
-use crate::leaflet::template::{OzakiTemplate, Template};
 use crate::mech::element::V3;
 use crate::mech::model::{Axis, Leaflets};
+use crate::template::{OzakiTemplate, Template};
 use crate::valve::suture::PathSpec;
 
 /// Annulus diameter d_AA (mm), the seed's.

@@ -19,7 +19,8 @@ use serde_json::{Value as Json, json};
 
 use crate::pipeline::config::RunConfig;
 use crate::pipeline::manifest::{Manifest, StageRecord, Status};
-use crate::pipeline::{StageSpec, registry, runner};
+use crate::pipeline::{StageSpec, runner};
+use crate::stages::registry;
 use crate::units::{self, Kind};
 use crate::{Error, Result};
 

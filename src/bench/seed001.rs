@@ -14,11 +14,12 @@ use std::time::Instant;
 use clap::{Arg, ArgMatches, Command};
 
 use super::close::{plane_distances, zones};
-use crate::leaflet::{aft, place, seed001::Seed001};
+use crate::leaflet::{aft, place};
 use crate::mech::closure::{self};
 use crate::mech::config;
 use crate::mech::element::V3;
 use crate::mech::model::{Axis, Leaflets};
+use crate::template::seed001::Seed001;
 use crate::{Error, Result};
 
 pub const R: f64 = 15.0;

@@ -83,7 +83,7 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
     };
     let sizes = match (&opts.sizes, &cfg.design) {
         (Some(s), _) => s.clone(),
-        (None, Some(d)) => d.sizes.clone(),
+        (None, Some(d)) => Settings::from_toml(&cfg.path, d)?.sizes,
         (None, None) => Settings::default().sizes,
     };
     let chain = runner::plan(&cfg, registry)?;

@@ -4,7 +4,7 @@
 //! (2 mm), so every `coapt design` answers the closure-trust issue's
 //! question for its root: how far do the physics and the rule part?
 
-use crate::leaflet::template::sizer_size_for;
+use crate::template::sizer_size_for;
 
 /// The rule for one root.
 #[derive(Debug, Clone, PartialEq)]

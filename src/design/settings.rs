@@ -8,7 +8,7 @@
 
 use std::path::Path;
 
-use crate::leaflet::template::OZAKI_SIZES;
+use crate::template::OZAKI_SIZES;
 use crate::{Error, Result};
 
 /// What a design sweep tries.

@@ -226,7 +226,7 @@ mod tests {
 
     #[test]
     fn a_cuts_config_reads_back_with_the_same_values() {
-        let registry = crate::pipeline::registry();
+        let registry = crate::stages::registry();
         let mut sections = BTreeMap::new();
         let mut leaflets = BTreeMap::new();
         leaflets.insert(
@@ -254,7 +254,7 @@ mod tests {
         assert_eq!(cfg.sections["leaflets"], sections["leaflets"]);
         assert_eq!(cfg.sections["report"], sections["report"]);
         assert!(!cfg.has_section("segment"));
-        let t = crate::leaflet::template::parse_templates(&template(21), None).unwrap();
+        let t = crate::template::parse_templates(&template(21), None).unwrap();
         assert!(t.iter().all(|t| t.name() == "ozaki_size 21"));
     }
 

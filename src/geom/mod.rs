@@ -20,6 +20,7 @@ pub mod tri_tri;
 pub mod trimesh;
 pub mod valve_frame;
 pub mod volume;
+pub mod wall;
 
 pub use attributes::{Attributes, DataArray, DataValues};
 pub use frame::Frame;

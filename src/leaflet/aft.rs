@@ -18,7 +18,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use robust::{Coord, orient2d};
 
-use super::outline::{Edge, Outline, P2, dist};
+use crate::template::outline::{Edge, Outline, P2, dist};
 
 /// Multiplicative hash for small integer keys (node-id pairs): the
 /// default SipHash dominated the mesher's profile. Deterministic.
@@ -1087,7 +1087,7 @@ impl FlatMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::leaflet::template::{ArcTemplate, Template};
+    use crate::template::{ArcTemplate, Template};
 
     fn sample_mesh() -> FlatMesh {
         let t = Template::Arc(ArcTemplate::ozaki_size(21).unwrap());
@@ -1100,7 +1100,7 @@ mod tests {
     /// plausible case 73). The hole is filled and the flips mend it.
     #[test]
     fn a_sliver_hole_left_at_the_end_is_closed() {
-        use crate::leaflet::template::OzakiTemplate;
+        use crate::template::OzakiTemplate;
         let t = Template::Ozaki(OzakiTemplate::new(19.0, 11.0, 2.0, 24.0).unwrap());
         let h = 0.8990428109673798;
         let m = mesh(&t.outline(), h).expect("meshed");

@@ -12,10 +12,10 @@
 //!   attachment and free-edge points of equal s (the template's "column").
 
 use super::aft::FlatMesh;
-use super::outline::P2;
-use super::seed001::Seed001;
-use super::template::Template;
 use crate::geom::{Point3, Vector3};
+use crate::template::Template;
+use crate::template::outline::P2;
+use crate::template::seed001::Seed001;
 
 /// How a template's attachment edge is spread over a shorter suture path.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]

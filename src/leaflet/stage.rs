@@ -6,15 +6,15 @@ use serde_json::{Value as Json, json};
 use super::aft;
 use super::crossings;
 use super::hang;
-use super::outline::Edge;
 use super::place::{self, Path3};
 use super::stage_params::{LeafletParams, Placement};
-use super::template::{Template, read_templates};
+use crate::geom::wall::Wall;
 use crate::geom::{DataArray, DataValues, Frame, Point3, TriMesh, Vector3};
 use crate::io::{Transaction, vtp};
 use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
+use crate::template::outline::Edge;
+use crate::template::{Template, read_templates};
 use crate::units::Kind;
-use crate::valve::wall::Wall;
 use crate::{Error, Result};
 
 pub static SPEC: StageSpec = StageSpec {

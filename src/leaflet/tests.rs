@@ -5,14 +5,14 @@
 use std::f64::consts::PI;
 
 use super::aft::{self, FlatMesh};
-use super::outline::Outline;
-use super::seed001::Seed001;
-use super::template::{Template, TemplateSpec};
 use crate::rng::SplitMix64;
+use crate::template::outline::Outline;
+use crate::template::seed001::Seed001;
+use crate::template::{Template, TemplateSpec};
 use crate::units::{Angle, Length};
 
 fn all_templates() -> Vec<Template> {
-    super::template::reference_templates()
+    crate::template::reference_templates()
 }
 
 /// Boundary nodes lie on the outline, in order, at equal arc length per piece.
@@ -192,7 +192,8 @@ fn seed001_ideal_cylinder_matches_eq_2_and_3() {
 #[test]
 fn nodes_outside_the_wall_are_pulled_back_and_counted() {
     use crate::geom::Point3;
-    use crate::valve::{cylinder, wall::Wall};
+    use crate::geom::wall::Wall;
+    use crate::valve::cylinder;
     let wall = Wall::new(&cylinder::mesh(15.0, -10.0, 10.0, 720, 0.5)).unwrap();
     let at = |r: f64, deg: f64, z: f64| {
         let a = deg.to_radians();

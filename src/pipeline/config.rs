@@ -32,8 +32,9 @@ pub struct RunConfig {
     pub inputs: BTreeMap<String, PathBuf>,
     /// Parsed parameters of each stage section present.
     pub sections: BTreeMap<String, BTreeMap<String, Value>>,
-    /// The `[design]` section (read by `coapt design`; `coapt run` ignores it).
-    pub design: Option<crate::design::Settings>,
+    /// The `[design]` section as written: `coapt design` reads it (errors
+    /// name this file and the key); `coapt run` ignores it.
+    pub design: Option<toml::Table>,
 }
 
 impl RunConfig {
@@ -131,10 +132,7 @@ impl RunConfig {
                     }
                 }
                 "design" => {
-                    cfg.design = Some(crate::design::Settings::from_toml(
-                        path,
-                        table(path, key, value)?,
-                    )?);
+                    cfg.design = Some(table(path, key, value)?.clone());
                 }
                 name => {
                     let Some(spec) = registry.iter().find(|s| s.name == name) else {

@@ -21,19 +21,3 @@ pub mod validate;
 pub use params::{Params, Value};
 pub use progress::{LogMode, Progress};
 pub use spec::{ArtifactKind, Param, ParamKind, Port, StageIo, StageSpec};
-
-/// The stages of this build of coapt, in chain order. Only stages that
-/// really exist are registered.
-pub fn registry() -> &'static [&'static StageSpec] {
-    static STAGES: &[&StageSpec] = &[
-        &crate::phantom::stage::SPEC,
-        &crate::segment::stage::SPEC,
-        &crate::surface::stage::SPEC,
-        &crate::landmarks::stage::SPEC,
-        &crate::valve::stage::SPEC,
-        &crate::leaflet::stage::SPEC,
-        &crate::mech::stage::SPEC,
-        &crate::report::stage::SPEC,
-    ];
-    STAGES
-}

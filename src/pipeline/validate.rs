@@ -53,7 +53,7 @@ pub fn input(kind: ArtifactKind, path: &Path) -> Result<()> {
                 .map_err(|e| Error::bad_input(path, format!("not valid JSON: {e}")))?;
         }
         ArtifactKind::Template => {
-            crate::leaflet::template::check_templates(path)?;
+            crate::template::check_templates(path)?;
         }
         ArtifactKind::MechConfig => {
             crate::mech::config::read(path)?;

@@ -12,7 +12,7 @@ use serde_json::Value as Json;
 use super::document::{Finding, Severity};
 use crate::geom::ValveFrame;
 use crate::geom::free_edge_reach::{MAX_SHORTFALL, needed_free_edges};
-use crate::leaflet::template::sizer_size_for;
+use crate::template::sizer_size_for;
 
 /// One leaflet's free edge against its root.
 #[derive(Debug, Clone, PartialEq)]

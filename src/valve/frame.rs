@@ -6,7 +6,7 @@ use std::f64::consts::PI;
 
 use serde::Serialize;
 
-use super::wall::Wall;
+use crate::geom::wall::Wall;
 use crate::geom::{Point3, TriMesh, ValveFrame, Vector3};
 
 /// The cylinder of the commissures: centre, axis, circumradius.

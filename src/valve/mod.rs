@@ -5,7 +5,6 @@ pub mod frame;
 pub mod stage;
 pub mod stage_params;
 pub mod suture;
-pub mod wall;
 
 #[cfg(test)]
 mod tests;

@@ -6,12 +6,12 @@ use serde_json::{Value as Json, json};
 use super::frame::{self, CommissureCylinder};
 use super::stage_params::ValveParams;
 use super::suture::{self, LengthMatch, PathSpec};
-use super::wall::Wall;
+use crate::geom::wall::Wall;
 use crate::geom::{DataArray, DataValues, Frame, Point3, PolyData};
 use crate::io::{Transaction, markups, vtp};
-use crate::leaflet::outline::Edge;
-use crate::leaflet::template::{Template, read_templates};
 use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
+use crate::template::outline::Edge;
+use crate::template::{Template, read_templates};
 use crate::units::Kind;
 use crate::{Error, Result};
 

@@ -6,8 +6,8 @@
 use std::f64::consts::PI;
 
 use super::frame::{CommissureCylinder, wrap};
-use super::wall::Wall;
 use crate::geom::Point3;
+use crate::geom::wall::Wall;
 
 /// One leaflet's path in cylinder coordinates: from commissure a to b.
 #[derive(Debug, Clone, Copy)]

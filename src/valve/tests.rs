@@ -5,10 +5,10 @@ use std::f64::consts::PI;
 
 use super::stage::{SPEC, compute, path_findings};
 use super::stage_params::ValveParams;
-use super::wall::Wall;
 use super::{cylinder, suture};
-use crate::leaflet::template::{Template, TemplateSpec};
+use crate::geom::wall::Wall;
 use crate::pipeline::Params;
+use crate::template::{Template, TemplateSpec};
 use crate::units::Length;
 
 const R: f64 = 15.0;

@@ -2,25 +2,26 @@
 //! production source: test code (`#[cfg(test)]` items and the files they
 //! declare) may reach anywhere.
 //!
-//! - The libraries (`units`, `rng`, `geom`, `io`, `mech` but its
-//!   `stage.rs`) import only libraries below them, never a stage, the
+//! - The libraries (`units`, `rng`, `geom`, `io`, `template`, `mech` but
+//!   its `stage.rs`) import only libraries below them, never a stage, the
 //!   pipeline, a benchmark or the CLI.
 //! - Nothing but the CLI (and `main.rs`) imports `bench`; nothing imports
-//!   `cli`.
-//! - Between a stage and another stage, or the pipeline and a stage, only
-//!   the imports in [`DEBT`] exist: the circles the architecture issue
-//!   still has to break. A new one fails this test, and so does one that
-//!   is gone and still listed, so the list shrinks as they are broken.
+//!   `cli`; only the CLI and the benchmarks import the stage list
+//!   (`stages`), so the pipeline runs stages it does not know.
+//! - No stage imports another stage, and the pipeline imports none, but
+//!   for the imports in [`DEBT`] (none today). A new one fails this test,
+//!   and so does one that is gone and still listed.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// What each library may import.
-const LIBRARIES: [(&str, &[&str]); 5] = [
+const LIBRARIES: [(&str, &[&str]); 6] = [
     ("units", &[]),
     ("rng", &[]),
     ("geom", &["units"]),
     ("io", &["geom", "units"]),
+    ("template", &["io", "units"]),
     ("mech", &["geom", "io", "units"]),
 ];
 
@@ -28,25 +29,9 @@ const LIBRARIES: [(&str, &[&str]); 5] = [
 const ROOT: [&str; 2] = ["error", "lib"];
 
 /// Imports between stages and from the pipeline into stages that exist
-/// today (module → module). The pipeline registers every stage; the valve
-/// stage reads the leaflet template and the leaflet stage the valve's wall;
-/// design sweeps leaflets; the report reads the leaflet template (the
-/// sizer's sizes).
-const DEBT: [(&str, &str); 13] = [
-    ("design", "leaflet"),
-    ("leaflet", "valve"),
-    ("pipeline", "design"),
-    ("pipeline", "landmarks"),
-    ("pipeline", "leaflet"),
-    ("pipeline", "mech/stage"),
-    ("pipeline", "phantom"),
-    ("pipeline", "report"),
-    ("pipeline", "segment"),
-    ("pipeline", "surface"),
-    ("pipeline", "valve"),
-    ("report", "leaflet"),
-    ("valve", "leaflet"),
-];
+/// today (module → module): none. The list stays so that a circle that
+/// has to be let in for a while is named here, not hidden.
+const DEBT: [(&str, &str); 0] = [];
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     let mut entries: Vec<_> = std::fs::read_dir(dir)
@@ -261,6 +246,10 @@ fn modules_import_only_downwards_and_the_known_circles() {
                 wrong.push(format!("{m} -> cli"));
             } else if t == "bench" && m != "cli" {
                 wrong.push(format!("{m} -> bench"));
+            } else if t == "stages" && m != "cli" && m != "bench" {
+                // The stage list is the binary's: a stage or the pipeline
+                // that reached for it would know every stage again.
+                wrong.push(format!("{m} -> stages"));
             } else if let Some(allowed) = libraries.get(m.as_str()) {
                 if !allowed.contains(&t.as_str()) {
                     wrong.push(format!("library {m} -> {t}"));
@@ -269,9 +258,11 @@ fn modules_import_only_downwards_and_the_known_circles() {
                 || t == "pipeline"
                 || m == "cli"
                 || m == "bench"
+                || m == "stages"
             {
                 // Anything above the libraries may use them and the
-                // pipeline; the CLI and the benchmarks sit on top.
+                // pipeline; the CLI, the benchmarks and the stage list sit
+                // on top.
             } else if DEBT.contains(&(m.as_str(), t.as_str())) {
                 debt_seen.insert((m.clone(), t.clone()));
             } else {

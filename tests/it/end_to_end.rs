@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use coapt::geom::Point3;
+use coapt::geom::wall::Wall;
 use coapt::io::{nifti, vtp};
-use coapt::valve::wall::Wall;
 use serde_json::Value;
 
 use crate::common::*;

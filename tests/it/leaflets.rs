@@ -2,9 +2,9 @@
 //! leaflets with the documented arrays, each inside its own wedge between
 //! its commissures (so no two cross) and inside the wall.
 
+use coapt::geom::wall::Wall;
 use coapt::geom::{DataValues, Point3, Vector3};
 use coapt::io::vtp;
-use coapt::valve::wall::Wall;
 use serde_json::Value;
 
 use crate::common::{sample_valve_and_leaflets, tmpdir};

@@ -8,9 +8,9 @@
 
 use std::path::{Path, PathBuf};
 
+use coapt::geom::wall::Wall;
 use coapt::geom::{DataValues, Frame, Point3, Vector3};
 use coapt::io::{markups, vtp};
-use coapt::valve::wall::Wall;
 use serde_json::Value;
 
 use crate::common::{coapt, json, repo, s, stderr, tmpdir};

@@ -116,7 +116,7 @@ fn bad_or_empty_masks_are_refused_and_nothing_is_written() {
 /// Distances from every vertex of `from` to the surface `to`: mean, 95th
 /// percentile, max.
 fn distances(from: &coapt::geom::TriMesh, to: &coapt::geom::TriMesh) -> [f64; 3] {
-    let wall = coapt::valve::wall::Wall::new(to).unwrap();
+    let wall = coapt::geom::wall::Wall::new(to).unwrap();
     let mut d: Vec<f64> = from
         .vertices
         .iter()

@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
+use coapt::geom::wall::Wall;
 use coapt::geom::{Frame, Point3};
 use coapt::io::{markups, vtp};
-use coapt::valve::wall::Wall;
 use serde_json::Value;
 
 use crate::common::{coapt, repo, stderr, tmpdir};

@@ -17,12 +17,15 @@
 //! * `five_parameter` — seed 001 (R, φ, H_c, H_b, ω), eq. 1–3; its flat
 //!   outline is the developed (unfolded) extruded surface, see [`Seed001`].
 
+pub mod outline;
+pub mod seed001;
+
 use std::f64::consts::PI;
 
 use serde::Deserialize;
 
-use super::outline::{Edge, Outline, P2, Piece, Shape};
-use super::seed001::Seed001;
+use self::outline::{Edge, Outline, P2, Piece, Shape};
+use self::seed001::Seed001;
 use crate::units::{Angle, Length};
 
 /// One leaflet's template as written in TOML (units explicit).

@@ -1,5 +1,8 @@
 //! The aortic wall as a ray-castable, point-projectable BVH (parry3d, whose
-//! vectors are glam's; conversion stays in this module).
+//! vectors are glam's; conversion stays in this module): where the valve
+//! stage casts its suture paths and the leaflet stage projects placed nodes
+//! back inside. The mechanics keeps its own view of the wall (closest
+//! points and averaged normals, `mech::wall`).
 
 use parry3d_f64::math::Vector as GVec;
 use parry3d_f64::query::{PointQuery, Ray, RayCast};
