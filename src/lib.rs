@@ -10,22 +10,21 @@
 pub mod bench;
 pub mod cli;
 pub mod design;
-pub mod error;
-pub mod geom;
 pub mod inspect;
-pub mod io;
 pub mod landmarks;
 pub mod leaflet;
 pub mod mech;
 pub mod phantom;
 pub mod pipeline;
 pub mod report;
-pub mod rng;
 pub mod segment;
 pub mod stages;
 pub mod surface;
-pub mod template;
-pub mod units;
 pub mod valve;
 
-pub use error::{Error, Result};
+// The layers below the stages are crates of their own (`crates/`); their old
+// paths stay, so `crate::geom::…` and `coapt::io::…` read as before.
+pub use coapt_base::{Error, Result, error, rng, units};
+pub use coapt_geom as geom;
+pub use coapt_io as io;
+pub use coapt_template as template;

@@ -166,7 +166,10 @@ mod tests {
     /// Commissures `r` off the axis at 120° (C2 at `a2` degrees), C2 `dh`
     /// higher than the others.
     fn frame(r: f64, a2: f64, dh: f64) -> ValveFrame {
-        let at = |deg: f64, h: f64| crate::geom::ring(r, deg, 15.0 + h);
+        let at = |deg: f64, h: f64| {
+            let a = deg.to_radians();
+            Point3::new(r * a.cos(), r * a.sin(), 15.0 + h)
+        };
         ValveFrame::new(
             Point3::origin(),
             Vector3::z(),

@@ -1,29 +1,37 @@
-//! Which module may import which (the architecture issue), read from the
-//! production source: test code (`#[cfg(test)]` items and the files they
-//! declare) may reach anywhere.
+//! Which module may import which (the architecture issue).
 //!
-//! - The libraries (`units`, `rng`, `geom`, `io`, `template`, `mech` but
-//!   its `stage.rs`) import only libraries below them, never a stage, the
-//!   pipeline, a benchmark or the CLI.
-//! - Nothing but the CLI (and `main.rs`) imports `bench`; nothing imports
-//!   `cli`; only the CLI and the benchmarks import the stage list
-//!   (`stages`), so the pipeline runs stages it does not know.
-//! - No stage imports another stage, and the pipeline imports none, but
-//!   for the imports in [`DEBT`] (none today). A new one fails this test,
-//!   and so does one that is gone and still listed.
+//! - The layers below the stages are crates (`crates/`): `base` (error,
+//!   units, random numbers), `geom`, `io`, `template`. The compiler keeps
+//!   them from importing anything their manifests do not name, and
+//!   [`CRATES`] says which of each other they may name.
+//! - In the root package, read from the production source (test code,
+//!   `#[cfg(test)]` items and the files they declare, may reach anywhere):
+//!   - the mechanics library (`mech` but its `stage.rs`) imports only the
+//!     crates below it, never a stage, the pipeline, a benchmark or the CLI;
+//!   - nothing but the CLI (and `main.rs`) imports `bench`; nothing imports
+//!     `cli`; only the CLI and the benchmarks import the stage list
+//!     (`stages`), so the pipeline runs stages it does not know;
+//!   - no stage imports another stage, and the pipeline imports none, but
+//!     for the imports in [`DEBT`] (none today). A new one fails this test,
+//!     and so does one that is gone and still listed.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
-/// What each library may import.
-const LIBRARIES: [(&str, &[&str]); 6] = [
-    ("units", &[]),
-    ("rng", &[]),
-    ("geom", &["units"]),
-    ("io", &["geom", "units"]),
-    ("template", &["io", "units"]),
-    ("mech", &["geom", "io", "units"]),
+/// The crates under `crates/` and the ones of them each may depend on.
+const CRATES: [(&str, &[&str]); 4] = [
+    ("base", &[]),
+    ("geom", &["base"]),
+    ("io", &["base", "geom"]),
+    ("template", &["base", "io"]),
 ];
+
+/// The names under which the root package re-exports those crates
+/// (`src/lib.rs`): below everything in `src/`.
+const FROM_CRATES: [&str; 6] = ["error", "rng", "units", "geom", "io", "template"];
+
+/// What each library inside the root package may import.
+const LIBRARIES: [(&str, &[&str]); 1] = [("mech", &["geom", "io", "units"])];
 
 /// The modules every layer may use: the crate root's error type.
 const ROOT: [&str; 2] = ["error", "lib"];
@@ -224,15 +232,7 @@ fn modules_import_only_downwards_and_the_known_circles() {
     };
     let libraries: BTreeMap<&str, &[&str]> = LIBRARIES.into_iter().collect();
     // The graph is read at all: every library and the stages are there.
-    for m in [
-        "geom",
-        "io",
-        "mech",
-        "mech/stage",
-        "pipeline",
-        "segment",
-        "report",
-    ] {
+    for m in ["mech", "mech/stage", "pipeline", "segment", "report"] {
         assert!(g.contains_key(m), "{m} missing from\n{}", show());
     }
     let mut wrong = Vec::new();
@@ -255,6 +255,7 @@ fn modules_import_only_downwards_and_the_known_circles() {
                     wrong.push(format!("library {m} -> {t}"));
                 }
             } else if libraries.contains_key(t.as_str())
+                || FROM_CRATES.contains(&t.as_str())
                 || t == "pipeline"
                 || m == "cli"
                 || m == "bench"
@@ -298,4 +299,68 @@ fn test_code_is_left_out_and_super_paths_climb_to_the_root() {
         &path,
     );
     assert_eq!(refs, ["geom", "io"].map(String::from).into_iter().collect());
+}
+
+/// The `coapt-*` packages a manifest depends on, in any dependency table.
+fn coapt_dependencies(manifest: &str) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    let mut in_deps = false;
+    for line in manifest.lines() {
+        let t = line.trim();
+        if t.starts_with('[') {
+            in_deps = t
+                .trim_matches(|c| c == '[' || c == ']')
+                .ends_with("dependencies");
+            continue;
+        }
+        if in_deps {
+            if let Some(name) = t
+                .split(['=', ' '])
+                .next()
+                .filter(|n| n.starts_with("coapt"))
+            {
+                out.insert(name.trim_start_matches("coapt-").to_string());
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn crates_depend_only_on_the_layers_below() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut on_disk: Vec<String> = std::fs::read_dir(root.join("crates"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    on_disk.sort();
+    let mut listed: Vec<String> = CRATES.iter().map(|(c, _)| c.to_string()).collect();
+    listed.sort();
+    assert_eq!(
+        on_disk, listed,
+        "every crate under crates/ is listed in CRATES"
+    );
+    for (c, allowed) in CRATES {
+        let manifest =
+            std::fs::read_to_string(root.join("crates").join(c).join("Cargo.toml")).unwrap();
+        for d in coapt_dependencies(&manifest) {
+            assert!(
+                allowed.contains(&d.as_str()),
+                "crates/{c} depends on {d}: not a layer below it"
+            );
+        }
+    }
+    // The root package names each crate, and re-exports it.
+    let manifest = std::fs::read_to_string(root.join("Cargo.toml")).unwrap();
+    assert_eq!(
+        coapt_dependencies(&manifest),
+        listed.into_iter().collect::<BTreeSet<_>>()
+    );
+    // The parser reads a table it is shown.
+    assert_eq!(
+        coapt_dependencies(
+            "[package]\nname = \"coapt-x\"\n[dependencies]\ncoapt-geom = { path = \"../geom\" }\nserde = \"1\"\n[dev-dependencies]\ncoapt-io = { path = \"../io\" }\n"
+        ),
+        ["geom", "io"].map(String::from).into_iter().collect()
+    );
 }

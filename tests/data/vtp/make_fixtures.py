@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Write the VTK-compatibility fixtures read by `src/io/vtp` tests.
+"""Write the VTK-compatibility fixtures read by `crates/io/src/vtp` tests.
 
 One small mesh (a vertex cell, a polyline, three triangles, point, cell and
 field data including string arrays) saved by vtkXMLPolyDataWriter in every
