@@ -26,8 +26,9 @@ use crate::template::{OzakiTemplate, Template};
 use crate::valve::suture::PathSpec;
 use crate::{Error, Result};
 
-/// Root radius, straight part, belly depth, gap between leaflets (mm).
-pub const R: f64 = 12.0;
+/// Root radius (mm): the mechanics' own peer case.
+pub use crate::mech::peer::R;
+/// Straight part, belly depth, gap between leaflets (mm).
 pub const HC: f64 = 1.5;
 pub const HB: f64 = 9.0;
 pub const GAP: f64 = 4.0;
@@ -107,26 +108,7 @@ pub fn ozaki_cylinder(h: f64) -> Result<(Leaflets, Axis), String> {
     Ok((l, axis))
 }
 
-/// Fibre directions per triangle (for GOH): the flat template's u axis
-/// (circumferential) and its mirror, pushed forward to the placed leaflet.
-pub fn circumferential_fibres(l: &Leaflets) -> Option<Vec<[V3; 2]>> {
-    let uv = l.ref_uv.as_ref()?;
-    Some(
-        l.tris
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| i as usize);
-                let u1 = [uv[b][0] - uv[a][0], uv[b][1] - uv[a][1]];
-                let u2 = [uv[c][0] - uv[a][0], uv[c][1] - uv[a][1]];
-                let det = u1[0] * u2[1] - u1[1] * u2[0];
-                let (x1, x2) = (l.x[b] - l.x[a], l.x[c] - l.x[a]);
-                // F·e_u: solve [u1 u2]·(α, β) = (1, 0).
-                let v = (x1 * (u2[1] / det) + x2 * (-u1[1] / det)).normalize();
-                [v, v]
-            })
-            .collect(),
-    )
-}
+pub use crate::mech::model::circumferential_fibres;
 
 /// Coaptation metrics of a closed leaflet (heights along +z from the
 /// commissure plane, mm).
@@ -271,18 +253,7 @@ pub fn config_text(model: &str, solver: &str, time_limit_s: f64) -> String {
     config_text_with(model, solver, time_limit_s, false)
 }
 
-/// [`config_text`], with or without the leaflet's bending stiffness.
-pub fn config_text_with(model: &str, solver: &str, time_limit_s: f64, bending: bool) -> String {
-    let material = match model {
-        "svk" => "model = \"svk\"\nyoung = \"1 MPa\"\npoisson = 0\n",
-        "neo-hookean" => "model = \"neo-hookean\"\nyoung = \"1 MPa\"\n",
-        // Seed 001's stiffer GOH set with circumferential fibres.
-        _ => "model = \"goh\"\nyoung = \"1 MPa\"\nk1 = \"1100 kPa\"\nk2 = 1000\nkappa = 0.2\n",
-    };
-    format!(
-        "{material}thickness = \"0.5 mm\"\npressure = \"80 mmHg\"\ncontact = \"planes\"\nsolver = \"{solver}\"\ntime_limit = \"{time_limit_s} s\"\nbending = {bending}\n"
-    )
-}
+pub use crate::mech::peer::config_text_with;
 
 /// One benchmark row.
 #[derive(Debug, Clone)]

@@ -575,7 +575,7 @@ fn sample_mesh(sample: &Path, h: f64, work: &Path, threads: usize) -> Result<Mes
     let lpath = run.join("leaflets.vtp");
     let mesh = vtp::read_mesh(&lpath)?;
     let leaflets =
-        crate::mech::stage::leaflets_from_mesh(&mesh).map_err(|e| Error::bad_input(&lpath, e))?;
+        crate::mech::model::leaflets_from_mesh(&mesh).map_err(|e| Error::bad_input(&lpath, e))?;
     let vpath = run.join("valve.json");
     let frame = valve_json::read_frame(&vpath)?;
     Ok(Mesh {

@@ -7,7 +7,7 @@ use super::closure::{self};
 use super::config;
 use super::contact::wall_barrier::WALL_BIT;
 use super::element::V3;
-use super::model::{Axis, Leaflets};
+use super::model::{Axis, Leaflets, leaflets_from_mesh};
 use super::suture;
 use super::wall::Wall;
 use crate::geom::bvh::Bvh;
@@ -81,23 +81,6 @@ pub static SPEC: StageSpec = StageSpec {
 
 fn v3(p: &Point3) -> V3 {
     V3::new(p.x, p.y, p.z)
-}
-
-/// The mechanics' view of a leaflets mesh, or what is missing from it.
-pub fn leaflets_from_mesh(m: &TriMesh) -> std::result::Result<Leaflets, String> {
-    let a = crate::io::leaflet_mesh::arrays(m)?;
-    let f = |d: [f64; 3]| V3::new(d[0], d[1], d[2]);
-    Ok(Leaflets {
-        pressure_side: a.pressure_sign,
-        x: m.vertices.iter().map(v3).collect(),
-        tris: m.triangles.clone(),
-        boundary: a.boundary,
-        leaflet: a.leaflet.iter().map(|&k| k as u16).collect(),
-        ref_uv: a.ref_uv,
-        fibers: a
-            .fibres
-            .map(|v| v.iter().map(|[p, q]| [f(*p), f(*q)]).collect()),
-    })
 }
 
 fn axis_from_valve(path: &std::path::Path) -> Result<Axis> {

@@ -17,6 +17,7 @@ mod formats;
 mod hanging;
 mod landmarks;
 mod leaflets;
+mod peer_fixture;
 mod phantom;
 mod real_ct;
 mod real_ct_variants;
