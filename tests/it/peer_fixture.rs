@@ -14,7 +14,7 @@ use coapt::mech::peer::fixture_path;
 #[test]
 fn the_mechanics_peer_leaflets_are_what_the_benchmark_builds() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/mech");
-    for h in [1.0, 2.0] {
+    for h in [0.7, 1.0, 2.0] {
         let (built, _axis) = ozaki_cylinder(h).unwrap();
         let path = fixture_path(&dir, h);
         if std::env::var_os("COAPT_WRITE_FIXTURES").is_some() {

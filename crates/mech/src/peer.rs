@@ -23,12 +23,13 @@ pub fn config_text_with(model: &str, solver: &str, time_limit_s: f64, bending: b
     )
 }
 
-/// The file holding the peer leaflet meshed at `h` mm (1 and 2 are kept).
+/// The file holding the peer leaflet meshed at `h` mm (0.7, 1 and 2 are
+/// kept).
 pub fn fixture_path(crate_dir: &std::path::Path, h: f64) -> std::path::PathBuf {
     crate_dir.join("tests/data").join(format!("peer_h{h}.vtp"))
 }
 
-/// The peer leaflet at mesh size `h` (1 or 2 mm) and its axis (through
+/// The peer leaflet at mesh size `h` (0.7, 1 or 2 mm) and its axis (through
 /// the commissure height along +z), from the kept mesh.
 #[cfg(test)]
 pub(crate) fn leaflet(h: f64) -> Result<(super::model::Leaflets, super::model::Axis), String> {
