@@ -3,7 +3,7 @@
 use std::io::Read;
 use std::path::Path;
 
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
 
 /// coapt's version.
 pub fn version() -> &'static str {
@@ -65,7 +65,7 @@ pub fn sidecar_path(output: &Path) -> std::path::PathBuf {
 pub fn conversion(input: &Path, format: &str, output: &Path) -> Result<serde_json::Value> {
     use super::manifest::{FileRecord, display_path};
     let base = output.parent().unwrap_or(Path::new(""));
-    let (files, series) = crate::io::volume_file::source(input);
+    let (files, series) = coapt_io::volume_file::source(input);
     let each = files
         .iter()
         .map(|f| {

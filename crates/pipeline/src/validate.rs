@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use super::spec::ArtifactKind;
-use crate::io::{markups, nifti, volume_file, vtp};
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
+use coapt_io::{markups, nifti, volume_file, vtp};
 
 /// Labels every landmarks input must hold.
 pub const REQUIRED_LANDMARKS: [&str; 3] = ["C1", "C2", "C3"];
@@ -53,10 +53,10 @@ pub fn input(kind: ArtifactKind, path: &Path) -> Result<()> {
                 .map_err(|e| Error::bad_input(path, format!("not valid JSON: {e}")))?;
         }
         ArtifactKind::Template => {
-            crate::template::check_templates(path)?;
+            coapt_template::check_templates(path)?;
         }
         ArtifactKind::MechConfig => {
-            crate::mech::config::read(path)?;
+            coapt_mech::config::read(path)?;
         }
         ArtifactKind::Html => {
             let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;

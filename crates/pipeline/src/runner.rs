@@ -10,7 +10,7 @@ use super::manifest::{FileRecord, Manifest, Status};
 use super::params::Params;
 use super::spec::{StageIo, StageSpec};
 use super::validate;
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
 
 #[derive(Debug, Clone, Default)]
 pub struct RunOptions {
@@ -165,7 +165,7 @@ pub fn run(
 ) -> Result<RunReport> {
     let cfg = RunConfig::load(&opts.config, registry)?;
     if let Some(pick) = &cfg.series {
-        crate::io::volume_file::set_series(pick).map_err(|first| {
+        coapt_io::volume_file::set_series(pick).map_err(|first| {
             Error::config(
                 &cfg.path,
                 "run.series",
@@ -393,7 +393,7 @@ pub fn run_single(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::pipeline::config::tests::registry;
+    use crate::config::tests::registry;
 
     fn cfg(text: &str) -> RunConfig {
         RunConfig::parse(Path::new("c.toml"), text, &registry()).unwrap()

@@ -8,7 +8,7 @@
 use std::path::Path;
 
 use super::spec::{StageIo, StageSpec};
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
 
 #[cfg(unix)]
 fn identity(p: &Path) -> Option<(u64, u64)> {

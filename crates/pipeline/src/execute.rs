@@ -9,7 +9,7 @@ use super::params::Params;
 use super::progress::{LogMode, Progress};
 use super::provenance;
 use super::spec::{StageIo, StageSpec};
-use crate::Result;
+use coapt_base::Result;
 
 /// Context shared by every stage execution of one coapt invocation.
 #[derive(Debug, Clone, Default)]
@@ -92,7 +92,7 @@ pub fn execute(
 ) -> Result<StageRecord> {
     super::no_overwrite::check(spec, io)?;
     for (_, path) in &io.outputs {
-        let n = crate::io::Transaction::remove_stale(path);
+        let n = coapt_io::Transaction::remove_stale(path);
         if n > 0 {
             tracing::info!(
                 stage = spec.name,

@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::provenance;
-use crate::io::write_atomic;
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
+use coapt_io::write_atomic;
 
 pub const FILE_NAME: &str = "manifest.json";
 
@@ -55,17 +55,17 @@ impl FileRecord {
     /// changed data file makes the stage run again; a DICOM series' files
     /// are hashed together, and the series named.
     pub fn of_input(path: &Path, run_dir: &Path) -> Result<FileRecord> {
-        let (files, series) = crate::io::volume_file::source(path);
+        let (files, series) = coapt_io::volume_file::source(path);
         Self::of_source(path, run_dir, &files, series)
     }
 
-    /// [`FileRecord::of_input`] from what [`crate::io::volume_file::source`]
+    /// [`FileRecord::of_input`] from what [`coapt_io::volume_file::source`]
     /// found (so a caller that needs the files too scans a folder once).
     pub fn of_source(
         path: &Path,
         run_dir: &Path,
         files: &[PathBuf],
-        series: Option<crate::io::volume_file::SeriesSource>,
+        series: Option<coapt_io::volume_file::SeriesSource>,
     ) -> Result<FileRecord> {
         let (blake3, bytes) = provenance::hash_files(files)?;
         Ok(FileRecord {

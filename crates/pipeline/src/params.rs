@@ -4,8 +4,8 @@
 use std::collections::BTreeMap;
 
 use super::spec::{Param, ParamKind, StageSpec};
-use crate::units::{self, Kind};
-use crate::{Error, Result};
+use coapt_base::units::{self, Kind};
+use coapt_base::{Error, Result};
 
 /// One resolved parameter value (quantities in internal units).
 #[derive(Debug, Clone, PartialEq)]
@@ -315,9 +315,9 @@ impl Params {
 /// value of a kind no reader of its declared kind accepts, reading fails
 /// naming it. As its declared kind: with it holding a value of that kind
 /// (given, so an optional one is read too), reading does not fail for the
-/// kind (it may refuse the value itself).
-#[cfg(test)]
-pub(crate) fn assert_reads_exactly<T>(spec: &StageSpec, read: impl Fn(&Params) -> Result<T>) {
+/// kind (it may refuse the value itself). For each stage's tests (they live
+/// beside the stages, above this crate); it panics, as an assertion does.
+pub fn assert_reads_exactly<T>(spec: &StageSpec, read: impl Fn(&Params) -> Result<T>) {
     let defaults = Params::resolve(spec, BTreeMap::new()).unwrap();
     if let Err(e) = read(&defaults) {
         panic!("{}: reading the declared defaults fails: {e}", spec.name);
@@ -354,7 +354,6 @@ pub(crate) fn assert_reads_exactly<T>(spec: &StageSpec, read: impl Fn(&Params) -
 }
 
 /// A value of the kind `k`, as a user could give it.
-#[cfg(test)]
 fn one_of(k: ParamKind) -> Value {
     match k {
         ParamKind::Quantity(kind) => Value::Quantity(1.0, kind),

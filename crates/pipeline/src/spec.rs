@@ -6,8 +6,8 @@ use serde_json::Value as Json;
 
 use super::params::Params;
 use super::progress::Progress;
-use crate::Result;
-use crate::units;
+use coapt_base::Result;
+use coapt_base::units;
 
 /// The kind of file an artifact is; the runner validates external inputs by kind
 /// before any stage starts.

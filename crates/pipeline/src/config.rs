@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 
 use super::params::{self, Value};
 use super::spec::StageSpec;
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
 
 #[derive(Debug, Clone)]
 pub struct RunConfig {
@@ -53,7 +53,7 @@ impl RunConfig {
                 path,
                 format!(
                     "not valid TOML: {}",
-                    crate::io::toml_error::describe(text, &e)
+                    coapt_io::toml_error::describe(text, &e)
                 ),
             )
         })?;
@@ -212,8 +212,8 @@ fn table<'a>(path: &Path, key: &str, v: &'a toml::Value) -> Result<&'a toml::Tab
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::pipeline::spec::{ArtifactKind, Param, ParamKind, Port};
-    use crate::units::Kind;
+    use crate::spec::{ArtifactKind, Param, ParamKind, Port};
+    use coapt_base::units::Kind;
 
     fn noop(
         _: &super::super::StageIo,
