@@ -1,4 +1,4 @@
-//! One error type for the whole crate.
+//! One error type for every crate of coapt.
 //!
 //! Every variant says which file (or config key) is at fault and what to do
 //! about it. The exit code follows from the variant: 2 for bad input or usage,
