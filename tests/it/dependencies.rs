@@ -344,8 +344,22 @@ fn crates_depend_only_on_the_layers_below() {
             );
         }
     }
-    // The root package names each crate, and re-exports it.
+    // The root package depends on each crate, and the workspace lists each
+    // as a default member too: `cargo test --release` (the README's
+    // command, CI's) runs only the default members' tests.
     let manifest = std::fs::read_to_string(root.join("Cargo.toml")).unwrap();
+    for key in ["members", "default-members"] {
+        let line = manifest
+            .lines()
+            .find(|l| l.starts_with(&format!("{key} = [")))
+            .unwrap_or_else(|| panic!("Cargo.toml has no {key} line"));
+        for c in &listed {
+            assert!(
+                line.contains(&format!("\"crates/{c}\"")),
+                "crates/{c} is not in the workspace's {key}"
+            );
+        }
+    }
     assert_eq!(
         coapt_dependencies(&manifest),
         listed.into_iter().collect::<BTreeSet<_>>()
