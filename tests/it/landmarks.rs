@@ -378,7 +378,8 @@ fn landmarks_of_phantom(d: &Path, args: &[&str]) -> (serde_json::Value, serde_js
 /// the chain reaches an honest report. Segment's VAJ plane turns onto the
 /// LVOT's least section (measured: 3.7° from the nadirs' plane, 17.7° from
 /// the marched centreline), so every nadir is read on the annulus
-/// (measured 1.04–1.44 mm; 1.38–3.30 mm when the plane stayed square to
+/// (measured 0.85–1.41 mm, 1.10–1.41 before each nadir's ray kept its
+/// angle about the root axis; 1.38–3.30 mm when the plane stayed square to
 /// the marched centreline, 20° off the nadirs' plane: the nadir below it
 /// was read on the cut and N1, 5 mm above it, was lifted onto its sinus
 /// floor). Commissures 0.78–0.84 mm, read on the sinus sectors' middle
@@ -625,7 +626,7 @@ fn given_points_override_detected_ones_point_by_point() {
 /// hand-placed ones of `../shared/real/`, matched by their order around the
 /// axis (that file numbers the sinuses from another one than the
 /// phantom's anterior right-coronary sinus). The commissures and two
-/// nadirs lie within 3 mm (measured 1.81–2.47 and 1.48–1.81 mm). The
+/// nadirs lie within 3 mm (measured 1.81–2.47 and 1.39–1.92 mm). The
 /// third hand-placed nadir (N3) lies inside the lumen: 1.7 mm from
 /// TotalSegmentator's wall (the folder's README) and 8.4 mm from our
 /// annulus centre where the wall is 13 mm away; ours, on the wall, is
