@@ -173,6 +173,7 @@ fn floor_above(probe: &LumenProbe, o: &Point3, n0: &Vector3, dp: &Vector3) -> Op
         (above - r >= FLOOR_RISE_MM).then_some((h, r))
     })
 }
+
 /// The direction in the annulus plane (normal `n0`) that keeps the angle
 /// `d` (a unit vector ⟂ `axis`) about the root axis: where the half-plane
 /// of `axis` and `d` meets the annulus plane. A nadir's angle is read about
