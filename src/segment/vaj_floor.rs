@@ -27,11 +27,11 @@
 //! on the clinical phantoms (annulus tilted 14–23° to the knee's section)
 //! the knee's plane lay 14–23° off the nadirs' and a nadir up to 3 mm
 //! below it, outside the mask. The LVOT stands square to the annulus, so
-//! the least section [`LVOT_DEPTH_MM`] below the knee, searched over every
-//! direction within [`LVOT_CONE_DEG`], gives the annulus' normal, and the
-//! plane turns onto it and rises to the narrowest section square to it
-//! (see [`lvot_normal`], [`narrowest_above`]): on those phantoms the plane
-//! then lies 3.4–4.2° off the nadirs' plane.
+//! its axis below the knee, through the centroids of its sections, gives
+//! the annulus' normal, and the plane turns onto it and rises to the
+//! narrowest section square to it (see [`lvot_axis`],
+//! [`narrowest_above`]): on those phantoms, and with their annulus tilted
+//! 10–35°, the plane then lies 1.4–3.8° off the nadirs' plane.
 
 use super::vaj::{Cells, KNEE_FLAT, KNEE_SPAN, Plane, SINUS_RISE};
 use crate::geom::basis::orthonormal_pair;
@@ -59,27 +59,33 @@ const DESCENT_MIN: f64 = 0.03;
 /// (within [`SINUS_RISE`] of the plane's): the LVOT, not the region's end.
 const LVOT_SPAN: usize = 4;
 
-/// Depth below the knee (mm) whose least section orients a plane the
-/// march left at the knee. Angle between that section and the nadirs'
-/// plane at depths 0 / 2 / 4 / 6 mm: clinical phantoms seeds 1–3 13.0 /
-/// 13.9 / 4.8 / 2.3°, 13.2 / 10.8 / 5.3 / 3.0°, 10.4 / 8.1 / 3.8 / 3.6°
-/// (the knee's own section 21.2°, 22.8°, 14.3°); untilted sample seeds 3,
-/// 4, 5, 9 and standard seeds 1, 2 0.0–1.3° at the knee, 0.6–2.3° at 4 mm
-/// and up to 7.4° at 6 mm, where their LVOT bends towards the apex.
-const LVOT_DEPTH_MM: f64 = 4.0;
-/// How far (degrees) and in what steps that section's normal is searched
-/// from the knee's: every direction, not a march of small cones, since
-/// the least section of a tube is a single shallow minimum (issue: 0–35°
-/// between the nadirs' plane and the root's).
-const LVOT_CONE_DEG: f64 = 36.0;
-const LVOT_STEP_DEG: f64 = 1.5;
-/// A turn of at most four of the search's steps (6°) is within the LVOT's
-/// own scatter on untilted annuli and leaves the knee's plane as it was:
-/// sample seeds 3, 5, 20 turned 3°, standard seeds 1–2 4.5°, the sample
-/// tilted 35° on a 0.44 × 0.44 × 0.6 mm grid 6° (4.3° off its axis, where
-/// the knee's plane was within 4°). The threshold lies between steps, so
-/// no rounding decides.
-const LVOT_MIN_TURN_DEG: f64 = 6.75;
+/// Depths below the knee (mm) of the two sections square to the LVOT whose
+/// centroids give its axis (see [`lvot_axis`]). Shallower, the upper
+/// section cuts the sinus on the high side of a steep annulus; deeper, the
+/// lower one reaches where the LVOT bends towards the apex or the region
+/// ends in the LV. Nadirs from the CT alone at 3–7 mm (clinical seed 1 with
+/// its annulus tilted 10 / 20 / 30 / 35°, clinical seeds 2–3): every one
+/// within 1.48 mm, the planes 1.4–3.8° off the nadirs'; at 2–7 mm up to
+/// 1.53 mm, at 4–8 mm 1.75 mm, at 3–8 mm standard seed 2 turned past
+/// [`LVOT_MIN_TURN_DEG`], at 4–10 mm every untilted sample seed did.
+const LVOT_AXIS_DEPTHS_MM: (f64, f64) = (3.0, 7.0);
+/// Passes of the axis onto its sections' centroids, and the turn (degrees)
+/// below which it has settled (an untilted LVOT's passes alternate about
+/// their limit: standard seed 2 10.1, 4.6, 7.3, 5.7, 6.6 … 6.2°).
+const LVOT_AXIS_PASSES: usize = 12;
+const LVOT_AXIS_SETTLED_DEG: f64 = 0.1;
+/// Most the upper section square to the LVOT's axis may exceed the one
+/// square to the march at the same depth. Turned onto a tilted LVOT's axis
+/// it shrinks (clinical seeds 1–3 and seed 1 tilted 10–35°: by 0.1–3.2 %;
+/// the lower section by 4.9–13.4 %); on sample seed 15, untilted, the
+/// centroids followed the slanted end of the region 21° away and the upper
+/// section grew 7.5 %.
+const LVOT_SECTION_GROWTH: f64 = 0.01;
+/// A turn of less than this leaves the knee's plane as it was: on untilted
+/// annuli the LVOT's axis lies 0.9–6.2° off the march (sample seeds 3, 5,
+/// 9, clinical seed 1 untilted, standard seed 2), on annuli tilted
+/// 10–35° (clinical seeds 1–3) 13.1–24.0°.
+const LVOT_MIN_TURN_DEG: f64 = 10.0;
 /// The turned plane is raised to the narrowest section within this
 /// height above the knee, read every [`RAISE_STEP_MM`] (see
 /// [`narrowest_above`]).
@@ -97,8 +103,8 @@ pub struct Floor {
     /// Angle between the knee's plane and the settled one (degrees).
     pub turn_deg: f64,
     /// Where the descent was flat from the knee on: the angle (degrees)
-    /// the plane turned onto the least section [`LVOT_DEPTH_MM`] below the
-    /// knee, or None where it kept the knee's normal.
+    /// the plane turned onto the LVOT's axis below the knee ([`lvot_axis`]),
+    /// or None where it kept the knee's normal.
     pub lvot_turn_deg: Option<f64>,
     /// How far that turned plane was raised above the knee's centre to the
     /// narrowest section (mm).
@@ -196,15 +202,9 @@ pub(super) fn settle(
         }
         _ => {
             let reach = reach_max.min(1.8 * (area / std::f64::consts::PI).sqrt() + 3.0);
-            // A second search about the first one's normal, down the LVOT
-            // along it: clinical seeds 1–3 3.4–4.2° from their nadirs'
-            // plane instead of 2.4–5.7° after one search; seed 1 with its
-            // annulus tilted 30° 4.5° instead of 6.0°.
-            let n = lvot_normal(cells, centre, t, w, reach);
-            let n = lvot_normal(cells, centre, n, w, reach);
+            let n = lvot_axis(cells, centre, t, w, reach);
             let turn = n.dot(&t).clamp(-1.0, 1.0).acos().to_degrees();
-            // Two searches of 36° could turn the plane by 72°: past
-            // MAX_TURN_DEG, as for the march, it has left the root.
+            // Past MAX_TURN_DEG, as for the march, it has left the root.
             if !(LVOT_MIN_TURN_DEG..=MAX_TURN_DEG).contains(&turn) {
                 return (None, floor);
             }
@@ -216,33 +216,54 @@ pub(super) fn settle(
     }
 }
 
-/// The normal (toward the LV) of the least section [`LVOT_DEPTH_MM`] below
-/// the knee at `centre` (march direction `t`), over every direction within
-/// [`LVOT_CONE_DEG`] of `t`; `t` itself where the region does not reach
-/// that deep with at least the knee's section less [`SINUS_RISE`], or
-/// where the sections square to it shrink by more than that over the next
-/// [`LVOT_SPAN`] mm (it ends in a taper, not the LVOT).
-fn lvot_normal(cells: &Cells, centre: Point3, t: Vector3, w: f64, reach: f64) -> Vector3 {
-    let q = centre + t * LVOT_DEPTH_MM;
-    let (mut best, mut normal) = (f64::INFINITY, t);
-    for c in cone(&t, LVOT_CONE_DEG, LVOT_STEP_DEG) {
-        let (n, _) = cells.section(&q, &c, w, reach);
-        if n < best {
-            (best, normal) = (n, c);
+/// The LVOT's axis (toward the LV) below the knee at `centre` (march
+/// direction `t`): the line through the centroids of the sections square
+/// to it [`LVOT_AXIS_DEPTHS_MM`] below the knee, passed onto itself until
+/// it settles. A section's centroid hardly moves as the section turns,
+/// where its area changes only with the secant of the turn (1.5 % at 10°,
+/// within the LVOT's own variation): the least section searched over a
+/// cone of directions 4 mm below the knee lay 14.7° off the nadirs' plane
+/// on clinical seed 1 with its annulus tilted 35°, where this axis lies
+/// 2.6° off. `t` itself where a section is empty or holds less than the
+/// knee's section less [`SINUS_RISE`] (the region ends in a taper there,
+/// not in the LVOT), or where the upper section square to the axis found
+/// is larger than the one square to `t` by more than
+/// [`LVOT_SECTION_GROWTH`].
+fn lvot_axis(cells: &Cells, centre: Point3, t: Vector3, w: f64, reach: f64) -> Vector3 {
+    let knee = cells.section(&centre, &t, w, reach).0;
+    let (d1, d2) = LVOT_AXIS_DEPTHS_MM;
+    let sections = |n: &Vector3| {
+        let (p1, p2) = (centre + n * d1, centre + n * d2);
+        let (k1, o1) = cells.section(&p1, n, w, reach);
+        let (k2, o2) = cells.section(&p2, n, w, reach);
+        ([k1, k2], (p2 + o2) - (p1 + o1))
+    };
+    let (square_to_t, _) = sections(&t);
+    let mut n = t;
+    for _ in 0..LVOT_AXIS_PASSES {
+        let (k, along) = sections(&n);
+        if k[0].min(k[1]) < (1.0 - SINUS_RISE) * knee || k[0].min(k[1]) == 0.0 {
+            return t;
+        }
+        let Some(next) = along.try_normalize(1e-9) else {
+            return t;
+        };
+        let turn = next.dot(&n).clamp(-1.0, 1.0).acos().to_degrees();
+        n = next;
+        if turn < LVOT_AXIS_SETTLED_DEG {
+            break;
         }
     }
-    let knee = cells.section(&centre, &t, w, reach).0;
-    // The LVOT goes on below that section; a region cut slanted there (an
-    // IDT end taper) tilts the least section onto the cut instead, and
-    // the sections below it shrink.
-    let holds = (1..=LVOT_SPAN).all(|i| {
-        let below = q + normal * (i as f64 * STEP_MM);
-        cells.section(&below, &normal, w, reach).0 >= (1.0 - SINUS_RISE) * best
-    });
-    if best < (1.0 - SINUS_RISE) * knee || !holds {
-        return t;
+    // Square to a tube's axis its sections are least: a turn onto the
+    // axis of a tilted LVOT shrinks the upper one, a turn onto the slant
+    // of the region's end grows it. (The lower one may reach where the
+    // region ends, which cuts the march's section there short.)
+    let (square_to_n, _) = sections(&n);
+    if square_to_n[0] > (1.0 + LVOT_SECTION_GROWTH) * square_to_t[0] {
+        t
+    } else {
+        n
     }
-    normal
 }
 
 /// How far above `centre` (mm, along −`n`, in steps of [`RAISE_STEP_MM`]
