@@ -31,7 +31,7 @@
 //! the annulus' normal, and the plane turns onto it and rises to the
 //! narrowest section square to it (see [`lvot_axis`],
 //! [`narrowest_above`]): on those phantoms, and with their annulus tilted
-//! 10–35°, the plane then lies 1.4–3.8° off the nadirs' plane.
+//! 10–35°, the plane then lies 1.4–3.5° off the nadirs' plane.
 
 use super::vaj::{Cells, KNEE_FLAT, KNEE_SPAN, Plane, SINUS_RISE};
 use crate::geom::basis::orthonormal_pair;
@@ -65,7 +65,7 @@ const LVOT_SPAN: usize = 4;
 /// lower one reaches where the LVOT bends towards the apex or the region
 /// ends in the LV. Nadirs from the CT alone at 3–7 mm (clinical seed 1 with
 /// its annulus tilted 10 / 20 / 30 / 35°, clinical seeds 2–3): every one
-/// within 1.48 mm, the planes 1.4–3.8° off the nadirs'; at 2–7 mm up to
+/// within 1.47 mm, the planes 1.4–3.5° off the nadirs'; at 2–7 mm up to
 /// 1.53 mm, at 4–8 mm 1.75 mm, at 3–8 mm standard seed 2 turned past
 /// [`LVOT_MIN_TURN_DEG`], at 4–10 mm every untilted sample seed did.
 const LVOT_AXIS_DEPTHS_MM: (f64, f64) = (3.0, 7.0);
