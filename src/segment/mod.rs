@@ -165,8 +165,9 @@ const LANDMARK_BOX_MM: (f64, f64, f64) = (60.0, 60.0, 110.0);
 /// commissures, and the report measures up to 40 mm above it.
 const ASCENDING_ABOVE_MM: f64 = 40.0;
 /// Height above the highest commissure (mm, head–feet) where the region of
-/// interest ends when the commissures are known.
-const ASCENDING_TOP_MM: f64 = 60.0;
+/// interest ends when the commissures are known (`bench segment` scores
+/// below it).
+pub const ASCENDING_TOP_MM: f64 = 60.0;
 /// Without commissure landmarks they are taken this far above the VAJ
 /// plane (mm, head–feet): adult commissures stand 15–22 mm above the
 /// annulus.
