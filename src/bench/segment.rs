@@ -200,21 +200,17 @@ impl Scored {
 
     /// Voxels of `v` that are set and scored.
     fn count(&self, v: &Volume<u8>) -> usize {
-        let [ni, nj, nk] = v.dims();
-        let mut n = 0;
-        for k in 0..nk {
-            for j in 0..nj {
-                for i in 0..ni {
-                    if v.as_slice()[v.linear_index(i, j, k)] != 0
-                        && self.holds(&v.index_to_world([i as f64, j as f64, k as f64]))
-                    {
-                        n += 1;
-                    }
-                }
-            }
-        }
-        n
+        set_points(v).filter(|p| self.holds(p)).count()
     }
+}
+
+/// World centres of the set voxels of `v`, i fastest.
+fn set_points(v: &Volume<u8>) -> impl Iterator<Item = Point3> + '_ {
+    let [ni, nj, nk] = v.dims();
+    (0..nk)
+        .flat_map(move |k| (0..nj).flat_map(move |j| (0..ni).map(move |i| [i, j, k])))
+        .filter(move |&[i, j, k]| v.as_slice()[v.linear_index(i, j, k)] != 0)
+        .map(move |[i, j, k]| v.index_to_world([i as f64, j as f64, k as f64]))
 }
 
 /// Whether the truth voxel nearest the world point `p` is set. The mask
@@ -233,21 +229,10 @@ fn truth_at(truth: &Volume<u8>, p: &Point3) -> bool {
 /// mask voxels whose centres lie in truth voxels against both counts, each
 /// grid's voxels at their own volume.
 fn dice(mask: &Volume<u8>, truth: &Volume<u8>, scored: Scored) -> f64 {
-    let [ni, nj, nk] = mask.dims();
     let (mut inter, mut m_n) = (0usize, 0usize);
-    for k in 0..nk {
-        for j in 0..nj {
-            for i in 0..ni {
-                if mask.as_slice()[mask.linear_index(i, j, k)] == 0 {
-                    continue;
-                }
-                let p = mask.index_to_world([i as f64, j as f64, k as f64]);
-                if scored.holds(&p) {
-                    m_n += 1;
-                    inter += truth_at(truth, &p) as usize;
-                }
-            }
-        }
+    for p in set_points(mask).filter(|p| scored.holds(p)) {
+        m_n += 1;
+        inter += truth_at(truth, &p) as usize;
     }
     let (vm, vt) = (mask.voxel_volume(), truth.voxel_volume());
     2.0 * inter as f64 * vm / (m_n as f64 * vm + scored.count(truth) as f64 * vt)
@@ -442,20 +427,11 @@ fn accuracy(
     st: &Structures,
     scored: Scored,
 ) -> Accuracy {
-    let [ni, nj, nk] = mask.dims();
     let mut leaks: Vec<(Structure, usize)> = Structure::ALL.iter().map(|&s| (s, 0)).collect();
-    for k in 0..nk {
-        for j in 0..nj {
-            for i in 0..ni {
-                if mask.as_slice()[mask.linear_index(i, j, k)] == 0 {
-                    continue;
-                }
-                let p = mask.index_to_world([i as f64, j as f64, k as f64]);
-                for (s, n) in leaks.iter_mut() {
-                    if st.contains(*s, &p) {
-                        *n += 1;
-                    }
-                }
+    for p in set_points(mask) {
+        for (s, n) in leaks.iter_mut() {
+            if st.contains(*s, &p) {
+                *n += 1;
             }
         }
     }
