@@ -8,11 +8,15 @@
 //! step, with a weight equal to the arc length (mm) the pixel stands for.
 //! A full circle of radius r therefore casts 2πr mm of votes at its centre,
 //! and the circleness
-//!     C(c) = max_b  Σ_{3×3 pixels around c} A(·, b) / (2π r_b)
+//!     C(c) = max_b  Σ_{window around c} A(·, b) / (2π r_b)
 //! is the fraction of the circumference whose edges point at c, in [0, 1].
-//! The 3×3 window at one bin gathers each rim pixel exactly once (its ray
-//! passes the window in three consecutive steps, one per bin), so pixel
-//! rounding neither loses nor double-counts votes.
+//! A rim pixel votes once per bin, so the window at one bin counts it at
+//! most once. The window reaches WINDOW_HALF_MM each side of c (3 × 3
+//! pixels at 0.75 mm and coarser, 5 × 5 with a partial outer ring at
+//! 0.5 mm): a real lumen is not a perfect circle, its edge normals miss the
+//! centre by a millimetre or so, and a window of fixed pixels shrank in
+//! millimetres on finer grids (the real CT's anchor scored 0.63 at 0.75 mm
+//! and 0.38 at 0.5 mm).
 
 use super::filter::{kernel, smooth2};
 
@@ -44,7 +48,11 @@ impl Default for HoughParams {
 pub struct CircleMap {
     pub ni: usize,
     pub nj: usize,
+    /// The circleness: votes within WINDOW_HALF_MM, what thresholds judge.
     pub c: Vec<f32>,
+    /// Where circles are: the same sums, uncapped where the window is wider
+    /// than 3 × 3 pixels (capped, they are flat about a centre).
+    pub peak: Vec<f32>,
     pub r_mm: Vec<f32>,
     /// The slice lightly smoothed (σ = EDGE_SIGMA_MM), for edge radii.
     edge_img: Vec<f32>,
@@ -58,6 +66,78 @@ pub struct CircleMap {
 const EDGE_SIGMA_MM: f64 = 0.6;
 /// Rays of the radial edge search.
 const EDGE_RAYS: usize = 72;
+
+/// How far from a centre (mm) a vote still counts for it: the reach of the
+/// 3 × 3 window on the 0.75 mm grid a 1.5 mm scan is read at.
+const WINDOW_HALF_MM: f64 = 1.125;
+
+/// The window's weights by pixel offset 0, 1, 2, … on pixels of `s` mm:
+/// 3 × 3 at least; on finer pixels out to WINDOW_HALF_MM, the outermost
+/// ring weighted by the part of it that lies within.
+fn window_weights(s: f64) -> Vec<f32> {
+    let mut w = vec![1.0, 1.0];
+    for d in 2.. {
+        let inside = (WINDOW_HALF_MM - (d as f64 - 0.5) * s) / s;
+        if inside <= 1e-9 {
+            break;
+        }
+        w.push(inside.min(1.0) as f32);
+    }
+    w
+}
+
+/// Σ of `w[|k − c|]·at(k)` for k within the weights' reach of `c` in 0..n:
+/// the centre first, then outwards pair by pair (a fixed order, so a
+/// 3 × 3 window adds as it always has).
+fn centred_sum(c: usize, n: usize, w: &[f32], at: impl Fn(usize) -> f32) -> f32 {
+    let mut s = at(c);
+    for (d, &wd) in w.iter().enumerate().skip(1) {
+        if c >= d {
+            s += wd * at(c - d);
+        }
+        if c + d < n {
+            s += wd * at(c + d);
+        }
+    }
+    s
+}
+
+/// Per pixel, the largest over the radius bins of the votes within
+/// the window `weights` (by offset in i and j) over the bin's circumference
+/// 2π r(b), and that bin.
+fn windowed_max(
+    acc: &[f32],
+    ni: usize,
+    nj: usize,
+    nb: usize,
+    weights: (&[f32], &[f32]),
+    r: impl Fn(usize) -> f64,
+) -> (Vec<f32>, Vec<usize>) {
+    let n = ni * nj;
+    let mut c = vec![0f32; n];
+    let mut best_b = vec![0usize; n];
+    let mut tmp = vec![0f32; n];
+    for b in 0..nb {
+        let a = &acc[b * n..(b + 1) * n];
+        for j in 0..nj {
+            for i in 0..ni {
+                tmp[i + j * ni] = centred_sum(i, ni, weights.0, |ii| a[ii + j * ni]);
+            }
+        }
+        let norm = 1.0 / (2.0 * std::f64::consts::PI * r(b)) as f32;
+        for j in 0..nj {
+            for i in 0..ni {
+                let v = i + j * ni;
+                let cv = centred_sum(j, nj, weights.1, |jj| tmp[i + jj * ni]) * norm;
+                if cv > c[v] {
+                    c[v] = cv;
+                    best_b[v] = b;
+                }
+            }
+        }
+    }
+    (c, best_b)
+}
 
 /// A detected circle, in pixel coordinates of the slice.
 #[derive(Debug, Clone, Copy)]
@@ -148,58 +228,28 @@ pub fn circleness(
             }
         }
     }
-    // 3×3 box sum per bin, normalised by the circumference.
-    let mut c = vec![0f32; n];
-    let mut r_mm = vec![0f32; n];
-    let mut best_b = vec![0usize; n];
-    let mut tmp = vec![0f32; n];
-    for b in 0..nb {
-        let a = &acc[b * n..(b + 1) * n];
-        for j in 0..nj {
-            for i in 0..ni {
-                let mut s = a[i + j * ni];
-                if i > 0 {
-                    s += a[i - 1 + j * ni];
-                }
-                if i + 1 < ni {
-                    s += a[i + 1 + j * ni];
-                }
-                tmp[i + j * ni] = s;
-            }
-        }
-        let norm = 1.0 / (2.0 * std::f64::consts::PI * (p.r_min_mm + b as f64 * h)) as f32;
-        for j in 0..nj {
-            for i in 0..ni {
-                let v = i + j * ni;
-                let mut s = tmp[v];
-                if j > 0 {
-                    s += tmp[v - ni];
-                }
-                if j + 1 < nj {
-                    s += tmp[v + ni];
-                }
-                let cv = s * norm;
-                if cv > c[v] {
-                    c[v] = cv;
-                    best_b[v] = b;
-                }
-            }
-        }
-    }
+    // Location: 3 × 3 pixels, which peak at the centre; score: the window
+    // in mm (the same sums where it is 3 × 3 too).
+    let r_bin = |b: usize| p.r_min_mm + b as f64 * h;
+    let (wi, wj) = (window_weights(sx), window_weights(sy));
+    let (mut c, best_b) = windowed_max(&acc, ni, nj, nb, (&wi, &wj), r_bin);
     // Radius: parabolic peak of the windowed votes over the neighbouring bins.
     let box_at = |b: usize, v: usize| -> f64 {
         let (i, j) = (v % ni, v / ni);
+        let (hi, hj) = (wi.len() - 1, wj.len() - 1);
         let mut s = 0.0;
-        for jj in j.saturating_sub(1)..=(j + 1).min(nj - 1) {
-            for ii in i.saturating_sub(1)..=(i + 1).min(ni - 1) {
-                s += acc[b * n + ii + jj * ni] as f64;
+        for jj in j.saturating_sub(hj)..=(j + hj).min(nj - 1) {
+            for ii in i.saturating_sub(hi)..=(i + hi).min(ni - 1) {
+                let w = wi[ii.abs_diff(i)] * wj[jj.abs_diff(j)];
+                s += (w * acc[b * n + ii + jj * ni]) as f64;
             }
         }
-        s / (p.r_min_mm + b as f64 * h)
+        s / r_bin(b)
     };
+    let mut r_mm = vec![0f32; n];
     for v in 0..n {
         let b = best_b[v];
-        let mut rb = p.r_min_mm + b as f64 * h;
+        let mut rb = r_bin(b);
         if c[v] > 0.05 && b > 0 && b + 1 < nb {
             let (l, m, r) = (box_at(b - 1, v), box_at(b, v), box_at(b + 1, v));
             let den = l - 2.0 * m + r;
@@ -208,7 +258,17 @@ pub fn circleness(
             }
         }
         r_mm[v] = rb as f32;
-        c[v] = c[v].min(1.0);
+    }
+    // A wider window's capped sums are flat about a circle's centre (every
+    // vote within reach of several pixels); its uncapped ones peak there.
+    // A 3 × 3 window keeps the capped map, as it always had.
+    let peak = if wi.len() == 2 && wj.len() == 2 {
+        c.iter().map(|x| x.min(1.0)).collect()
+    } else {
+        c.clone()
+    };
+    for x in c.iter_mut() {
+        *x = x.min(1.0);
     }
     let mut edge_img = img.to_vec();
     smooth2(
@@ -222,6 +282,7 @@ pub fn circleness(
         ni,
         nj,
         c,
+        peak,
         r_mm,
         edge_img,
         sx,
@@ -233,7 +294,7 @@ impl CircleMap {
     /// Up to `max` circles by greedy peak picking: take the best pixel, blank
     /// a disc of its radius, repeat while C ≥ `c_min`.
     pub fn peaks(&self, sx: f64, sy: f64, c_min: f64, max: usize) -> Vec<Circle> {
-        let mut c = self.c.clone();
+        let mut c = self.peak.clone();
         let mut out = Vec::new();
         while out.len() < max {
             let Some((v, &cv)) = c
@@ -243,7 +304,7 @@ impl CircleMap {
             else {
                 break;
             };
-            if (cv as f64) < c_min {
+            if cv <= 0.0 || (self.c[v] as f64) < c_min {
                 break;
             }
             let (i, j) = (v % self.ni, v / self.ni);
@@ -262,12 +323,13 @@ impl CircleMap {
         out
     }
 
-    /// Sub-pixel centre: C-weighted mean over the 3×3 neighbourhood.
+    /// Sub-pixel centre: the 3 × 3 map's weighted mean over the 3×3
+    /// neighbourhood.
     pub fn refine(&self, i: usize, j: usize, r: f64) -> Circle {
         let (mut sw, mut si, mut sj) = (0.0, 0.0, 0.0);
         for jj in j.saturating_sub(1)..=(j + 1).min(self.nj - 1) {
             for ii in i.saturating_sub(1)..=(i + 1).min(self.ni - 1) {
-                let w = self.c[ii + jj * self.ni] as f64;
+                let w = self.peak[ii + jj * self.ni] as f64;
                 sw += w;
                 si += w * ii as f64;
                 sj += w * jj as f64;

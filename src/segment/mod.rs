@@ -150,11 +150,13 @@ pub struct Segmentation {
 /// sampled at half their spacing so the filters, the opening ball and the
 /// Hough edges have voxels to work with; a scan finer than 0.5 mm is
 /// sampled at 0.5 mm. At 0.3 mm (the real CT resampled) the Hough
-/// circleness of the root's section, summed over 3×3 pixels, fell to 0.33
-/// (0.63 at 0.75 mm), tracking stopped after its first circle, and the
-/// wall ring sampled inside the lumen put the threshold at 370 HU instead
-/// of 300: the lumen shrank by about 1 mm, the commissures with it; the
-/// stage also peaked at 2.8 GB (1.1 GB at 0.5 mm).
+/// circleness of the root's section, then summed over 3×3 pixels, fell to
+/// 0.33 (0.63 at 0.75 mm), tracking stopped after its first circle, and
+/// the wall ring sampled inside the lumen put the threshold at 370 HU
+/// instead of 300: the lumen shrank by about 1 mm, the commissures with it;
+/// the stage also peaked at 2.8 GB (1.1 GB at 0.5 mm). The circleness
+/// window now reaches as far in mm on any grid (`hough.rs`); the floor
+/// stays for the time and memory.
 const WORK_MAX_SPACING_MM: f64 = 1.0;
 const WORK_MIN_SPACING_MM: f64 = 0.5;
 /// The work box around the landmarks (mm): the root and LVOT below, the

@@ -637,12 +637,13 @@ pub(super) fn best_circle_near(
         for i in 0..wi {
             let v = i + j * wi;
             let (a, b) = ((i as f64 - ci) * sp[0], (j as f64 - cj) * sp[1]);
-            if within(a, b, shift_mm) && best.is_none_or(|(b, _)| map.c[v] > b) {
-                best = Some((map.c[v], v));
+            if within(a, b, shift_mm) && best.is_none_or(|(b, _)| map.peak[v] > b) {
+                best = Some((map.peak[v], v));
             }
         }
     }
-    let (c, v) = best?;
+    let (_, v) = best?;
+    let c = map.c[v];
     Some(WindowPeak {
         win,
         i0,
