@@ -348,6 +348,18 @@ fn real_ct_variants_segment_alike_and_the_chain_runs_to_a_report() {
             "{}",
             lines.last().unwrap()
         );
+        // Copies read on a 0.5 mm work grid score as the original (0.958,
+        // 0.56 mm) since the Hough circleness window reaches as far in mm
+        // as on 0.75 mm: before, iso0.5 scored 0.950 / 0.66 mm and
+        // fine0.35x0.6 0.949 / 0.69 mm (its wall ring sampled inside the
+        // lumen, 14 ml more mask).
+        if ["iso0.5", "fine0.35x0.6"].contains(&v.name.as_str()) {
+            assert!(
+                sc.dice >= 0.952 && sc.mean_mm <= 0.65,
+                "{}",
+                lines.last().unwrap()
+            );
+        }
         // Without landmarks the same scan is found from its top down: no
         // false leak refusal (the 1 mm copy's seed on the arch bend read
         // r 10.4 mm), no seed outside the lumen (2 mm), no start below the
