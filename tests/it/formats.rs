@@ -182,6 +182,47 @@ fn sample_ct_as_nrrd_and_metaimage_segments_to_the_same_mask_bytes() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
 
+/// A float32 CT with fractional HU, as resampling tools write it, segments
+/// to the same mask bytes as the int16 CT it rounds to (before, it was
+/// refused: "reading as int16 needs integers"); a NaN voxel is refused
+/// with its index, exit code 2 and no mask.
+#[test]
+fn a_float_ct_segments_as_the_int16_ct_it_rounds_to() {
+    let d = tmpdir("formats-float");
+    let sample = repo().join("sample_data");
+    let nii = sample.join("ct.nii.gz");
+    let lm = sample.join("landmarks.mrk.json");
+    let v = nifti::read_i16(&nii).unwrap();
+    let f = v.map(|&x| f32::from(x) + if x % 2 == 0 { 0.4 } else { -0.4 });
+    let float = d.join("float.nii.gz");
+    nifti::write(&float, &f).unwrap();
+    let reference = segment(&nii, &d.join("mask-int16.nii.gz"), &lm);
+    let got = segment(&float, &d.join("mask-float.nii.gz"), &lm);
+    assert!(got == reference, "the float CT's mask differs");
+    let mut bad = f.clone();
+    bad[[10, 20, 30]] = f32::NAN;
+    let nan = d.join("nan.nii.gz");
+    nifti::write(&nan, &bad).unwrap();
+    let out = d.join("mask-nan.nii.gz");
+    let o = coapt(&[
+        "segment",
+        "--ct",
+        &s(&nan),
+        "--landmarks",
+        &s(&lm),
+        "--out",
+        &s(&out),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("nan.nii.gz") && e.contains("[10, 20, 30]") && e.contains("NaN"),
+        "{e}"
+    );
+    assert!(!out.exists(), "a mask was written for a refused CT");
+}
+
 #[test]
 fn run_takes_an_nhdr_ct_and_reruns_when_its_data_file_changes() {
     let d = tmpdir("formats-run");

@@ -208,9 +208,44 @@ pub fn read<T: NiftiRead>(path: &Path, opts: &ReadOptions) -> Result<Volume<T>> 
 }
 
 /// The CT, in Hounsfield units as int16 (what every stage works on), with
-/// the default limits.
+/// the default limits. Integer data must hold whole values. Float data,
+/// which resampling tools (SimpleITK, nibabel, 3D Slicer's resample) often
+/// write with fractional HU, are rounded to the nearest HU, far below a
+/// CT's noise (25–60 HU), once every value is known to be finite and
+/// within int16; a NaN or an out-of-range value is refused, naming its
+/// voxel.
 pub fn read_ct(path: &Path) -> Result<Volume<i16>> {
-    read(path, &ReadOptions::default())
+    let opts = ReadOptions::default();
+    let float = sniff(path)? != Format::Dicom
+        && matches!(
+            read_header(path, &opts)?.datatype,
+            DataType::F32 | DataType::F64
+        );
+    if !float {
+        return read(path, &opts);
+    }
+    let v: Volume<f32> = read(path, &opts)?;
+    let hu = rounded_hu(path, &v)?;
+    tracing::info!("{}: float voxel data rounded to whole HU", path.display());
+    Ok(hu)
+}
+
+/// `v` rounded to whole HU, or the first voxel that is not finite or not
+/// within int16 once rounded.
+fn rounded_hu(path: &Path, v: &Volume<f32>) -> Result<Volume<i16>> {
+    let [ni, nj, _] = v.dims();
+    let fits =
+        |x: f32| x.is_finite() && (f32::from(i16::MIN)..=f32::from(i16::MAX)).contains(&x.round());
+    if let Some((n, x)) = v.as_slice().iter().enumerate().find(|(_, x)| !fits(**x)) {
+        let at = [n % ni, (n / ni) % nj, n / (ni * nj)];
+        return Err(Error::bad_input(
+            path,
+            format!(
+                "voxel {at:?} is {x} (float data): a CT needs a finite value within -32768..=32767 HU in every voxel"
+            ),
+        ));
+    }
+    Ok(v.map(|&x| x.round() as i16))
 }
 
 /// The DICOM series a volume was read from, for provenance.

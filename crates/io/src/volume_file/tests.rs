@@ -475,3 +475,38 @@ fn random_damage_is_refused_or_read_never_a_panic() {
         "{refused} refused, {read_ok} read"
     );
 }
+
+/// A float CT (what resampling tools write) reads as the nearest whole HU,
+/// in NIfTI and NRRD alike; a NaN or a value beyond int16 is refused with
+/// its voxel, exit code 2.
+#[test]
+fn a_float_ct_is_rounded_to_whole_hu_and_a_nan_is_refused() {
+    let d = tmp("float-ct");
+    let v = oblique();
+    // Off by up to ±0.45 HU from the integers, as a trilinear resample leaves them.
+    let f = v.map(|&x| f32::from(x) + 0.45 * if x % 2 == 0 { 1.0 } else { -1.0 });
+    let nii = d.join("ct.nii.gz");
+    nifti::write(&nii, &f).unwrap();
+    let got = read_ct(&nii).unwrap();
+    assert_eq!(got.as_slice(), v.as_slice());
+    // The sform is stored in float32.
+    assert!((got.affine() - v.affine()).abs().max() < 1e-5);
+    let f64s = v.map(|&x| f64::from(x) - 0.3);
+    let nrrd = d.join("ct.nrrd");
+    crate::nrrd::write(&nrrd, &f64s).unwrap();
+    assert_eq!(read_ct(&nrrd).unwrap().as_slice(), v.as_slice());
+    for (bad, words) in [
+        (f32::NAN, "NaN"),
+        (40000.0, "40000"),
+        (-32768.7, "-32768.7"),
+    ] {
+        let mut b = f.clone();
+        b[[3, 2, 1]] = bad;
+        let p = d.join("bad.nii");
+        nifti::write(&p, &b).unwrap();
+        let e = read_ct(&p).unwrap_err();
+        assert_eq!(e.exit_code(), 2);
+        let e = e.to_string();
+        assert!(e.contains("[3, 2, 1]") && e.contains(words), "{e}");
+    }
+}
