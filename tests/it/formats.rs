@@ -83,8 +83,8 @@ pub(crate) fn attached(path: &Path, header: String, data: &[u8]) -> PathBuf {
     path.to_path_buf()
 }
 
-fn segment(ct: &Path, out: &Path, lm: &Path) -> Vec<u8> {
-    let o = coapt(&[
+fn segment_output(ct: &Path, out: &Path, lm: &Path) -> std::process::Output {
+    coapt(&[
         "segment",
         "--ct",
         &s(ct),
@@ -93,7 +93,11 @@ fn segment(ct: &Path, out: &Path, lm: &Path) -> Vec<u8> {
         "--out",
         &s(out),
         "--quiet",
-    ]);
+    ])
+}
+
+fn segment(ct: &Path, out: &Path, lm: &Path) -> Vec<u8> {
+    let o = segment_output(ct, out, lm);
     assert_eq!(o.status.code(), Some(0), "{}: {}", ct.display(), stderr(&o));
     std::fs::read(out).unwrap()
 }
@@ -204,16 +208,7 @@ fn a_float_ct_segments_as_the_int16_ct_it_rounds_to() {
     let nan = d.join("nan.nii.gz");
     nifti::write(&nan, &bad).unwrap();
     let out = d.join("mask-nan.nii.gz");
-    let o = coapt(&[
-        "segment",
-        "--ct",
-        &s(&nan),
-        "--landmarks",
-        &s(&lm),
-        "--out",
-        &s(&out),
-        "--quiet",
-    ]);
+    let o = segment_output(&nan, &out, &lm);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let e = stderr(&o);
     assert!(
