@@ -228,8 +228,8 @@ pub fn circleness(
             }
         }
     }
-    // Location: 3 × 3 pixels, which peak at the centre; score: the window
-    // in mm (the same sums where it is 3 × 3 too).
+    // Votes within the window in mm, per bin, normalised by the bin's
+    // circumference.
     let r_bin = |b: usize| p.r_min_mm + b as f64 * h;
     let (wi, wj) = (window_weights(sx), window_weights(sy));
     let (mut c, best_b) = windowed_max(&acc, ni, nj, nb, (&wi, &wj), r_bin);
@@ -291,8 +291,9 @@ pub fn circleness(
 }
 
 impl CircleMap {
-    /// Up to `max` circles by greedy peak picking: take the best pixel, blank
-    /// a disc of its radius, repeat while C ≥ `c_min`.
+    /// Up to `max` circles by greedy peak picking: take the best pixel of
+    /// the location map (`peak`), blank a disc of its radius, repeat while
+    /// its circleness C ≥ `c_min`.
     pub fn peaks(&self, sx: f64, sy: f64, c_min: f64, max: usize) -> Vec<Circle> {
         let mut c = self.peak.clone();
         let mut out = Vec::new();
@@ -323,8 +324,8 @@ impl CircleMap {
         out
     }
 
-    /// Sub-pixel centre: the 3 × 3 map's weighted mean over the 3×3
-    /// neighbourhood.
+    /// Sub-pixel centre: the mean over the 3×3 neighbourhood weighted by
+    /// the location map (`peak`).
     pub fn refine(&self, i: usize, j: usize, r: f64) -> Circle {
         let (mut sw, mut si, mut sj) = (0.0, 0.0, 0.0);
         for jj in j.saturating_sub(1)..=(j + 1).min(self.nj - 1) {

@@ -16,7 +16,7 @@ fn slice(n: usize, s: f64, inside: impl Fn(f64, f64) -> bool, noise: f64) -> Vec
         .collect()
 }
 
-/// Where the circle is (the 3 × 3 map's peak), its circleness and radius.
+/// Where the circle is (the location map's peak), its circleness and radius.
 fn best(map: &super::hough::CircleMap) -> (usize, f32, f32) {
     let (v, _) = map
         .peak
