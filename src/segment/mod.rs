@@ -350,6 +350,31 @@ fn ring_inside_ellipse(tilt: f64, r: f64) -> f64 {
 /// The value of the work grid outside the scan.
 const AIR_HU: i16 = -1024;
 
+/// A chest CT has air (the lungs, the room) at about −1000 HU, so one whose
+/// darkest percent lies above this was most likely stored without its
+/// rescale intercept (raw detector values 0–4095).
+const AIR_PERCENTILE_MAX_HU: i32 = -500;
+
+/// Why a CT in which no aorta was found may not be in Hounsfield units:
+/// its first percentile, when that lies above [`AIR_PERCENTILE_MAX_HU`].
+fn hu_hint(ct: &Volume<i16>) -> Option<String> {
+    let mut hist = vec![0u64; 1 << 16];
+    for &v in ct.as_slice() {
+        hist[(i32::from(v) + 32768) as usize] += 1;
+    }
+    let target = ct.as_slice().len() as u64 / 100;
+    let mut seen = 0;
+    let p1 = hist.iter().enumerate().find_map(|(i, &h)| {
+        seen += h;
+        (seen > target).then_some(i as i32 - 32768)
+    })?;
+    (p1 > AIR_PERCENTILE_MAX_HU).then(|| {
+        format!(
+            "the darkest percent of the CT lies at {p1} HU and above, where a chest CT's air reads about −1000 HU: are its values Hounsfield units? (check the file's rescale slope and intercept)"
+        )
+    })
+}
+
 struct Clock(Instant, Vec<(String, f64)>);
 impl Clock {
     fn lap(&mut self, name: &str) {
@@ -369,13 +394,20 @@ pub fn segment(
     let commissures3 = landmarks
         .and_then(|l| l.require(&["C1", "C2", "C3"]).ok())
         .and_then(|v| <[Point3; 3]>::try_from(v).ok());
+    let input = ct;
     let work = work_volume(ct, commissures3.as_ref())?;
     let ct = &work;
     clock.lap("work_grid");
     let found = match &commissures3 {
-        Some(c) => anchor::from_commissures(ct, c, &p.hough)?,
-        None => track::find_aorta(ct, &p.hough)?,
-    };
+        Some(c) => anchor::from_commissures(ct, c, &p.hough),
+        None => track::find_aorta(ct, &p.hough),
+    }
+    .map_err(|e| match (e, hu_hint(input)) {
+        (Error::Failed { stage, problem }, Some(hint)) => {
+            Error::failed(stage, format!("{problem}; {hint}"))
+        }
+        (e, _) => e,
+    })?;
     clock.lap("hough_track");
     let sp = ct.spacing();
     let [ni, nj, _] = ct.dims();

@@ -682,3 +682,28 @@ fn a_tilted_annulus_turns_the_vaj_plane_onto_it() {
     let h = Point3::from(plane.point_mm).coords.dot(&n);
     assert!(h.abs() <= 1.5, "plane {h:.2} mm off the annulus: {floor:?}");
 }
+
+#[test]
+fn a_ct_without_air_at_minus_1000_hu_gets_a_rescale_hint() {
+    // A chest slab: 30 % air (lungs) at −1000 HU, soft tissue, contrast.
+    let n = 20usize;
+    let hu: Vec<i16> = (0..n * n * n)
+        .map(|v| match v % 10 {
+            0..=2 => -1000,
+            3..=7 => 40,
+            _ => 350,
+        })
+        .collect();
+    let ct = |vals: Vec<i16>| {
+        crate::geom::Volume::from_fortran_vec([n, n, n], nalgebra::Matrix4::identity(), vals)
+            .unwrap()
+    };
+    assert_eq!(super::hu_hint(&ct(hu.clone())), None);
+    // The same scan stored without its −1024 intercept.
+    let raw: Vec<i16> = hu.iter().map(|&x| x + 1024).collect();
+    let hint = super::hu_hint(&ct(raw)).expect("raw values get a hint");
+    assert!(
+        hint.contains("24 HU") && hint.contains("intercept"),
+        "{hint}"
+    );
+}
