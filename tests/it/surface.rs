@@ -233,7 +233,7 @@ fn bad_target_edges_are_refused() {
 /// phantom --preset full> cargo test --release --test it remesh_measure --
 /// --ignored --nocapture`.
 #[test]
-#[ignore]
+#[ignore = "a measurement: needs COAPT_PHANTOM_DIR, a phantom written by coapt phantom --preset full"]
 fn remesh_measure() {
     let dir = std::path::PathBuf::from(std::env::var("COAPT_PHANTOM_DIR").unwrap());
     let truth = vtp::read_mesh(&dir.join("truth_surface.vtp")).unwrap();
