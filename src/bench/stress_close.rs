@@ -443,13 +443,16 @@ mod tests {
         }
     }
 
-    /// Plausible case 42 (St.V-K without bending, h 0.98 mm, 107 mmHg)
-    /// wanders at its full load applied at once, though from rest it
-    /// converges up to 97 % of it on a stiffening path (`--explain`): the
-    /// load steps reach the equilibrium, and say so.
+    /// Plausible case 81 of seed 2 (neo-Hookean without bending, h 0.36 mm,
+    /// 64 mmHg, 1.6 MPa, 0.78 mm) fails at its full load applied at once
+    /// (1500 iterations): the load steps reach the equilibrium, and say so.
+    /// Which wandering membrane they rescue is chaotic (seed 1's case 42
+    /// was this test's case until the suturing rounds were loosened and
+    /// moved its sutured state by about 1e-7 mm); in 300 plausible cases
+    /// this is the one.
     #[test]
     fn a_closure_that_fails_at_once_converges_by_load_steps() {
-        let r = run_case(&case(1, 42, (0.25, 2.0), &PLAUSIBLE), 600.0);
+        let r = run_case(&case(2, 81, (0.25, 2.0), &PLAUSIBLE), 600.0);
         match &r.verdict {
             Verdict::Converged => {}
             v => panic!("{v:?}"),
