@@ -85,3 +85,54 @@ fn a_bare_mesh_size_is_refused() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("no unit"), "{}", stderr(&o));
 }
+
+/// `--ct` (and `--landmarks`) run the chain from a given scan, as `coapt
+/// run` would: no phantom row, the CT's own dimensions, one measured row
+/// per stage (here the committed sample's CT; the real CT's close is
+/// measured this way for the 5 s target).
+#[test]
+fn a_given_ct_is_benchmarked_without_a_phantom() {
+    let d = tmpdir("bench-pipeline-ct");
+    let j = d.join("b.json");
+    let data = repo().join("sample_data");
+    let o = coapt(&[
+        "bench",
+        "pipeline",
+        "--ct",
+        data.join("ct.nii.gz").to_str().unwrap(),
+        "--landmarks",
+        data.join("landmarks.mrk.json").to_str().unwrap(),
+        "--work",
+        d.join("work").to_str().unwrap(),
+        "--json",
+        j.to_str().unwrap(),
+        "--threads",
+        "2",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: Value = serde_json::from_slice(&std::fs::read(&j).unwrap()).unwrap();
+    let runs = v.as_array().unwrap();
+    assert_eq!(runs.len(), 1, "only the CT, no default preset: {v}");
+    let r = &runs[0];
+    assert_eq!(r["preset"], "ct:ct.nii.gz");
+    assert_eq!(r["dims"], serde_json::json!([112, 112, 112]));
+    assert!(r["phantom"].is_null(), "{}", r["phantom"]);
+    let stages = r["stages"].as_array().unwrap();
+    let names: Vec<&str> = stages
+        .iter()
+        .map(|s| s["stage"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        ["segment", "surface", "valve", "leaflets", "close", "report"]
+    );
+    for s in stages {
+        let pos = |x: &Value| x.as_f64().is_some_and(|x| x.is_finite() && x > 0.0);
+        assert!(pos(&s["seconds"]) && pos(&s["wall_s"]), "{s}");
+        assert_eq!(s["ran"], true, "{s}");
+    }
+    assert!(d.join("work/ct/run/report.html").is_file());
+    // Landmarks without a CT are refused by the command line.
+    let o = coapt(&["bench", "pipeline", "--landmarks", "x.mrk.json"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}
