@@ -10,7 +10,7 @@ use super::place::{self, Path3};
 use super::stage_params::{LeafletParams, Placement};
 use crate::geom::wall::Wall;
 use crate::geom::{DataArray, DataValues, Frame, Point3, TriMesh, Vector3};
-use crate::io::{Transaction, vtp};
+use crate::io::{Transaction, leaflet_mesh, vtp};
 use crate::pipeline::{ArtifactKind, Param, ParamKind, Params, Port, Progress, StageIo, StageSpec};
 use crate::template::outline::Edge;
 use crate::template::{Template, read_templates};
@@ -386,23 +386,19 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     if let Some(msg) = crossings.get("warning").and_then(|w| w.as_str()) {
         tracing::warn!("leaflets: {msg}");
     }
-    out.point_data.insert(DataArray::new(
-        "ref_uv",
-        2,
-        DataValues::F64(uv.iter().flat_map(|p| [p[0], p[1]]).collect()),
-    ));
-    out.point_data
-        .insert(DataArray::new("boundary", 1, DataValues::U8(bnd)));
-    out.cell_data
-        .insert(DataArray::new("leaflet", 1, DataValues::I32(lf)));
-    out.cell_data.insert(DataArray::vectors_f64("fiber1", &f1));
-    out.cell_data.insert(DataArray::vectors_f64("fiber2", &f2));
     // Only a hanging leaflet needs its side recorded: the closure's own
     // rule reads an extruded one right.
-    if any_hanging {
-        out.field_data
-            .insert(DataArray::scalars_f64("pressure_sign", signs));
-    }
+    leaflet_mesh::insert_arrays(
+        &mut out,
+        &leaflet_mesh::LeafletArrays {
+            boundary: bnd,
+            leaflet: lf.iter().map(|&k| (k - 1) as u8).collect(),
+            leaflets: 3,
+            ref_uv: Some(uv),
+            fibres: Some(f1.iter().zip(&f2).map(|(a, b)| [*a, *b]).collect()),
+            pressure_sign: any_hanging.then_some(signs),
+        },
+    );
     // A hanging leaflet is placed as sewn (its columns leave the wall where
     // the suture holds them and hang to the free edge): the closure takes it
     // as the sutured state rather than sewing it again by seed 001's

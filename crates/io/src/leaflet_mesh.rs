@@ -132,6 +132,42 @@ pub fn arrays(m: &TriMesh) -> Result<LeafletArrays, String> {
     })
 }
 
+/// Write `a` into `m` as the artifact carries it, the inverse of
+/// [`arrays`]: point data `ref_uv` (when given) and `boundary`, cell data
+/// `leaflet` (numbered from 1) and `fiber1`, `fiber2` (when given), field
+/// data `pressure_sign` (when given). One writer for `coapt leaflets` and
+/// for the leaflets the mechanics builds itself.
+pub fn insert_arrays(m: &mut TriMesh, a: &LeafletArrays) {
+    use coapt_geom::attributes::{DataArray, DataValues};
+    if let Some(uv) = &a.ref_uv {
+        m.point_data.insert(DataArray::new(
+            "ref_uv",
+            2,
+            DataValues::F64(uv.iter().flat_map(|p| [p[0], p[1]]).collect()),
+        ));
+    }
+    m.point_data.insert(DataArray::new(
+        "boundary",
+        1,
+        DataValues::U8(a.boundary.clone()),
+    ));
+    m.cell_data.insert(DataArray::new(
+        "leaflet",
+        1,
+        DataValues::I32(a.leaflet.iter().map(|&k| i32::from(k) + 1).collect()),
+    ));
+    if let Some(f) = &a.fibres {
+        for (k, name) in ["fiber1", "fiber2"].into_iter().enumerate() {
+            let v: Vec<[f64; 3]> = f.iter().map(|d| d[k]).collect();
+            m.cell_data.insert(DataArray::vectors_f64(name, &v));
+        }
+    }
+    if let Some(s) = &a.pressure_sign {
+        m.field_data
+            .insert(DataArray::scalars_f64("pressure_sign", s.clone()));
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -161,6 +197,24 @@ mod tests {
         m.field_data
             .insert(DataArray::scalars_f64("pressure_sign", vec![1.0, -1.0]));
         m
+    }
+
+    /// What [`insert_arrays`] writes, [`arrays`] reads back.
+    #[test]
+    fn written_arrays_read_back() {
+        let a = arrays(&mesh()).unwrap();
+        let mut m = TriMesh::new(mesh().vertices, mesh().triangles);
+        insert_arrays(&mut m, &a);
+        assert_eq!(arrays(&m).unwrap(), a);
+        let bare = LeafletArrays {
+            ref_uv: None,
+            fibres: None,
+            pressure_sign: None,
+            ..a
+        };
+        let mut m = TriMesh::new(mesh().vertices, mesh().triangles);
+        insert_arrays(&mut m, &bare);
+        assert_eq!(arrays(&m).unwrap(), bare);
     }
 
     #[test]

@@ -6,7 +6,7 @@
 use super::contact::planes::Plane;
 use super::element::V3;
 use super::wall::Wall;
-use coapt_geom::{DataArray, DataValues, Point3, TriMesh};
+use coapt_geom::{Point3, TriMesh};
 
 /// Leaflets as the mechanics sees them (all in mm, LPS).
 #[derive(Debug, Clone)]
@@ -52,43 +52,24 @@ pub fn leaflets_from_mesh(m: &TriMesh) -> std::result::Result<Leaflets, String> 
 }
 
 /// The leaflet mesh artifact of `l` (the arrays [`leaflets_from_mesh`]
-/// reads back): positions, `boundary`, `leaflet` numbered from 1, `ref_uv`
-/// and the fibres when there are any, `pressure_sign` when given.
+/// reads back), written as `coapt leaflets` writes it.
 pub fn leaflets_to_mesh(l: &Leaflets) -> TriMesh {
     let mut m = TriMesh::new(
         l.x.iter().map(|p| Point3::new(p.x, p.y, p.z)).collect(),
         l.tris.clone(),
     );
-    m.point_data.insert(DataArray::new(
-        "boundary",
-        1,
-        DataValues::U8(l.boundary.clone()),
-    ));
-    m.cell_data.insert(DataArray::new(
-        "leaflet",
-        1,
-        DataValues::I32(l.leaflet.iter().map(|&k| i32::from(k) + 1).collect()),
-    ));
-    if let Some(uv) = &l.ref_uv {
-        m.point_data.insert(DataArray::new(
-            "ref_uv",
-            2,
-            DataValues::F64(uv.iter().flat_map(|p| [p[0], p[1]]).collect()),
-        ));
-    }
-    if let Some(f) = &l.fibers {
-        for (k, name) in ["fiber1", "fiber2"].into_iter().enumerate() {
-            let v: Vec<[f64; 3]> = f.iter().map(|d| [d[k].x, d[k].y, d[k].z]).collect();
-            m.cell_data.insert(DataArray::vectors_f64(name, &v));
-        }
-    }
-    if let Some(s) = &l.pressure_side {
-        m.field_data.insert(DataArray::new(
-            "pressure_sign",
-            1,
-            DataValues::F64(s.clone()),
-        ));
-    }
+    let a = coapt_io::leaflet_mesh::LeafletArrays {
+        boundary: l.boundary.clone(),
+        leaflet: l.leaflet.iter().map(|&k| k as u8).collect(),
+        leaflets: l.leaflet.iter().map(|&k| k as usize + 1).max().unwrap_or(0),
+        ref_uv: l.ref_uv.clone(),
+        fibres: l
+            .fibers
+            .as_ref()
+            .map(|f| f.iter().map(|d| d.map(|v| [v.x, v.y, v.z])).collect()),
+        pressure_sign: l.pressure_side.clone(),
+    };
+    coapt_io::leaflet_mesh::insert_arrays(&mut m, &a);
     m
 }
 
