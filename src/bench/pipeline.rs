@@ -798,6 +798,15 @@ mod tests {
         assert_eq!(notes(&rec, &Json::Null), "3 iterations, NOT converged");
     }
 
+    /// The stages a run config plans, in chain order.
+    fn planned(cfg: &RunConfig) -> Vec<&'static str> {
+        runner::plan(cfg, registry())
+            .unwrap()
+            .iter()
+            .map(|s| s.name)
+            .collect()
+    }
+
     #[test]
     fn a_ct_runs_the_chain_without_the_phantom_from_absolute_inputs() {
         let text = ct_chain_config(
@@ -812,11 +821,7 @@ mod tests {
         assert_eq!(cfg.inputs["ct"], here.join("scans/ct.nii.gz"));
         assert_eq!(cfg.inputs["landmarks"], here.join("scans/lm.mrk.json"));
         assert_eq!(cfg.inputs["config"], Path::new("/x/close.toml"));
-        let names: Vec<&str> = runner::plan(&cfg, registry())
-            .unwrap()
-            .iter()
-            .map(|s| s.name)
-            .collect();
+        let names = planned(&cfg);
         assert_eq!(
             names,
             ["segment", "surface", "valve", "leaflets", "close", "report"]
@@ -825,12 +830,7 @@ mod tests {
         let text = ct_chain_config(Path::new("/scans/ct.nii.gz"), None, 0.5).unwrap();
         let cfg = RunConfig::parse(Path::new("/x/chain.toml"), &text, registry()).unwrap();
         assert!(!cfg.inputs.contains_key("landmarks"));
-        assert!(
-            runner::plan(&cfg, registry())
-                .unwrap()
-                .iter()
-                .any(|s| s.name == "landmarks")
-        );
+        assert!(planned(&cfg).contains(&"landmarks"));
     }
 
     #[test]
@@ -847,11 +847,7 @@ mod tests {
             units::format(Kind::Length, 0.7)
         );
         assert_eq!(cfg.inputs["config"], Path::new("/x/close.toml"));
-        let names: Vec<&str> = runner::plan(&cfg, registry())
-            .unwrap()
-            .iter()
-            .map(|s| s.name)
-            .collect();
+        let names = planned(&cfg);
         assert_eq!(
             names,
             [

@@ -6,6 +6,20 @@ use serde_json::Value;
 
 use crate::common::*;
 
+/// A run's stage rows, checked to be the chain after any phantom, in order.
+fn chain_stages(r: &Value) -> &Vec<Value> {
+    let stages = r["stages"].as_array().unwrap();
+    let names: Vec<&str> = stages
+        .iter()
+        .map(|s| s["stage"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        ["segment", "surface", "valve", "leaflets", "close", "report"]
+    );
+    stages
+}
+
 #[test]
 fn sample_chain_gives_one_measured_row_per_stage() {
     let d = tmpdir("bench-pipeline");
@@ -39,15 +53,7 @@ fn sample_chain_gives_one_measured_row_per_stage() {
     let r = &runs[0];
     assert_eq!(r["dims"], serde_json::json!([112, 112, 112]));
     assert_eq!(r["threads"], 2);
-    let stages = r["stages"].as_array().unwrap();
-    let names: Vec<&str> = stages
-        .iter()
-        .map(|s| s["stage"].as_str().unwrap())
-        .collect();
-    assert_eq!(
-        names,
-        ["segment", "surface", "valve", "leaflets", "close", "report"]
-    );
+    let stages = chain_stages(r);
     let pos = |x: &Value| x.as_f64().is_some_and(|x| x.is_finite() && x > 0.0);
     for s in stages.iter().chain([&r["phantom"]]) {
         assert!(pos(&s["seconds"]) && pos(&s["wall_s"]), "{s}");
@@ -117,15 +123,7 @@ fn a_given_ct_is_benchmarked_without_a_phantom() {
     assert_eq!(r["preset"], "ct:ct.nii.gz");
     assert_eq!(r["dims"], serde_json::json!([112, 112, 112]));
     assert!(r["phantom"].is_null(), "{}", r["phantom"]);
-    let stages = r["stages"].as_array().unwrap();
-    let names: Vec<&str> = stages
-        .iter()
-        .map(|s| s["stage"].as_str().unwrap())
-        .collect();
-    assert_eq!(
-        names,
-        ["segment", "surface", "valve", "leaflets", "close", "report"]
-    );
+    let stages = chain_stages(r);
     for s in stages {
         let pos = |x: &Value| x.as_f64().is_some_and(|x| x.is_finite() && x > 0.0);
         assert!(pos(&s["seconds"]) && pos(&s["wall_s"]), "{s}");
