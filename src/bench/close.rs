@@ -21,16 +21,15 @@ use crate::leaflet::place::{self, Path3};
 use crate::mech::closure::{self, Closed};
 use crate::mech::config;
 use crate::mech::element::V3;
-use crate::mech::model::{self, Axis, Leaflets};
+use crate::mech::model::{Axis, Leaflets};
 use crate::template::{OzakiTemplate, Template};
 use crate::valve::suture::PathSpec;
 use crate::{Error, Result};
 
-/// Root radius (mm): the mechanics' own peer case.
-pub use crate::mech::peer::R;
-/// Straight part, belly depth, gap between leaflets (mm).
-pub const HC: f64 = 1.5;
-pub const HB: f64 = 9.0;
+/// Root radius, straight part and belly depth (mm): the mechanics' own
+/// peer case, and the signed distances to its sector's planes.
+pub use crate::mech::peer::{HB, HC, R, plane_distances};
+/// Gap between leaflets (mm).
 pub const GAP: f64 = 4.0;
 /// Template D, H, H_f, L_f (mm).
 pub const TEMPLATE: [f64; 4] = [19.0, 11.0, 2.0, 24.0];
@@ -178,41 +177,6 @@ pub fn zones(x: &[V3], tris: &[[u32; 3]], dist: &[[f64; 2]], tau: f64) -> [(f64,
         }
     }
     out
-}
-
-/// Signed distances of `x` to the two planes through the +z axis that
-/// bound the placed leaflet `l`'s 120° sector, positive on its side.
-pub fn plane_distances(l: &Leaflets, x: &[V3]) -> Vec<[f64; 2]> {
-    let c = model::corners(l);
-    let rad = |p: &V3| V3::new(p.x, p.y, 0.0);
-    let centroid = rad(&(l.x.iter().sum::<V3>() / l.x.len() as f64));
-    // Split the corners by the side of the centroid's radial line.
-    let side = |p: &V3| centroid.cross(&rad(p)).z >= 0.0;
-    // The planes bound the leaflet's 120° sector, as `close` puts them for
-    // a leaflet alone: 60° either side of the middle of its corners.
-    let ends: Vec<V3> = [true, false]
-        .map(|s| {
-            let pts: Vec<V3> = c
-                .iter()
-                .map(|&i| l.x[i as usize])
-                .filter(|p| side(p) == s)
-                .collect();
-            rad(&(pts.iter().sum::<V3>() / pts.len().max(1) as f64)).normalize()
-        })
-        .to_vec();
-    let middle = (ends[0] + ends[1]).normalize();
-    let mut normals = Vec::new();
-    for e in &ends {
-        let m = model::sector_edge(&V3::z(), &middle, e);
-        let mut n = V3::z().cross(&m).normalize();
-        if n.dot(&centroid) < 0.0 {
-            n = -n;
-        }
-        normals.push(n);
-    }
-    x.iter()
-        .map(|p| [normals[0].dot(&rad(p)), normals[1].dot(&rad(p))])
-        .collect()
 }
 
 pub fn metrics(l: &Leaflets, c: &Closed) -> Metrics {
@@ -873,7 +837,7 @@ mod tests {
                 }
             }
             // The two lug corners sit at the commissure height.
-            let c = model::corners(&l);
+            let c = crate::mech::model::corners(&l);
             assert!(c.len() >= 2);
             let top =
                 l.x.iter()

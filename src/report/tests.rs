@@ -353,8 +353,11 @@ fn orifice_of_a_disc_with_a_missing_wedge() {
 /// on every triangle (the plane distance is linear on it).
 #[test]
 fn one_leaflet_closure_reproduces_the_seed_zone() {
-    use crate::bench::close as peer;
-    let (l, axis) = peer::ozaki_cylinder(1.0).unwrap();
+    use crate::mech::peer;
+    // The mechanics' kept peer leaflet, equal to what `coapt bench close`
+    // builds (`tests/it/peer_fixture.rs`).
+    let mech_dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/mech");
+    let (l, axis) = peer::read_leaflet(&peer::fixture_path(&mech_dir, 1.0)).unwrap();
     let cfg =
         crate::mech::config::parse(&peer::config_text_with("svk", "newton", 120.0, true)).unwrap();
     let closed = crate::mech::closure::close(&l, &cfg, Some(axis)).unwrap();

@@ -14,6 +14,8 @@
 //!   - no stage imports another stage but for the imports in [`DEBT`]
 //!     (none today). A new one fails this test, and so does one that is
 //!     gone and still listed.
+//! - Test code included, nothing but the CLI and the benchmarks imports
+//!   `bench`: a stage's tests take their fixtures from the layers below.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -371,4 +373,32 @@ fn crates_depend_only_on_the_layers_below() {
         ),
         ["geom", "io"].map(String::from).into_iter().collect()
     );
+}
+
+/// Test code included: a stage's tests take their fixtures from the
+/// layers below (the mechanics keeps the peer leaflet in
+/// `crates/mech/tests/data/`), not from the benchmarks, so a benchmark can
+/// change without moving what a stage's test asserts.
+#[test]
+fn stage_tests_take_no_fixtures_from_the_benchmarks() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let mut wrong = Vec::new();
+    for f in &files {
+        let rel = f.strip_prefix(&src).unwrap();
+        let path = module_path(rel);
+        let top = path.first().map(String::as_str).unwrap_or("");
+        if matches!(top, "" | "bench" | "cli") {
+            continue;
+        }
+        let code = std::fs::read_to_string(f).unwrap();
+        if references(&code, &path).contains("bench") {
+            wrong.push(rel.display().to_string());
+        }
+    }
+    assert!(wrong.is_empty(), "import from bench: {wrong:?}");
+    // The check sees an import in test code.
+    let path = vec!["report".to_string(), "tests".to_string()];
+    assert!(references("use crate::bench::close as peer;", &path).contains("bench"));
 }
