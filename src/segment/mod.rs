@@ -14,6 +14,7 @@
 //!    [`vaj`]: the LV separated at the ventriculo-aortic junction.
 
 pub mod anchor;
+pub mod blood_pool;
 pub mod debug_png;
 pub mod edt;
 pub mod euler;
@@ -40,7 +41,7 @@ use serde::Serialize;
 use crate::geom::{Landmarks, Point3, Vector3, Volume, resample};
 use crate::{Error, Result};
 use hough::HoughParams;
-use track::{TrackPoint, annulus_values, median, slice_f32};
+use track::{TrackPoint, median};
 
 /// Tunables (defaults justified in docs/segment.md and the report).
 #[derive(Debug, Clone, Copy)]
@@ -332,21 +333,6 @@ fn tube_check(
     }
 }
 
-/// Fraction of the wall ring [r + 0.5, r + 1.5] mm (its mid radius) that
-/// lies inside the axial cut of a tube of radius `r` tilted by `tilt` rad
-/// from the slice normal: an ellipse of semi-axes r / cos(tilt) and r.
-fn ring_inside_ellipse(tilt: f64, r: f64) -> f64 {
-    let (a, b) = (r / tilt.cos().max(0.1), r);
-    let n = 360;
-    let inside = (0..n)
-        .filter(|&k| {
-            let th = 2.0 * std::f64::consts::PI * k as f64 / n as f64;
-            a * b / ((b * th.cos()).powi(2) + (a * th.sin()).powi(2)).sqrt() > r + 1.0
-        })
-        .count();
-    inside as f64 / n as f64
-}
-
 /// The value of the work grid outside the scan.
 const AIR_HU: i16 = -1024;
 
@@ -384,6 +370,300 @@ impl Clock {
     }
 }
 
+/// The isoperimetric distance tree on the threshold region `region`
+/// (grid `dims`, spacing `sp`, seed voxel `ground`) and where its sweep
+/// stops by `rule`: the voxels kept (in the sweep's order) and the report.
+#[allow(clippy::too_many_arguments)]
+fn idt_stop(
+    region: &[bool],
+    dims: [usize; 3],
+    sp: [f64; 3],
+    ground: usize,
+    region_voxels: usize,
+    roi: &Volume<u8>,
+    rule: StopRule,
+    clock: &mut Clock,
+) -> (Vec<u32>, IdtReport) {
+    let vox_ml = roi.voxel_volume() / 1000.0;
+    let dt = edt::inside_distance(region, dims, sp);
+    clock.lap("edt");
+    let tree = idt::max_spanning_tree(region, &dt, dims, ground);
+    drop(dt);
+    clock.lap("spanning_tree");
+    let x = idt::solve_on_tree(&tree.parent, &tree.weight);
+    let order = idt::order_by_potential(&x);
+    let mut sweep: Vec<u32> = order.iter().map(|&o| tree.order[o as usize]).collect();
+    drop(x);
+    clock.lap("tree_solve_order");
+    let cut = idt::sweep_cut(region, dims, &sweep);
+    let lim = idt::RiseLimits::from_ml(roi.voxel_volume());
+    let k_rise = idt::steepest_rise(&cut, &lim);
+    let k_min = idt::isoperimetric_min(&cut, lim.i_min);
+    let (k, why) = match (rule, k_rise, k_min) {
+        (StopRule::SteepestRise, Some(k), _) => (
+            k,
+            format!(
+                "steepest rise of the cut after {:.1} ml: the sweep is about to enter a larger chamber",
+                k as f64 * vox_ml
+            ),
+        ),
+        (StopRule::IsoperimetricMin, _, Some(k)) => (
+            k,
+            "least isoperimetric ratio cut/k over k ≤ N/2".to_string(),
+        ),
+        _ => (
+            sweep.len(),
+            "no leak detected: the whole threshold region is kept".to_string(),
+        ),
+    };
+    let every = ((0.5 / vox_ml).round() as usize).max(1);
+    let cut_curve: Vec<(f64, u32)> = (every..=cut.len())
+        .step_by(every)
+        .map(|k| (k as f64 * vox_ml, cut[k - 1]))
+        .collect();
+    sweep.truncate(k);
+    clock.lap("sweep_stop");
+    let report = IdtReport {
+        region_voxels,
+        rule,
+        k_steepest_rise: k_rise,
+        k_isoperimetric_min: k_min,
+        k_chosen: k,
+        why,
+        cut_curve,
+    };
+    (sweep, report)
+}
+
+/// The IDT region opened by a ball of radius `open_mm` (the coronaries
+/// go), its component holding the seed voxel `ground`, holes filled.
+fn open_and_fill(
+    idt_region: &[bool],
+    dims: [usize; 3],
+    sp: [f64; 3],
+    ground: usize,
+    open_mm: f64,
+) -> Vec<bool> {
+    // On the region's bounding box only (plus the ball): the IDT region is a
+    // small part of the ROI, which still holds the LV.
+    let pad = [0, 1, 2].map(|a| (open_mm / sp[a]).ceil() as usize + 2);
+    let sub = morphology::SubBox::around(idt_region, dims, pad);
+    let sd = sub.dims();
+    let local = morphology::open_ball(&sub.extract(idt_region, dims), sd, sp, open_mm);
+    // Seed component and holes on the sub-box too: its padding (≥ 2 voxels,
+    // or the ROI border) is background connected to everything outside it,
+    // so both give the same voxels as on the whole ROI, without walking the
+    // ROI's background (most of its 10–20 M voxels on the full preset).
+    let local = match sub.to_inner(ground, dims) {
+        Some(g) => morphology::fill_holes(&morphology::flood_fill(&local, sd, g), sd),
+        None => vec![false; local.len()],
+    };
+    let mut opened = vec![false; idt_region.len()];
+    sub.scatter(&local, &mut opened, dims);
+    opened
+}
+
+/// Where the kept lumen reaches far above the root, cut it: a wall with
+/// tunnels (Euler characteristic ≠ 1) [`TRIM_ABOVE_MM`] above the highest
+/// commissure, and without commissures the arch and descending aorta
+/// where a mask from the landmarks would end. What a cut parts from the
+/// root is dropped. `world` maps a voxel of the `dims` grid to LPS mm.
+fn cut_above_root(
+    mut keep: Vec<bool>,
+    dims: [usize; 3],
+    world: impl Fn(usize) -> Point3,
+    commissures3: Option<&[Point3; 3]>,
+    plane: Option<&vaj::Plane>,
+    ground: usize,
+) -> (Vec<bool>, Topology) {
+    let n = keep.len();
+    // A wall with tunnels (branch vessels of the arch joined twice, seen
+    // on the real CT 55–60 mm above the commissures) is not a root wall:
+    // with the commissures known the lumen is cut lower, where the valve
+    // and the report still have 30 mm of ascending aorta above the STJ.
+    let euler_of = |m: &[bool]| {
+        let sub = morphology::SubBox::around(m, dims, [1, 1, 1]);
+        euler::euler_characteristic(&sub.extract(m, dims), sub.dims())
+    };
+    // The voxel that holds the part kept when the lumen is cut above the
+    // root: the seed may lie above the cut (without landmarks it is found on
+    // an axial level below the arch, 80 mm above the clinical phantom's VAJ).
+    let root_voxel = |keep: &[bool], pl: &vaj::Plane| {
+        let probe = Point3::from(pl.point_mm) + Vector3::from(pl.normal) * ROOT_PROBE_MM;
+        (0..n).filter(|&v| keep[v]).min_by(|&a, &b| {
+            (world(a) - probe)
+                .norm_squared()
+                .total_cmp(&(world(b) - probe).norm_squared())
+                .then(a.cmp(&b))
+        })
+    };
+    let mut topology = Topology {
+        euler: euler_of(&keep),
+        trimmed_above_commissures_mm: None,
+        euler_after_trim: None,
+        cut_above_z_mm: None,
+    };
+    // Without commissures they are taken 20 mm above the VAJ plane (adult
+    // commissures stand 15–22 mm above the annulus).
+    let commissure_top = match (commissures3, plane) {
+        (Some(c), _) => Some(c.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max)),
+        (None, Some(pl)) => Some(pl.point_mm[2] + COMMISSURES_ABOVE_VAJ_MM),
+        (None, None) => None,
+    };
+    if let (Some(top), true) = (commissure_top, topology.euler != 1) {
+        let from = plane
+            .and_then(|pl| root_voxel(&keep, pl))
+            .filter(|&v| world(v).z <= top + TRIM_ABOVE_MM)
+            .unwrap_or(ground);
+        for (v, kv) in keep.iter_mut().enumerate() {
+            if *kv && world(v).z > top + TRIM_ABOVE_MM {
+                *kv = false;
+            }
+        }
+        keep = morphology::flood_fill(&keep, dims, from);
+        topology.trimmed_above_commissures_mm = Some(TRIM_ABOVE_MM);
+        topology.euler_after_trim = Some(euler_of(&keep));
+    }
+    // Without commissures the lumen holds all the threshold reached: on a
+    // chest CT the arch and the descending aorta (clinical phantom: 132 ml,
+    // where the root and ascending aorta are 43 ml), whose far side a plane
+    // through the annulus also cuts, so the landmarks stage found the
+    // annulus centre between the root and the descending aorta. It is cut
+    // where a mask from the landmarks ends (the work box stops
+    // [`ASCENDING_TOP_MM`] above the highest commissure), with the
+    // commissures taken [`COMMISSURES_ABOVE_VAJ_MM`] above the VAJ, and what
+    // the cut parts from the root is dropped.
+    if let (None, Some(pl), Some(top)) = (commissures3, plane, commissure_top) {
+        let cut = top + ASCENDING_TOP_MM;
+        if let Some(root) = root_voxel(&keep, pl).filter(|&v| world(v).z < cut)
+            && keep
+                .iter()
+                .enumerate()
+                .any(|(v, &kv)| kv && world(v).z > cut)
+        {
+            for (v, kv) in keep.iter_mut().enumerate() {
+                if *kv && world(v).z > cut {
+                    *kv = false;
+                }
+            }
+            keep = morphology::flood_fill(&keep, dims, root);
+            topology.cut_above_z_mm = Some(cut);
+        }
+    }
+    (keep, topology)
+}
+
+/// The VAJ plane: through the nadirs N1–N3 when given, else where the
+/// sinus descent flattens into the LVOT along the centreline marched down
+/// from the track on the opened lumen `opened` (`world`: its voxels in
+/// LPS mm, each `voxel_mm3`). The report says which, without the plane
+/// (set once the lumen is cut at it).
+#[allow(clippy::too_many_arguments)]
+fn vaj_plane(
+    nadirs: Option<&[Point3]>,
+    commissures: &[Point3],
+    ct: &Volume<i16>,
+    found: &track::Found,
+    opened: &[bool],
+    world: impl Fn(usize) -> Point3,
+    voxel_mm3: f64,
+    sp: [f64; 3],
+) -> (Option<vaj::Plane>, VajReport) {
+    let mut report = VajReport {
+        method: "none".into(),
+        plane: None,
+        profile: None,
+        removed_ml: 0.0,
+    };
+    let plane = if let Some(nd) = nadirs.and_then(|v| <[Point3; 3]>::try_from(v).ok()) {
+        report.method = "plane through the nadir landmarks N1–N3".into();
+        vaj::plane_from_landmarks(&nd, commissures)
+    } else {
+        let (start, dir, r0) = vaj::march_start(ct, &found.track);
+        let points: Vec<Point3> = (0..opened.len())
+            .filter(|&v| opened[v])
+            .map(world)
+            .collect();
+        let (pl, prof) = vaj::measure(points, voxel_mm3, start, dir, r0, sp);
+        report.method = match pl {
+            Some(_) => "where the sinus descent flattens into the LVOT, or the end of the region below it (area profile perpendicular to the marched centreline), then where the least sections below it stop narrowing (profile.floor)".into(),
+            None => "none: no sinus descent was seen along the marched centreline, the region is kept as the IDT stopped it".into(),
+        };
+        report.profile = prof;
+        pl
+    };
+    (plane, report)
+}
+
+/// Whether the commissures' centroid lies in the mask `keep` on the grid
+/// of `roi`, in words for `segment.json` ("WARNING" when it does not).
+fn commissure_check(commissures: &[Point3], roi: &Volume<u8>, keep: &[bool]) -> String {
+    if commissures.is_empty() {
+        return "no commissures".to_string();
+    }
+    let dims = roi.dims();
+    let cc = Point3::from(
+        commissures
+            .iter()
+            .fold(Vector3::zeros(), |a, p| a + p.coords)
+            / 3.0,
+    );
+    let ii = roi.world_to_index(&cc).map(|x| x.round() as i64);
+    let inside = (0..3).all(|a| ii[a] >= 0 && (ii[a] as usize) < dims[a])
+        && keep[ii[0] as usize + dims[0] * (ii[1] as usize + dims[1] * ii[2] as usize)];
+    if inside {
+        "commissure centroid inside the mask: seed confirmed".into()
+    } else {
+        "WARNING: commissure centroid outside the mask".into()
+    }
+}
+
+/// The first of the track's centres (on the ROI `box_` of grid `dims`)
+/// whose voxel is `above` the threshold: where the lumen is grown from.
+fn seed_voxel(
+    ct: &Volume<i16>,
+    found: &track::Found,
+    box_: &roi::RoiBox,
+    dims: [usize; 3],
+    above: &[bool],
+    threshold: f64,
+) -> Result<usize> {
+    let to_roi = |t: &TrackPoint| -> Option<usize> {
+        let (i, j, k) = (
+            t.i.round() as i64 - box_.lo[0] as i64,
+            t.j.round() as i64 - box_.lo[1] as i64,
+            t.k as i64 - box_.lo[2] as i64,
+        );
+        (i >= 0
+            && j >= 0
+            && k >= 0
+            && (i as usize) < dims[0]
+            && (j as usize) < dims[1]
+            && (k as usize) < dims[2])
+            .then(|| i as usize + dims[0] * (j as usize + dims[1] * k as usize))
+    };
+    found
+        .track
+        .iter()
+        .filter_map(to_roi)
+        .find(|&v| above[v])
+        .ok_or_else(|| {
+            let s = track::world(ct, &found.track[0]);
+            Error::failed(
+                "segment",
+                format!(
+                    "the tracked aortic centre is below the threshold {threshold:.0} HU on every slice ({} tracked from the seed circle r {:.1} mm, circleness {:.2}, at {:.0}, {:.0}, {:.0} mm LPS): no seed voxel; landmarks C1–C3 on the aortic root let segment start there instead",
+                    found.track.len(),
+                    found.track[0].r_mm,
+                    found.track[0].c,
+                    s.x,
+                    s.y,
+                    s.z
+                ),
+            )
+        })
+}
+
 /// Segment the aortic root and ascending aorta of `ct`.
 pub fn segment(
     ct: &Volume<i16>,
@@ -409,63 +689,9 @@ pub fn segment(
         (e, _) => e,
     })?;
     clock.lap("hough_track");
-    let sp = ct.spacing();
-    let [ni, nj, _] = ct.dims();
 
-    // --- Blood pool, noise and wall from the tracked lumen -------------------
-    let mut inside = Vec::new();
-    let mut wall = Vec::new();
-    let stride = (found.track.len() / 40).max(1);
-    // A tube tilted from the head–feet axis cuts the axial slices in
-    // ellipses, and a ring around the circle found in one lies partly in
-    // the lumen (at 60°, 70 % of it): the wall is the median of the ring's
-    // part outside the ellipse, the quantile (1 − inside)/2 of the ring.
-    // A track that went on from its first circle met near-circular cuts
-    // (the radius may change by 20 % a slice): there the plain median holds.
-    let wall_quantile = match (found.direction, found.track.as_slice()) {
-        (Some(d), [t]) => 0.5 * (1.0 - ring_inside_ellipse(d.z.abs().acos(), t.r_mm)),
-        _ => 0.5,
-    };
-    for t in found.track.iter().step_by(stride) {
-        let img = slice_f32(ct, t.k);
-        inside.extend(annulus_values(
-            &img,
-            ni,
-            nj,
-            [sp[0], sp[1]],
-            (t.i, t.j),
-            0.0,
-            0.6 * t.r_mm,
-        ));
-        wall.extend(annulus_values(
-            &img,
-            ni,
-            nj,
-            [sp[0], sp[1]],
-            (t.i, t.j),
-            t.r_mm + 0.5,
-            t.r_mm + 1.5,
-        ));
-    }
-    let blood = median(&mut inside);
-    let mut dev: Vec<f64> = inside.iter().map(|v| (v - blood).abs()).collect();
-    let noise = 1.4826 * median(&mut dev);
-    wall.sort_unstable_by(f64::total_cmp);
-    let wall_hu = wall
-        .get((wall_quantile * wall.len() as f64) as usize)
-        .copied()
-        .unwrap_or(f64::NAN)
-        .min(blood - 100.0);
-    if !(blood >= p.contrast_min_hu) {
-        return Err(Error::failed(
-            "segment",
-            format!(
-                "looked for contrast-filled blood (≥ {:.0} HU) in the ascending aorta found on the top slice and measured {blood:.0} HU: this CT has no contrast",
-                p.contrast_min_hu
-            ),
-        ));
-    }
-    let threshold = 0.5 * (blood + wall_hu);
+    let pool = blood_pool::measure(ct, &found, p.contrast_min_hu)?;
+    let threshold = pool.threshold;
     let seed = found.track[0];
     let seed_w = track::world(ct, &seed);
     let last = found.track.last().expect("seeded");
@@ -490,7 +716,7 @@ pub fn segment(
         Some(_) => ANCHORED_REACH_MM,
         None => reach::MAX_PATH_MM,
     };
-    let reach = reach::lumen_reach(ct, &found.track, threshold, blood, max_path);
+    let reach = reach::lumen_reach(ct, &found.track, threshold, pool.blood, max_path);
     clock.lap("lumen_reach");
     let mut box_ = roi::roi_box(ct, &found.track, found.dk, &lm_points, reach.as_ref());
     // From the commissures the lumen followed may enter the arch and its
@@ -511,42 +737,8 @@ pub fn segment(
     filter::smooth3(&mut img, dims, rsp, p.smooth_mm);
     clock.lap("smooth");
 
-    // --- Threshold region from the seed --------------------------------------
     let above: Vec<bool> = img.iter().map(|&v| v as f64 >= threshold).collect();
-    let to_roi = |t: &TrackPoint| -> Option<usize> {
-        let (i, j, k) = (
-            t.i.round() as i64 - box_.lo[0] as i64,
-            t.j.round() as i64 - box_.lo[1] as i64,
-            t.k as i64 - box_.lo[2] as i64,
-        );
-        (i >= 0
-            && j >= 0
-            && k >= 0
-            && (i as usize) < dims[0]
-            && (j as usize) < dims[1]
-            && (k as usize) < dims[2])
-            .then(|| i as usize + dims[0] * (j as usize + dims[1] * k as usize))
-    };
-    let ground = found
-        .track
-        .iter()
-        .filter_map(to_roi)
-        .find(|&v| above[v])
-        .ok_or_else(|| {
-            let s = track::world(ct, &found.track[0]);
-            Error::failed(
-                "segment",
-                format!(
-                    "the tracked aortic centre is below the threshold {threshold:.0} HU on every slice ({} tracked from the seed circle r {:.1} mm, circleness {:.2}, at {:.0}, {:.0}, {:.0} mm LPS): no seed voxel; landmarks C1–C3 on the aortic root let segment start there instead",
-                    found.track.len(),
-                    found.track[0].r_mm,
-                    found.track[0].c,
-                    s.x,
-                    s.y,
-                    s.z
-                ),
-            )
-        })?;
+    let ground = seed_voxel(ct, &found, &box_, dims, &above, threshold)?;
     let region = morphology::flood_fill(&above, dims, ground);
     drop(above);
     let vox_ml = roi_vol.voxel_volume() / 1000.0;
@@ -566,70 +758,18 @@ pub fn segment(
     })?;
     drop(region);
     clock.lap("threshold_fill");
-    let dt = edt::inside_distance(&region_s, rdims, rsp);
-    clock.lap("edt");
-
-    // --- IDT -------------------------------------------------------------------
-    let tree = idt::max_spanning_tree(&region_s, &dt, rdims, ground_s);
-    drop(dt);
-    clock.lap("spanning_tree");
-    let x = idt::solve_on_tree(&tree.parent, &tree.weight);
-    let order = idt::order_by_potential(&x);
-    let sweep: Vec<u32> = order.iter().map(|&o| tree.order[o as usize]).collect();
-    drop(x);
-    clock.lap("tree_solve_order");
-    let cut = idt::sweep_cut(&region_s, rdims, &sweep);
-    let lim = idt::RiseLimits::from_ml(roi_vol.voxel_volume());
-    let k_rise = idt::steepest_rise(&cut, &lim);
-    let k_min = idt::isoperimetric_min(&cut, lim.i_min);
-    let (k, why) = match (p.rule, k_rise, k_min) {
-        (StopRule::SteepestRise, Some(k), _) => (
-            k,
-            format!(
-                "steepest rise of the cut after {:.1} ml: the sweep is about to enter a larger chamber",
-                k as f64 * vox_ml
-            ),
-        ),
-        (StopRule::IsoperimetricMin, _, Some(k)) => (
-            k,
-            "least isoperimetric ratio cut/k over k ≤ N/2".to_string(),
-        ),
-        _ => (
-            sweep.len(),
-            "no leak detected: the whole threshold region is kept".to_string(),
-        ),
-    };
-    let every = ((0.5 / vox_ml).round() as usize).max(1);
-    let cut_curve: Vec<(f64, u32)> = (every..=cut.len())
-        .step_by(every)
-        .map(|k| (k as f64 * vox_ml, cut[k - 1]))
-        .collect();
+    let (kept, idt) = idt_stop(
+        &region_s, rdims, rsp, ground_s, region_n, &roi_vol, p.rule, &mut clock,
+    );
     let mut idt_region = vec![false; n];
-    for &v in &sweep[..k] {
+    for &v in &kept {
         idt_region[rbox.to_outer(v as usize, dims)] = true;
     }
-    drop(cut);
-    drop(sweep);
-    clock.lap("sweep_stop");
+    drop(kept);
+    let idt_ml = idt.k_chosen as f64 * vox_ml;
 
-    // --- Morphology --------------------------------------------------------------
-    // On the region's bounding box only (plus the ball): the IDT region is a
-    // small part of the ROI, which still holds the LV.
-    let pad = [0, 1, 2].map(|a| (p.open_mm / rsp[a]).ceil() as usize + 2);
-    let sub = morphology::SubBox::around(&idt_region, dims, pad);
-    let sd = sub.dims();
-    let local = morphology::open_ball(&sub.extract(&idt_region, dims), sd, rsp, p.open_mm);
-    // Seed component and holes on the sub-box too: its padding (≥ 2 voxels,
-    // or the ROI border) is background connected to everything outside it,
-    // so both give the same voxels as on the whole ROI, without walking the
-    // ROI's background (most of its 10–20 M voxels on the full preset).
-    let local = match sub.to_inner(ground, dims) {
-        Some(g) => morphology::fill_holes(&morphology::flood_fill(&local, sd, g), sd),
-        None => vec![false; local.len()],
-    };
-    let mut opened = vec![false; n];
-    sub.scatter(&local, &mut opened, dims);
-    drop(local);
+    let opened = open_and_fill(&idt_region, dims, rsp, ground, p.open_mm);
+    drop(idt_region);
     let opened_n = opened.iter().filter(|&&v| v).count();
     clock.lap("opening");
 
@@ -645,30 +785,17 @@ pub fn segment(
     let commissures = landmarks
         .and_then(|l| l.require(&["C1", "C2", "C3"]).ok())
         .unwrap_or_default();
-    let mut vaj_report = VajReport {
-        method: "none".into(),
-        plane: None,
-        profile: None,
-        removed_ml: 0.0,
-    };
+    let (plane, mut vaj_report) = vaj_plane(
+        nadirs.as_deref(),
+        &commissures,
+        ct,
+        &found,
+        &opened,
+        world,
+        roi_vol.voxel_volume(),
+        rsp,
+    );
     let mut keep = opened.clone();
-    let plane = if let Some(nd) = nadirs
-        .as_ref()
-        .and_then(|v| <[Point3; 3]>::try_from(v.clone()).ok())
-    {
-        vaj_report.method = "plane through the nadir landmarks N1–N3".into();
-        vaj::plane_from_landmarks(&nd, &commissures)
-    } else {
-        let (start, dir, r0) = vaj::march_start(ct, &found.track);
-        let points: Vec<Point3> = (0..n).filter(|&v| opened[v]).map(world).collect();
-        let (pl, prof) = vaj::measure(points, roi_vol.voxel_volume(), start, dir, r0, rsp);
-        vaj_report.method = match pl {
-            Some(_) => "where the sinus descent flattens into the LVOT, or the end of the region below it (area profile perpendicular to the marched centreline), then where the least sections below it stop narrowing (profile.floor)".into(),
-            None => "none: no sinus descent was seen along the marched centreline, the region is kept as the IDT stopped it".into(),
-        };
-        vaj_report.profile = prof;
-        pl
-    };
     if let Some(pl) = plane {
         // Only the part near the plane is judged: far away the curved aorta
         // may pass "below" the annulus plane.
@@ -699,82 +826,14 @@ pub fn segment(
         }
     });
     clock.lap("root_fill");
-    // A wall with tunnels (branch vessels of the arch joined twice, seen
-    // on the real CT 55–60 mm above the commissures) is not a root wall:
-    // with the commissures known the lumen is cut lower, where the valve
-    // and the report still have 30 mm of ascending aorta above the STJ.
-    let euler_of = |m: &[bool]| {
-        let sub = morphology::SubBox::around(m, dims, [1, 1, 1]);
-        euler::euler_characteristic(&sub.extract(m, dims), sub.dims())
-    };
-    // The voxel that holds the part kept when the lumen is cut above the
-    // root: the seed may lie above the cut (without landmarks it is found on
-    // an axial level below the arch, 80 mm above the clinical phantom's VAJ).
-    let root_voxel = |keep: &[bool], pl: &vaj::Plane| {
-        let probe = Point3::from(pl.point_mm) + Vector3::from(pl.normal) * ROOT_PROBE_MM;
-        (0..n).filter(|&v| keep[v]).min_by(|&a, &b| {
-            (world(a) - probe)
-                .norm_squared()
-                .total_cmp(&(world(b) - probe).norm_squared())
-                .then(a.cmp(&b))
-        })
-    };
-    let mut topology = Topology {
-        euler: euler_of(&keep),
-        trimmed_above_commissures_mm: None,
-        euler_after_trim: None,
-        cut_above_z_mm: None,
-    };
-    // Without commissures they are taken 20 mm above the VAJ plane (adult
-    // commissures stand 15–22 mm above the annulus).
-    let commissure_top = match (&commissures3, vaj_report.plane.as_ref()) {
-        (Some(c), _) => Some(c.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max)),
-        (None, Some(pl)) => Some(pl.point_mm[2] + COMMISSURES_ABOVE_VAJ_MM),
-        (None, None) => None,
-    };
-    if let (Some(top), true) = (commissure_top, topology.euler != 1) {
-        let from = vaj_report
-            .plane
-            .as_ref()
-            .and_then(|pl| root_voxel(&keep, pl))
-            .filter(|&v| world(v).z <= top + TRIM_ABOVE_MM)
-            .unwrap_or(ground);
-        for (v, kv) in keep.iter_mut().enumerate() {
-            if *kv && world(v).z > top + TRIM_ABOVE_MM {
-                *kv = false;
-            }
-        }
-        keep = morphology::flood_fill(&keep, dims, from);
-        topology.trimmed_above_commissures_mm = Some(TRIM_ABOVE_MM);
-        topology.euler_after_trim = Some(euler_of(&keep));
-    }
-    // Without commissures the lumen holds all the threshold reached: on a
-    // chest CT the arch and the descending aorta (clinical phantom: 132 ml,
-    // where the root and ascending aorta are 43 ml), whose far side a plane
-    // through the annulus also cuts, so the landmarks stage found the
-    // annulus centre between the root and the descending aorta. It is cut
-    // where a mask from the landmarks ends (the work box stops
-    // [`ASCENDING_TOP_MM`] above the highest commissure), with the
-    // commissures taken [`COMMISSURES_ABOVE_VAJ_MM`] above the VAJ, and what
-    // the cut parts from the root is dropped.
-    if let (None, Some(pl), Some(top)) = (&commissures3, vaj_report.plane.as_ref(), commissure_top)
-    {
-        let cut = top + ASCENDING_TOP_MM;
-        if let Some(root) = root_voxel(&keep, pl).filter(|&v| world(v).z < cut)
-            && keep
-                .iter()
-                .enumerate()
-                .any(|(v, &kv)| kv && world(v).z > cut)
-        {
-            for (v, kv) in keep.iter_mut().enumerate() {
-                if *kv && world(v).z > cut {
-                    *kv = false;
-                }
-            }
-            keep = morphology::flood_fill(&keep, dims, root);
-            topology.cut_above_z_mm = Some(cut);
-        }
-    }
+    let (keep, topology) = cut_above_root(
+        keep,
+        dims,
+        world,
+        commissures3.as_ref(),
+        vaj_report.plane.as_ref(),
+        ground,
+    );
     let final_n = keep.iter().filter(|&&v| v).count();
     vaj_report.removed_ml = (opened_n.saturating_sub(final_n)) as f64 * vox_ml;
     clock.lap("vaj");
@@ -799,27 +858,7 @@ pub fn segment(
         ));
     }
 
-    let landmarks_check = landmarks.map(|_| {
-        if commissures.is_empty() {
-            "no commissures".to_string()
-        } else {
-            let cc = Point3::from(
-                commissures
-                    .iter()
-                    .fold(crate::geom::Vector3::zeros(), |a, p| a + p.coords)
-                    / 3.0,
-            );
-            let idx = roi_vol.world_to_index(&cc);
-            let ii = idx.map(|x| x.round() as i64);
-            let inside = (0..3).all(|a| ii[a] >= 0 && (ii[a] as usize) < dims[a])
-                && keep[ii[0] as usize + dims[0] * (ii[1] as usize + dims[1] * ii[2] as usize)];
-            if inside {
-                "commissure centroid inside the mask: seed confirmed".into()
-            } else {
-                "WARNING: commissure centroid outside the mask".into()
-            }
-        }
-    });
+    let landmarks_check = landmarks.map(|_| commissure_check(&commissures, &roi_vol, &keep));
     if landmarks_check
         .as_deref()
         .is_some_and(|s| s.starts_with("WARNING"))
@@ -844,28 +883,20 @@ pub fn segment(
         tracked_slices: found.track.len(),
         tracked_length_mm: tracked_length,
         track: found.track.clone(),
-        blood_hu: blood,
-        noise_hu: noise,
-        wall_hu,
+        blood_hu: pool.blood,
+        noise_hu: pool.noise,
+        wall_hu: pool.wall,
         threshold_hu: threshold,
         roi: box_.report(ct),
         reach,
-        idt: IdtReport {
-            region_voxels: region_n,
-            rule: p.rule,
-            k_steepest_rise: k_rise,
-            k_isoperimetric_min: k_min,
-            k_chosen: k,
-            why,
-            cut_curve,
-        },
+        idt,
         vaj: vaj_report,
         root_fill,
         topology,
         tube,
         volumes_ml: Volumes {
             threshold_region: region_n as f64 * vox_ml,
-            idt_region: k as f64 * vox_ml,
+            idt_region: idt_ml,
             opened: opened_n as f64 * vox_ml,
             final_mask: final_n as f64 * vox_ml,
         },
