@@ -60,7 +60,12 @@ pub struct Inflation {
     pub outcome: Outcome,
 }
 
-fn refs(x: &[V3], tris: &[[u32; 3]], thickness: f64, fibers: Option<[V3; 2]>) -> Vec<RefTri> {
+pub(crate) fn refs(
+    x: &[V3],
+    tris: &[[u32; 3]],
+    thickness: f64,
+    fibers: Option<[V3; 2]>,
+) -> Vec<RefTri> {
     tris.iter()
         .map(|t| {
             RefTri::new(t.map(|i| x[i as usize]), thickness, fibers).expect("non-degenerate shape")
@@ -69,7 +74,7 @@ fn refs(x: &[V3], tris: &[[u32; 3]], thickness: f64, fibers: Option<[V3; 2]>) ->
 }
 
 /// One material, one pressure on every triangle, no other terms.
-fn uniform_system(
+pub(crate) fn uniform_system(
     refs: Vec<RefTri>,
     tris: &[[u32; 3]],
     mat: Box<dyn Membrane>,

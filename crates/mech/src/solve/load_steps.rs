@@ -128,38 +128,29 @@ pub fn load_steps(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::element::RefTri;
     use crate::material::neo_hookean::NeoHookean;
     use crate::shapes;
-    use crate::sparse::Dofs;
     use crate::system::PressureMode;
+    use crate::verify;
 
     /// A clamped neo-Hookean disc (radius 10 mm, 0.5 mm thick, μ 0.3 MPa)
     /// under a follower pressure `q` (MPa), and its start: a shallow dome,
-    /// so the first tangent of the flat sheet is not singular. Smooth and
-    /// stiffening, with one inflated equilibrium: nothing chaotic.
+    /// so the first tangent of the flat sheet is not singular. Smooth, and
+    /// at Q below the load where a neo-Hookean membrane, softening as it
+    /// inflates, has no equilibrium left (centre 6.4 mm up, of a 10 mm
+    /// radius): nothing chaotic.
     fn disc(q: f64) -> (System, Vec<V3>) {
         let (x0, tris, rim) = shapes::disc(10.0, 1.0);
         let fixed: Vec<[bool; 3]> = rim.iter().map(|&r| [r; 3]).collect();
-        let refs = tris
-            .iter()
-            .map(|t| RefTri::new(t.map(|i| x0[i as usize]), 0.5, None).unwrap())
-            .collect();
-        let sys = System {
-            refs,
-            tris: tris.clone(),
-            materials: vec![Box::new(NeoHookean { mu: 0.3 })],
-            tri_material: vec![0; tris.len()],
-            dofs: Dofs::new(&fixed),
+        let sys = verify::uniform_system(
+            verify::refs(&x0, &tris, 0.5, None),
+            &tris,
+            Box::new(NeoHookean { mu: 0.3 }),
             fixed,
-            tri_pressure: vec![q; tris.len()],
-            pressure_scale: 1.0,
-            pressure_mode: PressureMode::Follower,
-            terms: Vec::new(),
-            project: false,
-            pressure_tangent: true,
-            watch: None,
-        };
+            q,
+            PressureMode::Follower,
+            false,
+        );
         let start = x0
             .iter()
             .map(|p| V3::new(p.x, p.y, 0.2 * (1.0 - p.xy().norm_squared() / 100.0)))
