@@ -417,6 +417,248 @@ fn build_system(
     Ok((sys, wall_geo))
 }
 
+/// What a closure reports when suturing's first round failed: the leaflets
+/// where suturing left them, nothing solved.
+fn unsewn(l: &Leaflets, s: &Sutured, pressure_sign: Vec<f64>, setup_s: f64) -> Closed {
+    let (crossings, sewn_contacts) = leaflet_crossings(l, &s.x);
+    Closed {
+        crossings,
+        sewn_contacts,
+        contact: vec![0; s.x.len()],
+        area_stretch: Vec::new(),
+        max_stretch: Vec::new(),
+        setup_s,
+        solve_s: 0.0,
+        pressure_sign,
+        outcome: Outcome {
+            stopped_by: Stopped::SuturingFailed,
+            reason: format!("suturing (seed 001 Algorithm 1) failed: {}", s.reason),
+            iterations: s.iterations,
+            residual_n: s.rounds.last().map_or(0.0, |r| r.residual_n),
+            initial_residual_n: s.rounds.first().map_or(0.0, |r| r.residual_n),
+            seconds: s.seconds,
+            ..Outcome::start()
+        },
+        x: s.x.clone(),
+        suturing: Some(s.clone()),
+        wall_contact: None,
+    }
+}
+
+/// `reference_steps` closures, the reference walking from the sutured
+/// state to the one asked for (`ref_x`); each starts where the last left
+/// off.
+#[allow(clippy::too_many_arguments)]
+fn walk_reference(
+    cfg: &CloseConfig,
+    l: &Leaflets,
+    placed_x: &[V3],
+    ref_x: &[V3],
+    sys: &mut System,
+    x: &mut Vec<V3>,
+    stop: &Stop,
+    nopt: &NewtonOptions,
+    unprojected: bool,
+    t1: Instant,
+) -> Result<Outcome, String> {
+    // The reference walks from the sutured state to the one asked
+    // for; each step starts where the last left off.
+    let target = std::mem::take(&mut sys.refs);
+    let mut all: Option<Outcome> = None;
+    let mut notes = Vec::new();
+    for k in 1..=cfg.reference_steps {
+        let s = k as f64 / cfg.reference_steps as f64;
+        sys.refs = if k == cfg.reference_steps {
+            target.clone()
+        } else {
+            reference_blend::blended(
+                &l.x,
+                ref_x,
+                &l.tris,
+                s,
+                cfg.thickness,
+                l.fibers.as_deref().map(|f| (f, placed_x)),
+            )?
+        };
+        let left = Stop {
+            max_seconds: (stop.max_seconds - t1.elapsed().as_secs_f64()).max(0.0),
+            ..stop.clone()
+        };
+        let o = newton_with_continuation(sys, x, &left, nopt, unprojected);
+        notes.push(format!("reference {s:.2} of the way: {}", o.reason));
+        all = Some(merge(all, o));
+        if left.max_seconds <= 0.0 {
+            break;
+        }
+    }
+    let mut o = all.unwrap_or_else(Outcome::start);
+    o.reason = notes.join("; ");
+    Ok(o)
+}
+
+type Build<'a> = dyn Fn() -> Result<(System, Option<Arc<WallGeometry>>), String> + 'a;
+
+/// The full load at once; when that fails (but for the time limit), in
+/// steps from the start, each step's system fresh from `build`.
+#[allow(clippy::too_many_arguments)]
+fn at_once_or_by_steps(
+    sys: &mut System,
+    x: &mut Vec<V3>,
+    wall_geo: &mut Option<Arc<WallGeometry>>,
+    build: &Build,
+    stop: &Stop,
+    nopt: &NewtonOptions,
+    unprojected: bool,
+    t1: Instant,
+) -> Result<Outcome, String> {
+    let start = x.clone();
+    let o = newton_with_continuation(sys, x, stop, nopt, unprojected);
+    if o.converged || o.stopped_by == Stopped::TimeLimit {
+        Ok(o)
+    } else {
+        // The full load at once failed: raise it in steps, each from
+        // the last equilibrium (`solve::load_steps`), with a budget of
+        // its own and what is left of the time.
+        let left = Stop {
+            max_seconds: (stop.max_seconds - t1.elapsed().as_secs_f64()).max(0.0),
+            ..stop.clone()
+        };
+        let mut geos = Vec::new();
+        let stepped = {
+            let mut fresh = || {
+                let (s, g) = build()?;
+                geos.push(g);
+                Ok(s)
+            };
+            load_steps(&mut fresh, &start, &left, nopt, unprojected)?
+        };
+        match stepped.done {
+            Some((xs, s)) => {
+                let first = o.reason.clone();
+                let mut all = merge(Some(o), stepped.outcome);
+                all.reason = format!("{}; the full load at once: {first}", stepped.note);
+                *x = xs;
+                *sys = s;
+                *wall_geo = geos.pop().flatten();
+                Ok(all)
+            }
+            None => {
+                let mut o = o;
+                o.reason = format!("{}; then {}", o.reason, stepped.note);
+                o.iterations += stepped.outcome.iterations;
+                o.seconds += stepped.outcome.seconds;
+                Ok(o)
+            }
+        }
+    }
+}
+
+/// A closure's outcome judged, and what the judging measured.
+struct Judged {
+    outcome: Outcome,
+    /// The sewn leaflets' bounding-box diagonal (mm).
+    span: f64,
+    crossings: Vec<(u32, u32)>,
+    sewn_contacts: Vec<(u32, u32)>,
+}
+
+/// What the solver's `outcome` at `x` means for a closure: a time limit
+/// that suturing spent, a residual that is large against the pressure load
+/// `load_n`, a run-away node, a crossing leaflet pair (true contact) are
+/// not converged, whatever the solver said; non-finite positions are an
+/// error.
+fn judge(
+    mut outcome: Outcome,
+    cfg: &CloseConfig,
+    l: &Leaflets,
+    x: &[V3],
+    load_n: f64,
+    sew_s: f64,
+) -> Result<Judged, String> {
+    if !outcome.converged && sew_s > 0.0 && outcome.stopped_by == Stopped::TimeLimit {
+        outcome.reason = if outcome.iterations == 0 {
+            format!(
+                "no time left to close: suturing took {sew_s:.1} s of time_limit {} s",
+                cfg.time_limit
+            )
+        } else {
+            format!(
+                "{} (time_limit {} s for the whole close; suturing took {sew_s:.1} s of it)",
+                outcome.reason, cfg.time_limit
+            )
+        };
+    }
+    // A solver that ran away (relaxation with too large a step) can leave
+    // finite but absurd positions: far beyond the leaflets' own size.
+    let (lo, hi) = l.x.iter().fold(
+        (V3::repeat(f64::INFINITY), V3::repeat(f64::NEG_INFINITY)),
+        |(a, b), p| (a.inf(p), b.sup(p)),
+    );
+    let span = (hi - lo).norm();
+    let moved = x
+        .iter()
+        .zip(&l.x)
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, f64::max);
+    // The relative tolerance measures from the first residual; from an
+    // absurd start (the GOH's exponential on a badly strained reference)
+    // it was met at 1e41 N. A closure has converged only when what is left
+    // is small against the load it carries.
+    let limit_n = cfg.tolerance.max(LOAD_FRACTION * load_n);
+    if outcome.converged && !(outcome.residual_n <= limit_n) {
+        outcome.converged = false;
+        outcome.stopped_by = Stopped::NotAnEquilibrium;
+        outcome.reason = format!(
+            "residual {:.3e} N is more than {LOAD_FRACTION:.0e} of the pressure load ({load_n:.3e} N): the relative tolerance was met from a start of {:.3e} N, not an equilibrium; {}",
+            outcome.residual_n, outcome.initial_residual_n, outcome.reason
+        );
+    }
+    if moved > 100.0 * span && x.iter().all(|p| p.iter().all(|v| v.is_finite())) {
+        outcome.converged = false;
+        outcome.stopped_by = Stopped::Diverged;
+        outcome.reason = format!(
+            "diverged: a node moved {moved:.3e} mm, more than 100 times the leaflets' size ({span:.1} mm); {}",
+            outcome.reason
+        );
+    }
+    if x.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
+        return Err(format!(
+            "the solver produced non-finite positions ({})",
+            outcome.reason
+        ));
+    }
+    // Judged by the rule of leaflets.json. True contact never accepts a
+    // state with a crossing the start (after suturing) did not have
+    // (`LeafletBarrier::admissible`), so a crossing here began at the
+    // start: the barrier keeps leaflets from passing through each other but
+    // cannot pull apart two that start through each other. Such a state is
+    // no closed valve, whatever the residual.
+    let (crossings, sewn_contacts) = leaflet_crossings(l, x);
+    if cfg.contact == ContactKind::Leaflets && !crossings.is_empty() {
+        let (at_start, _) = leaflet_crossings(l, &l.x);
+        let kept = crossings
+            .iter()
+            .filter(|p| at_start.binary_search(p).is_ok())
+            .count();
+        let what = format!(
+            "{} triangle pairs of different leaflets cross in the final state ({kept} of them crossed at the start, after suturing, where {} did)",
+            crossings.len(),
+            at_start.len()
+        );
+        if outcome.converged {
+            outcome.converged = false;
+            outcome.stopped_by = Stopped::LeafletsCross;
+        }
+        outcome.reason = format!("{what}; {}", outcome.reason);
+    }
+    Ok(Judged {
+        outcome,
+        span,
+        crossings,
+        sewn_contacts,
+    })
+}
+
 /// [`close_on`], telling `watch` how each solve goes.
 pub fn close_watched(
     l: &Leaflets,
@@ -438,29 +680,8 @@ pub fn close_watched(
         .as_ref()
         .filter(|s| s.status == suture::Status::Failed)
     {
-        let (crossings, sewn_contacts) = leaflet_crossings(l, &s.x);
-        return Ok(Closed {
-            crossings,
-            sewn_contacts,
-            contact: vec![0; s.x.len()],
-            area_stretch: Vec::new(),
-            max_stretch: Vec::new(),
-            setup_s: t0.elapsed().as_secs_f64(),
-            solve_s: 0.0,
-            pressure_sign: pressure_signs(l, &axis, n_leaflets),
-            outcome: Outcome {
-                stopped_by: Stopped::SuturingFailed,
-                reason: format!("suturing (seed 001 Algorithm 1) failed: {}", s.reason),
-                iterations: s.iterations,
-                residual_n: s.rounds.last().map_or(0.0, |r| r.residual_n),
-                initial_residual_n: s.rounds.first().map_or(0.0, |r| r.residual_n),
-                seconds: s.seconds,
-                ..Outcome::start()
-            },
-            x: s.x.clone(),
-            suturing: Some(s.clone()),
-            wall_contact: None,
-        });
+        let signs = pressure_signs(l, &axis, n_leaflets);
+        return Ok(unsewn(l, s, signs, t0.elapsed().as_secs_f64()));
     }
     // `time_limit` bounds the whole close: the closure gets what suturing
     // left of it (each had been given the whole limit, so a case could run
@@ -532,83 +753,28 @@ pub fn close_watched(
     // with bending: 41 both ways).
     let unprojected = cfg.bending;
     let outcome = match cfg.solver {
-        SolverKind::Newton if cfg.reference_steps > 1 => {
-            // The reference walks from the sutured state to the one asked
-            // for; each step starts where the last left off.
-            let target = std::mem::take(&mut sys.refs);
-            let mut all: Option<Outcome> = None;
-            let mut notes = Vec::new();
-            for k in 1..=cfg.reference_steps {
-                let s = k as f64 / cfg.reference_steps as f64;
-                sys.refs = if k == cfg.reference_steps {
-                    target.clone()
-                } else {
-                    reference_blend::blended(
-                        &l.x,
-                        &ref_x,
-                        &l.tris,
-                        s,
-                        cfg.thickness,
-                        l.fibers.as_deref().map(|f| (f, placed.x.as_slice())),
-                    )?
-                };
-                let left = Stop {
-                    max_seconds: (stop.max_seconds - t1.elapsed().as_secs_f64()).max(0.0),
-                    ..stop.clone()
-                };
-                let o = newton_with_continuation(&mut sys, &mut x, &left, &nopt, unprojected);
-                notes.push(format!("reference {s:.2} of the way: {}", o.reason));
-                all = Some(merge(all, o));
-                if left.max_seconds <= 0.0 {
-                    break;
-                }
-            }
-            let mut o = all.unwrap_or_else(Outcome::start);
-            o.reason = notes.join("; ");
-            o
-        }
-        SolverKind::Newton => {
-            let start = x.clone();
-            let o = newton_with_continuation(&mut sys, &mut x, &stop, &nopt, unprojected);
-            if o.converged || o.stopped_by == Stopped::TimeLimit {
-                o
-            } else {
-                // The full load at once failed: raise it in steps, each from
-                // the last equilibrium (`solve::load_steps`), with a budget of
-                // its own and what is left of the time.
-                let left = Stop {
-                    max_seconds: (stop.max_seconds - t1.elapsed().as_secs_f64()).max(0.0),
-                    ..stop.clone()
-                };
-                let mut geos = Vec::new();
-                let stepped = {
-                    let mut fresh = || {
-                        let (s, g) = build()?;
-                        geos.push(g);
-                        Ok(s)
-                    };
-                    load_steps(&mut fresh, &start, &left, &nopt, unprojected)?
-                };
-                match stepped.done {
-                    Some((xs, s)) => {
-                        let first = o.reason.clone();
-                        let mut all = merge(Some(o), stepped.outcome);
-                        all.reason = format!("{}; the full load at once: {first}", stepped.note);
-                        x = xs;
-                        sys = s;
-                        wall_geo = geos.pop().flatten();
-                        all
-                    }
-                    None => {
-                        let mut o = o;
-                        o.reason = format!("{}; then {}", o.reason, stepped.note);
-                        o.iterations += stepped.outcome.iterations;
-                        o.seconds += stepped.outcome.seconds;
-                        o
-                    }
-                }
-            }
-        }
+        SolverKind::Newton if cfg.reference_steps > 1 => walk_reference(
+            cfg,
+            l,
+            &placed.x,
+            &ref_x,
+            &mut sys,
+            &mut x,
+            &stop,
+            &nopt,
+            unprojected,
+            t1,
+        )?,
+        SolverKind::Newton => at_once_or_by_steps(
+            &mut sys,
+            &mut x,
+            &mut wall_geo,
+            &build,
+            &stop,
+            &nopt,
+            unprojected,
+            t1,
+        )?,
         SolverKind::Relax => {
             // An explicit step costs about a hundredth of a Newton step, so
             // `max_iterations` counts hundreds of them here.
@@ -626,83 +792,12 @@ pub fn close_watched(
         }
     };
     let solve_s = t1.elapsed().as_secs_f64();
-    let mut outcome = outcome;
-    if !outcome.converged && sew_s > 0.0 && outcome.stopped_by == Stopped::TimeLimit {
-        outcome.reason = if outcome.iterations == 0 {
-            format!(
-                "no time left to close: suturing took {sew_s:.1} s of time_limit {} s",
-                cfg.time_limit
-            )
-        } else {
-            format!(
-                "{} (time_limit {} s for the whole close; suturing took {sew_s:.1} s of it)",
-                outcome.reason, cfg.time_limit
-            )
-        };
-    }
-    // A solver that ran away (relaxation with too large a step) can leave
-    // finite but absurd positions: far beyond the leaflets' own size.
-    let (lo, hi) = l.x.iter().fold(
-        (V3::repeat(f64::INFINITY), V3::repeat(f64::NEG_INFINITY)),
-        |(a, b), p| (a.inf(p), b.sup(p)),
-    );
-    let span = (hi - lo).norm();
-    let moved = x
-        .iter()
-        .zip(&l.x)
-        .map(|(a, b)| (a - b).norm())
-        .fold(0.0, f64::max);
-    // The relative tolerance measures from the first residual; from an
-    // absurd start (the GOH's exponential on a badly strained reference)
-    // it was met at 1e41 N. A closure has converged only when what is left
-    // is small against the load it carries.
-    let limit_n = cfg.tolerance.max(LOAD_FRACTION * load_n);
-    if outcome.converged && !(outcome.residual_n <= limit_n) {
-        outcome.converged = false;
-        outcome.stopped_by = Stopped::NotAnEquilibrium;
-        outcome.reason = format!(
-            "residual {:.3e} N is more than {LOAD_FRACTION:.0e} of the pressure load ({load_n:.3e} N): the relative tolerance was met from a start of {:.3e} N, not an equilibrium; {}",
-            outcome.residual_n, outcome.initial_residual_n, outcome.reason
-        );
-    }
-    if moved > 100.0 * span && x.iter().all(|p| p.iter().all(|v| v.is_finite())) {
-        outcome.converged = false;
-        outcome.stopped_by = Stopped::Diverged;
-        outcome.reason = format!(
-            "diverged: a node moved {moved:.3e} mm, more than 100 times the leaflets' size ({span:.1} mm); {}",
-            outcome.reason
-        );
-    }
-    if x.iter().any(|p| !p.iter().all(|v| v.is_finite())) {
-        return Err(format!(
-            "the solver produced non-finite positions ({})",
-            outcome.reason
-        ));
-    }
-    // Judged by the rule of leaflets.json. True contact never accepts a
-    // state with a crossing the start (after suturing) did not have
-    // (`LeafletBarrier::admissible`), so a crossing here began at the
-    // start: the barrier keeps leaflets from passing through each other but
-    // cannot pull apart two that start through each other. Such a state is
-    // no closed valve, whatever the residual.
-    let (crossings, sewn_contacts) = leaflet_crossings(l, &x);
-    if cfg.contact == ContactKind::Leaflets && !crossings.is_empty() {
-        let (at_start, _) = leaflet_crossings(l, &l.x);
-        let kept = crossings
-            .iter()
-            .filter(|p| at_start.binary_search(p).is_ok())
-            .count();
-        let what = format!(
-            "{} triangle pairs of different leaflets cross in the final state ({kept} of them crossed at the start, after suturing, where {} did)",
-            crossings.len(),
-            at_start.len()
-        );
-        if outcome.converged {
-            outcome.converged = false;
-            outcome.stopped_by = Stopped::LeafletsCross;
-        }
-        outcome.reason = format!("{what}; {}", outcome.reason);
-    }
+    let Judged {
+        mut outcome,
+        span,
+        crossings,
+        sewn_contacts,
+    } = judge(outcome, cfg, l, &x, load_n, sew_s)?;
     // What the report calls touching: the contact term's own criterion at
     // the final state (gap < 0 for leaflets, d ≤ η₂ for planes).
     for t in sys.terms.iter_mut() {
