@@ -444,29 +444,20 @@ fn levels_from(hs: &[f64], r: &[f64], start: usize) -> Levels {
     }
 }
 
-/// Detect C1–C3 and N1–N3 in `mask` above `plane`; with the CT, name the
-/// sinuses by the coronary ostia it shows.
-pub fn detect(
-    mask: &Volume<u8>,
+/// The annulus centre: the lumen's centroid in the first millimetre above
+/// `plane` (unit normal `n0`), put back on the plane, then moved onto the
+/// area centroid of the section just above it.
+fn annulus_centre(
+    probe: &LumenProbe,
+    voxels: &[Point3],
     plane: &AnnulusPlane,
-    ct: Option<&Volume<i16>>,
-) -> Result<Detection, Failure> {
-    let probe = LumenProbe::new(mask);
-    let n0 = plane
-        .normal
-        .try_normalize(1e-12)
-        .ok_or("annulus plane normal is zero")?;
-    let voxels: Vec<Point3> = mask
-        .data()
-        .indexed_iter()
-        .filter(|(_, v)| **v > 0)
-        .map(|((i, j, k), _)| mask.index_to_world([i as f64, j as f64, k as f64]))
-        .collect();
+    n0: &Vector3,
+) -> Result<Point3, Failure> {
     // Annulus centre: the lumen's centroid in the first millimetre above
     // the plane, put back on the plane.
     let (mut s, mut k) = (Vector3::zeros(), 0usize);
-    for p in &voxels {
-        let z = (p - plane.point_mm).dot(&n0);
+    for p in voxels {
+        let z = (p - plane.point_mm).dot(n0);
         if z > CENTRE_SLAB_MM.0 && z < CENTRE_SLAB_MM.1 {
             s += p.coords;
             k += 1;
@@ -476,35 +467,44 @@ pub fn detect(
         return Err("the mask has no lumen in the first millimetre above the annulus plane".into());
     }
     let c = Point3::from(s / k as f64);
-    let mut o = c - n0 * (c - plane.point_mm).dot(&n0);
+    let mut o = c - n0 * (c - plane.point_mm).dot(n0);
     // Then onto the area centroid of the section just above the plane: a
     // slab of voxels under a tilted plane holds more of the sinus on the
     // high side (the clinical phantom's axis was 7.5° off its own).
     for _ in 0..ANNULUS_CENTRE_ITERS {
-        match section_centroid(&probe, &(o + n0 * NADIR_LIFT_MM), &n0) {
+        match section_centroid(probe, &(o + n0 * NADIR_LIFT_MM), n0) {
             Some(q) => o = q - n0 * NADIR_LIFT_MM,
             None => break,
         }
     }
+    Ok(o)
+}
 
-    let hs: Vec<f64> = (0..)
-        .map(|i| H_MIN_MM + i as f64 * H_STEP_MM)
-        .take_while(|&h| h <= H_MAX_MM + 1e-9)
-        .collect();
+/// The root axis from the annulus centre `o`: the lumen's mean radius
+/// against height `hs` along the axis gives the STJ, the axis turns to the
+/// lumen's centroid there, until it turns less than [`AXIS_TOL_DEG`]. The
+/// axis, its turns (degrees), the levels and the radius profile.
+fn root_axis(
+    probe: &LumenProbe,
+    voxels: &[Point3],
+    o: &Point3,
+    n0: Vector3,
+    hs: &[f64],
+) -> Result<(Vector3, Vec<f64>, Levels, Vec<f64>), Failure> {
     let mut n = n0;
     let mut turns = Vec::new();
     let mut lv;
     let mut r;
     let mut iter = 0;
     loop {
-        r = smooth5(&axial_profile(&probe, &o, &n, &hs, &|_| true));
-        lv = levels(&hs, &r).ok_or(
+        r = smooth5(&axial_profile(probe, o, &n, hs, &|_| true));
+        lv = levels(hs, &r).ok_or(
             "no lumen section 3–25 mm above the annulus plane: the mask does not hold the sinuses",
         )?;
         let h_stj = hs[lv.stj];
-        let cs = slab_centroid(&voxels, &o, &n, h_stj, 0.75, 1.5 * r[lv.stj])
+        let cs = slab_centroid(voxels, o, &n, h_stj, 0.75, 1.5 * r[lv.stj])
             .ok_or("no lumen at the STJ level")?;
-        let next = (cs - o)
+        let next = (cs - *o)
             .try_normalize(1e-9)
             .ok_or("the STJ centroid lies on the annulus centre")?;
         let turn = next.dot(&n).clamp(-1.0, 1.0).acos().to_degrees();
@@ -515,21 +515,19 @@ pub fn detect(
         turns.push(turn);
         n = next;
     }
-    let h_sinus = hs[lv.sinus];
-    let h_stj = hs[lv.stj];
-    if h_stj - h_sinus < 2.0 {
-        return Err(format!(
-            "no narrowing above the sinuses: the mean radius falls no further than {:.1} mm above its widest level",
-            h_stj - h_sinus
-        ));
-    }
+    Ok((n, turns, lv, r))
+}
 
-    // Radius against angle at mid-sinus.
-    let (u, v) = orthonormal_pair(&n);
-    let dir = |deg: f64| {
-        let t = deg.to_radians();
-        u * t.cos() + v * t.sin()
-    };
+/// The lumen's radius against angle (one sample a degree) at mid-sinus
+/// height `h_sinus` above `o` along `n`, averaged over ±[`BAND_MM`]; `dir`
+/// turns an angle into a direction square to `n`.
+fn mid_sinus_profile(
+    probe: &LumenProbe,
+    o: &Point3,
+    n: &Vector3,
+    h_sinus: f64,
+    dir: &dyn Fn(f64) -> Vector3,
+) -> Result<Vec<f64>, Failure> {
     let band: Vec<f64> = (0..)
         .map(|i| h_sinus - BAND_MM + i as f64 * H_STEP_MM)
         .take_while(|&h| h <= h_sinus + BAND_MM + 1e-9)
@@ -548,6 +546,50 @@ pub fn detect(
         }
         *pr = hits.iter().sum::<f64>() / hits.len() as f64;
     }
+    Ok(profile)
+}
+
+/// Detect C1–C3 and N1–N3 in `mask` above `plane`; with the CT, name the
+/// sinuses by the coronary ostia it shows.
+pub fn detect(
+    mask: &Volume<u8>,
+    plane: &AnnulusPlane,
+    ct: Option<&Volume<i16>>,
+) -> Result<Detection, Failure> {
+    let probe = LumenProbe::new(mask);
+    let n0 = plane
+        .normal
+        .try_normalize(1e-12)
+        .ok_or("annulus plane normal is zero")?;
+    let voxels: Vec<Point3> = mask
+        .data()
+        .indexed_iter()
+        .filter(|(_, v)| **v > 0)
+        .map(|((i, j, k), _)| mask.index_to_world([i as f64, j as f64, k as f64]))
+        .collect();
+    let o = annulus_centre(&probe, &voxels, plane, &n0)?;
+
+    let hs: Vec<f64> = (0..)
+        .map(|i| H_MIN_MM + i as f64 * H_STEP_MM)
+        .take_while(|&h| h <= H_MAX_MM + 1e-9)
+        .collect();
+    let (n, turns, lv, r) = root_axis(&probe, &voxels, &o, n0, &hs)?;
+    let h_sinus = hs[lv.sinus];
+    let h_stj = hs[lv.stj];
+    if h_stj - h_sinus < 2.0 {
+        return Err(format!(
+            "no narrowing above the sinuses: the mean radius falls no further than {:.1} mm above its widest level",
+            h_stj - h_sinus
+        ));
+    }
+
+    // Radius against angle at mid-sinus.
+    let (u, v) = orthonormal_pair(&n);
+    let dir = |deg: f64| {
+        let t = deg.to_radians();
+        u * t.cos() + v * t.sin()
+    };
+    let profile = mid_sinus_profile(&probe, &o, &n, h_sinus, &dir)?;
     let rp = angular::smooth(&profile, PILLAR_SMOOTH);
     let rs = angular::smooth(&profile, SINUS_SMOOTH);
     let p = angular::pillars(&rp).ok_or(
