@@ -359,6 +359,111 @@ fn timings(run_dir: Option<&Path>) -> Json {
     }
 }
 
+/// The CT check figure (the CT with the mask, the landmarks, the coronary
+/// ostia the landmarks stage saw and the suture paths), when the CT is at
+/// hand.
+fn ct_figure(
+    io: &StageIo,
+    run_dir: Option<&Path>,
+    detection: Option<&Json>,
+    v: &ClosedValve,
+) -> Result<Option<Figure>> {
+    let Some(ct_path) = optional_input(io, run_dir, "ct") else {
+        return Ok(None);
+    };
+    let ct = volume_file::read_ct(&ct_path)?;
+    let mask = match optional_input(io, run_dir, "mask") {
+        Some(p) => Some(nifti::read_u8(&p)?),
+        None => None,
+    };
+    let mut points: Vec<(String, Point3)> = match optional_input(io, run_dir, "landmarks") {
+        Some(p) => markups::read(&p)?.points,
+        None => Vec::new(),
+    };
+    points.extend(ostia_of(detection));
+    let paths: Vec<Vec<Point3>> = match optional_input(io, run_dir, "paths") {
+        Some(p) => {
+            let pd = vtp::read(&p)?;
+            pd.lines
+                .iter()
+                .map(|l| l.iter().map(|&k| pd.points[k as usize]).collect())
+                .collect()
+        }
+        None => Vec::new(),
+    };
+    Ok(Some(figures::ct_check::ct_check(
+        &ct,
+        mask.as_ref(),
+        &v.frame,
+        &points,
+        &paths,
+    )))
+}
+
+/// The closure's residual against its iterations, from `closure.json`
+/// (`log`), when it recorded a history.
+fn convergence_figure(log: &Json) -> Option<Figure> {
+    let hist = log["solver"]["history"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    let series = |key: &str| -> Vec<(usize, f64)> {
+        hist.iter()
+            .enumerate()
+            .filter_map(|(i, r)| Some((i + 1, r[key].as_f64()?)))
+            .collect()
+    };
+    (!hist.is_empty()).then(|| {
+        figures::convergence::convergence(
+            &series("residual_n"),
+            &series("max_force_n"),
+            log["config"]["tolerance_n"].as_f64(),
+            log["solver"]["residual_n"]
+                .as_f64()
+                .zip(log["solver"]["converged"].as_bool()),
+            log["solver"]["reason"].as_str(),
+        )
+    })
+}
+
+/// Each input read, by name: its path, BLAKE3 and size (a CT header with
+/// detached voxels hashed with its data file). `required`: closed,
+/// leaflets, valve.
+fn input_record(
+    io: &StageIo,
+    run_dir: Option<&Path>,
+    required: [&Path; 3],
+) -> Result<serde_json::Map<String, Json>> {
+    let mut inputs = serde_json::Map::new();
+    let mut record = |name: &str, p: &Path| -> Result<()> {
+        let (blake3, bytes) = provenance::hash_files(&volume_file::files_of(p))?;
+        inputs.insert(
+            name.into(),
+            json!({"path": p.display().to_string(), "blake3": blake3, "bytes": bytes}),
+        );
+        Ok(())
+    };
+    for (name, p) in ["closed", "leaflets", "valve"].into_iter().zip(required) {
+        record(name, p)?;
+    }
+    for name in [
+        "log",
+        "summary",
+        "landmarks_report",
+        "ct",
+        "mask",
+        "landmarks",
+        "paths",
+        "surface",
+        "design",
+    ] {
+        if let Some(p) = optional_input(io, run_dir, name) {
+            record(name, &p)?;
+        }
+    }
+    Ok(inputs)
+}
+
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let rp = ReportParams::try_from(params)?;
     let t0 = Instant::now();
@@ -499,58 +604,11 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         Some(p) => Some(read_json(p)?),
         None => None,
     };
-    let ct_path = optional_input(io, run_dir, "ct");
-    if let Some(ct_path) = &ct_path {
-        let ct = volume_file::read_ct(ct_path)?;
-        let mask = match optional_input(io, run_dir, "mask") {
-            Some(p) => Some(nifti::read_u8(&p)?),
-            None => None,
-        };
-        let mut points: Vec<(String, Point3)> = match optional_input(io, run_dir, "landmarks") {
-            Some(p) => markups::read(&p)?.points,
-            None => Vec::new(),
-        };
-        points.extend(ostia_of(detection.as_ref()));
-        let paths: Vec<Vec<Point3>> = match optional_input(io, run_dir, "paths") {
-            Some(p) => {
-                let pd = vtp::read(&p)?;
-                pd.lines
-                    .iter()
-                    .map(|l| l.iter().map(|&k| pd.points[k as usize]).collect())
-                    .collect()
-            }
-            None => Vec::new(),
-        };
-        figs.push(figures::ct_check::ct_check(
-            &ct,
-            mask.as_ref(),
-            &v.frame,
-            &points,
-            &paths,
-        ));
+    if let Some(f) = ct_figure(io, run_dir, detection.as_ref(), v)? {
+        figs.push(f);
     }
-    if let Some(log) = &log {
-        let hist = log["solver"]["history"]
-            .as_array()
-            .cloned()
-            .unwrap_or_default();
-        let series = |key: &str| -> Vec<(usize, f64)> {
-            hist.iter()
-                .enumerate()
-                .filter_map(|(i, r)| Some((i + 1, r[key].as_f64()?)))
-                .collect()
-        };
-        if !hist.is_empty() {
-            figs.push(figures::convergence::convergence(
-                &series("residual_n"),
-                &series("max_force_n"),
-                log["config"]["tolerance_n"].as_f64(),
-                log["solver"]["residual_n"]
-                    .as_f64()
-                    .zip(log["solver"]["converged"].as_bool()),
-                log["solver"]["reason"].as_str(),
-            ));
-        }
+    if let Some(f) = log.as_ref().and_then(convergence_figure) {
+        figs.push(f);
     }
     if let Some(d) = &design {
         figs.extend(figures::sizing::sizing(
@@ -565,34 +623,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let scene = view3d::build(v, &coapt.node_mask, wall.as_ref());
     progress.set(0.9);
 
-    let mut inputs = serde_json::Map::new();
-    let mut record = |name: &str, p: &Path| -> Result<()> {
-        // A CT header with detached voxels is hashed with its data file.
-        let (blake3, bytes) = provenance::hash_files(&volume_file::files_of(p))?;
-        inputs.insert(
-            name.into(),
-            json!({"path": p.display().to_string(), "blake3": blake3, "bytes": bytes}),
-        );
-        Ok(())
-    };
-    record("closed", cpath)?;
-    record("leaflets", lpath)?;
-    record("valve", vpath)?;
-    for name in [
-        "log",
-        "summary",
-        "landmarks_report",
-        "ct",
-        "mask",
-        "landmarks",
-        "paths",
-        "surface",
-        "design",
-    ] {
-        if let Some(p) = optional_input(io, run_dir, name) {
-            record(name, &p)?;
-        }
-    }
+    let inputs = input_record(io, run_dir, [cpath, lpath, vpath])?;
     let mut timing = timings(run_dir);
     let report_s = t0.elapsed().as_secs_f64();
     if let Json::Object(t) = &mut timing {
