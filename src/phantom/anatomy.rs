@@ -507,80 +507,7 @@ impl Anatomy {
             semi: semi.add_scalar(MYOCARDIUM_MM),
         };
 
-        // --- Coronaries -----------------------------------------------------
-        let frame_point = |h: f64, th: f64, rho: f64| {
-            let st = cl.station(h);
-            st.point + (st.e1 * th.cos() + st.e2 * th.sin()) * rho
-        };
-        let groove = r_a + 12.0;
-        let mut coronaries = Vec::new();
-        for (c, (&name, &sinus)) in ["RCA", "LCA"].iter().zip(&[0usize, 1]).enumerate() {
-            let h_o = d.ostium_frac[c] * profile.h_stj_mm;
-            let psi = profile.sinus_centre(sinus) + d.ostium_angle[c];
-            let r_w = profile.eval(h_o, psi).r;
-            let r0 = d.coronary_radius[c];
-            let ostium = frame_point(h_o, psi, r_w);
-            // Start inside the sinus lumen so the artery is connected to it.
-            let proximal = vec![
-                frame_point(h_o, psi, r_w - 2.5),
-                frame_point(h_o, psi, r_w + 4.0),
-            ];
-            // (height, angle offset in degrees, radius) along the AV groove;
-            // the RCA runs towards the right (decreasing angle), the LCx
-            // towards posterior (increasing), the LAD anterior and down.
-            let paths: Vec<Vec<(f64, f64, f64)>> = if name == "RCA" {
-                vec![vec![
-                    (h_o - 3.0, -12.0, r_w + 9.0),
-                    (h_o - 7.0, -30.0, groove),
-                    (-2.0, -55.0, groove),
-                    (-6.0, -80.0, groove),
-                    (-9.0, -105.0, groove),
-                    (-12.0, -130.0, groove),
-                ]]
-            } else {
-                vec![
-                    vec![
-                        (h_o - 2.0, 6.0, r_w + 10.0),
-                        (-3.0, 25.0, groove),
-                        (-7.0, 50.0, groove),
-                        (-10.0, 75.0, groove),
-                        (-12.0, 100.0, groove),
-                    ],
-                    vec![
-                        (h_o - 2.0, 6.0, r_w + 10.0),
-                        (h_o - 8.0, -20.0, groove + 4.0),
-                        (h_o - 16.0, -45.0, groove + 8.0),
-                        (h_o - 28.0, -65.0, groove + 12.0),
-                    ],
-                ]
-            };
-            let mut tubes = Vec::new();
-            for (b, path) in paths.iter().enumerate() {
-                let mut pts = if b == 0 {
-                    proximal.clone()
-                } else {
-                    vec![proximal[1]]
-                };
-                pts.extend(
-                    path.iter()
-                        .map(|&(h, a, rho)| frame_point(h, psi + a * deg, rho)),
-                );
-                let n = pts.len() - 1;
-                // Taper to 60 % of the ostial radius.
-                let radii = (0..n)
-                    .map(|i| r0 * (1.0 - 0.4 * i as f64 / n as f64))
-                    .collect();
-                tubes.push(Tube::new(pts, radii));
-            }
-            coronaries.push(Coronary {
-                name,
-                sinus,
-                tubes,
-                ostium,
-                radius_mm: r0,
-                ostium_height_mm: h_o,
-            });
-        }
+        let coronaries = coronaries(cl, profile, &d, r_a);
 
         // --- Descending aorta, spine, sternum, body ---------------------------
         let da = match &arch {
@@ -947,4 +874,86 @@ fn place_la(la: &mut Ellipsoid, wall: &[Point3], gap: f64) {
         }
     }
     la.centre.y = y0 + hi;
+}
+
+/// The right and left coronary arteries leaving sinuses 1 and 2 at the
+/// drawn ostia, along the atrioventricular groove (`r_a` + 12 mm from the
+/// centreline): the RCA to the right, the LCx posterior and the LAD
+/// anterior and down, each tapering to 60 % of its ostial radius.
+fn coronaries(cl: &Centreline, profile: &RadiusProfile, d: &Draws, r_a: f64) -> Vec<Coronary> {
+    let deg = PI / 180.0;
+    let frame_point = |h: f64, th: f64, rho: f64| {
+        let st = cl.station(h);
+        st.point + (st.e1 * th.cos() + st.e2 * th.sin()) * rho
+    };
+    let groove = r_a + 12.0;
+    let mut coronaries = Vec::new();
+    for (c, (&name, &sinus)) in ["RCA", "LCA"].iter().zip(&[0usize, 1]).enumerate() {
+        let h_o = d.ostium_frac[c] * profile.h_stj_mm;
+        let psi = profile.sinus_centre(sinus) + d.ostium_angle[c];
+        let r_w = profile.eval(h_o, psi).r;
+        let r0 = d.coronary_radius[c];
+        let ostium = frame_point(h_o, psi, r_w);
+        // Start inside the sinus lumen so the artery is connected to it.
+        let proximal = vec![
+            frame_point(h_o, psi, r_w - 2.5),
+            frame_point(h_o, psi, r_w + 4.0),
+        ];
+        // (height, angle offset in degrees, radius) along the AV groove;
+        // the RCA runs towards the right (decreasing angle), the LCx
+        // towards posterior (increasing), the LAD anterior and down.
+        let paths: Vec<Vec<(f64, f64, f64)>> = if name == "RCA" {
+            vec![vec![
+                (h_o - 3.0, -12.0, r_w + 9.0),
+                (h_o - 7.0, -30.0, groove),
+                (-2.0, -55.0, groove),
+                (-6.0, -80.0, groove),
+                (-9.0, -105.0, groove),
+                (-12.0, -130.0, groove),
+            ]]
+        } else {
+            vec![
+                vec![
+                    (h_o - 2.0, 6.0, r_w + 10.0),
+                    (-3.0, 25.0, groove),
+                    (-7.0, 50.0, groove),
+                    (-10.0, 75.0, groove),
+                    (-12.0, 100.0, groove),
+                ],
+                vec![
+                    (h_o - 2.0, 6.0, r_w + 10.0),
+                    (h_o - 8.0, -20.0, groove + 4.0),
+                    (h_o - 16.0, -45.0, groove + 8.0),
+                    (h_o - 28.0, -65.0, groove + 12.0),
+                ],
+            ]
+        };
+        let mut tubes = Vec::new();
+        for (b, path) in paths.iter().enumerate() {
+            let mut pts = if b == 0 {
+                proximal.clone()
+            } else {
+                vec![proximal[1]]
+            };
+            pts.extend(
+                path.iter()
+                    .map(|&(h, a, rho)| frame_point(h, psi + a * deg, rho)),
+            );
+            let n = pts.len() - 1;
+            // Taper to 60 % of the ostial radius.
+            let radii = (0..n)
+                .map(|i| r0 * (1.0 - 0.4 * i as f64 / n as f64))
+                .collect();
+            tubes.push(Tube::new(pts, radii));
+        }
+        coronaries.push(Coronary {
+            name,
+            sinus,
+            tubes,
+            ostium,
+            radius_mm: r0,
+            ostium_height_mm: h_o,
+        });
+    }
+    coronaries
 }
