@@ -139,6 +139,88 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
 /// [`newton`] keeping the sparsity pattern and its symbolic factorisation
 /// in `pattern` across calls: a sequence of solves of one system (the
 /// suturing rounds) analyses the pattern once instead of once per solve.
+/// Backtracking from the full step `d` (halving to 1e-4): with an energy
+/// `e0` (symmetric tangent) the Armijo condition on it along `slope`; with
+/// `ptc`, any step that keeps ‖R‖ within three times `rn`, the shift then
+/// falling fourfold (and by `inside`, how far the step stayed inside its
+/// cap), or rising sixteenfold when a barrier cut the step below
+/// [`PTC_CUT`] (`limit`) and ‖R‖ rose; else a decrease against the
+/// nonmonotone reference `r_ref`. The accepted state and its α.
+#[allow(clippy::too_many_arguments)]
+fn line_search(
+    sys: &System,
+    x: &[V3],
+    d: &[f64],
+    e0: Option<f64>,
+    slope: f64,
+    rn: f64,
+    r_ref: f64,
+    ptc: bool,
+    shift: &mut f64,
+    inside: f64,
+    limit: f64,
+) -> (Option<Vec<V3>>, f64) {
+    let mut alpha = 1.0;
+    let mut accepted = None;
+    while alpha > 1e-4 {
+        let xn = sys.step(x, d, alpha);
+        if !sys.terms.iter().all(|t| t.admissible(&xn)) {
+            alpha *= 0.5;
+            continue;
+        }
+        if let Some(e0) = e0 {
+            if slope >= 0.0 {
+                break;
+            }
+            if let Ok(Some(e)) = sys.energy(&xn) {
+                if e <= e0 + 1e-4 * alpha * slope {
+                    accepted = Some(xn);
+                    break;
+                }
+            }
+            // Near the solution the energy change drowns in round-off:
+            // then a full step that lowers the residual is taken.
+            if alpha == 1.0 && (e0.abs() * 1e-12 > -slope) {
+                if let Ok(r1) = sys.residual(&xn) {
+                    if norm(&r1) < rn {
+                        accepted = Some(xn);
+                        break;
+                    }
+                }
+            }
+        } else if let Ok(rn1) = sys.residual(&xn) {
+            let m = norm(&rn1);
+            if ptc {
+                if m.is_finite() && m <= 3.0 * rn {
+                    // Δt grows geometrically while steps are taken: the
+                    // residual of a membrane rises before it falls, so
+                    // following the residual ratio (SER) would stall.
+                    // Fourfold per step: halving spent the first ten
+                    // steps of a closure barely moving (residual 0.20 →
+                    // 0.18 N on the sample). A step far inside the cap
+                    // says the shift, not the cap, holds the leaflet
+                    // back (the shift scales the step as 1/s): the
+                    // shift falls by that ratio as well, which took the
+                    // peer case's first steps from 0.006 mm to the cap
+                    // in one step instead of five.
+                    *shift = if limit < PTC_CUT && m > rn {
+                        (shift.max(1e-8) * 16.0).min(1.0)
+                    } else {
+                        (*shift * 0.25 * inside).max(1e-12)
+                    };
+                    accepted = Some(xn);
+                    break;
+                }
+            } else if m.is_finite() && m * m <= r_ref * r_ref * (1.0 - 1e-4 * alpha) {
+                accepted = Some(xn);
+                break;
+            }
+        }
+        alpha *= 0.5;
+    }
+    (accepted, alpha)
+}
+
 pub fn newton_reusing(
     sys: &mut System,
     x: &mut Vec<V3>,
@@ -438,65 +520,19 @@ pub fn newton_reusing(
         } else {
             None
         };
-        let mut alpha = 1.0;
-        let mut accepted = None;
-        while alpha > 1e-4 {
-            let xn = sys.step(x, &d, alpha);
-            if !sys.terms.iter().all(|t| t.admissible(&xn)) {
-                alpha *= 0.5;
-                continue;
-            }
-            if let Some(e0) = e0 {
-                if slope >= 0.0 {
-                    break;
-                }
-                if let Ok(Some(e)) = sys.energy(&xn) {
-                    if e <= e0 + 1e-4 * alpha * slope {
-                        accepted = Some(xn);
-                        break;
-                    }
-                }
-                // Near the solution the energy change drowns in round-off:
-                // then a full step that lowers the residual is taken.
-                if alpha == 1.0 && (e0.abs() * 1e-12 > -slope) {
-                    if let Ok(r1) = sys.residual(&xn) {
-                        if norm(&r1) < rn {
-                            accepted = Some(xn);
-                            break;
-                        }
-                    }
-                }
-            } else if let Ok(rn1) = sys.residual(&xn) {
-                let m = norm(&rn1);
-                if opt.ptc {
-                    if m.is_finite() && m <= 3.0 * rn {
-                        // Δt grows geometrically while steps are taken: the
-                        // residual of a membrane rises before it falls, so
-                        // following the residual ratio (SER) would stall.
-                        // Fourfold per step: halving spent the first ten
-                        // steps of a closure barely moving (residual 0.20 →
-                        // 0.18 N on the sample). A step far inside the cap
-                        // says the shift, not the cap, holds the leaflet
-                        // back (the shift scales the step as 1/s): the
-                        // shift falls by that ratio as well, which took the
-                        // peer case's first steps from 0.006 mm to the cap
-                        // in one step instead of five.
-                        let inside = (dmax / cap).min(1.0);
-                        shift = if limit < PTC_CUT && m > rn {
-                            (shift.max(1e-8) * 16.0).min(1.0)
-                        } else {
-                            (shift * 0.25 * inside).max(1e-12)
-                        };
-                        accepted = Some(xn);
-                        break;
-                    }
-                } else if m.is_finite() && m * m <= r_ref * r_ref * (1.0 - 1e-4 * alpha) {
-                    accepted = Some(xn);
-                    break;
-                }
-            }
-            alpha *= 0.5;
-        }
+        let (accepted, alpha) = line_search(
+            sys,
+            x,
+            &d,
+            e0,
+            slope,
+            rn,
+            r_ref,
+            opt.ptc,
+            &mut shift,
+            (dmax / cap).min(1.0),
+            limit,
+        );
         match accepted {
             Some(xn) => {
                 *x = xn;
