@@ -423,11 +423,8 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
             // The run's answer, when it reached the report: the same words
             // as report.json, on stdout like `design`'s table.
             if report.stages.iter().any(|(s, ..)| s == "report") {
-                let path = report.run_dir.join("report.json");
-                let doc: serde_json::Value = serde_json::from_slice(
-                    &std::fs::read(&path).map_err(|e| Error::read(&path, e))?,
-                )
-                .map_err(|e| Error::bad_input(&path, e.to_string()))?;
+                let doc =
+                    crate::io::report_json::Report::read(&report.run_dir.join("report.json"))?;
                 print!(
                     "{}",
                     crate::report::terminal::summary(&doc, &report.run_dir.join("report.html"))

@@ -234,7 +234,7 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
         &cfg.sections,
     );
     let design_json = design_dir.join("design.json");
-    let text = serde_json::to_string_pretty(&doc).expect("json") + "\n";
+    let text = doc.to_text();
     write_atomic(&design_json, |w| {
         std::io::Write::write_all(w, text.as_bytes())
     })?;

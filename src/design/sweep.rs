@@ -7,10 +7,9 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use serde_json::Value as Json;
-
 use super::recommend::Measured;
 use crate::io::atomic::write_atomic;
+use crate::io::report_json::{Comparison, Quantity, Report, Status};
 use crate::pipeline::execute::Invocation;
 use crate::pipeline::params::Value;
 use crate::pipeline::runner::{self, RunOptions};
@@ -138,84 +137,94 @@ pub fn run_cut(
         force,
     };
     Ok(match runner::run(&opts, registry, inv) {
-        Ok(_) => {
-            let path = dir.join("report.json");
-            let doc: Json =
-                serde_json::from_slice(&std::fs::read(&path).map_err(|e| Error::read(&path, e))?)
-                    .map_err(|e| Error::bad_input(&path, format!("not JSON: {e}")))?;
-            Ok(measured(&doc))
-        }
+        Ok(_) => Ok(measured(&Report::read(&dir.join("report.json"))?)),
         Err(e) => Err(e.to_string()),
     })
 }
 
-fn mean(v: &Json) -> Option<f64> {
-    let a = v.as_array()?;
-    let x: Vec<f64> = a.iter().filter_map(Json::as_f64).collect();
-    (!x.is_empty() && x.len() == a.len()).then(|| x.iter().sum::<f64>() / x.len() as f64)
+/// The mean of per-leaflet values, when every one was measured.
+fn mean(v: &[Option<f64>]) -> Option<f64> {
+    let x: Vec<f64> = v.iter().copied().flatten().collect();
+    (!x.is_empty() && x.len() == v.len()).then(|| x.iter().sum::<f64>() / x.len() as f64)
+}
+
+/// A criterion's number of the report as its JSON text ("4.0", "true").
+fn as_written(q: Option<Quantity>) -> String {
+    serde_json::to_string(&q).expect("a quantity serialises")
 }
 
 /// The numbers a size is judged and plotted by, from its `report.json`.
-pub fn measured(doc: &Json) -> Measured {
-    let criteria = doc["criteria"].as_array().cloned().unwrap_or_default();
+pub fn measured(doc: &Report) -> Measured {
+    let criteria = &doc.criteria;
+    let number = |q: Option<Quantity>| match q {
+        Some(Quantity::Number(x)) => Some(x),
+        _ => None,
+    };
     let failures: Vec<String> = criteria
         .iter()
-        .filter(|c| c["pass"] != Json::Bool(true))
+        .filter(|c| c.pass != Some(true))
         .map(|c| {
-            let name = c["name"].as_str().unwrap_or("a criterion");
-            match (&c["pass"], c["value"].as_f64(), c["unit"].as_str()) {
-                (Json::Null, _, _) => format!("{name} not measurable"),
-                (_, Some(v), Some(u)) if !u.is_empty() => format!(
-                    "{name} {v:.2} {u} (needs {} {} {u})",
-                    c["comparison"].as_str().unwrap_or(">"),
-                    c["threshold"]
+            let name = if c.name.is_empty() {
+                "a criterion"
+            } else {
+                &c.name
+            };
+            let u = &c.unit;
+            let cmp = match c.comparison {
+                Some(Comparison::AtMost) => "<=",
+                Some(Comparison::Is) => "is",
+                Some(Comparison::Above) | None => ">",
+            };
+            match (c.pass, number(c.value)) {
+                (None, _) => format!("{name} not measurable"),
+                (_, Some(v)) if !u.is_empty() => format!(
+                    "{name} {v:.2} {u} (needs {cmp} {} {u})",
+                    as_written(c.threshold)
                 ),
                 // A length with no value failed because there is nothing to
                 // measure: no triple zone for the central coaptation.
-                (_, None, Some(u)) if !u.is_empty() && c["value"].is_null() => format!(
-                    "{name}: none (needs {} {} {u})",
-                    c["comparison"].as_str().unwrap_or(">"),
-                    c["threshold"]
-                ),
+                (_, None) if !u.is_empty() && c.value.is_none() => {
+                    format!("{name}: none (needs {cmp} {} {u})", as_written(c.threshold))
+                }
                 _ => format!("{name}: no"),
             }
         })
         .collect();
     let shortfall_mm = criteria
         .iter()
-        .filter(|c| c["pass"] == Json::Bool(false) && c["unit"] == "mm")
-        .filter_map(|c| Some((c["value"].as_f64()? - c["threshold"].as_f64()?).abs()))
+        .filter(|c| c.pass == Some(false) && c.unit == "mm")
+        .filter_map(|c| Some((number(c.value)? - number(c.threshold)?).abs()))
         .sum();
-    let m = &doc["metrics"];
+    let m = &doc.metrics;
     let passed = criteria.len() - failures.len();
+    let not_assessable = doc.verdict.status == Some(Status::NotAssessable);
     // A closure that cannot be judged (crossing leaflets, no convergence)
     // says so before any criterion: its passes are not passes.
     let mut failures = failures;
-    if doc["verdict"]["status"] == "not_assessable" {
-        let gates: Vec<String> = doc["verdict"]["not_assessable_reasons"]
-            .as_array()
-            .into_iter()
-            .flatten()
-            .filter_map(Json::as_str)
+    if not_assessable {
+        let gates: Vec<String> = doc
+            .verdict
+            .not_assessable_reasons
+            .iter()
             .filter(|r| !r.contains(" is not measurable ("))
             .map(|r| format!("not assessable: {r}"))
             .collect();
         failures.splice(0..0, gates);
     }
     Measured {
-        closed: m["closed"].as_bool().unwrap_or(false),
-        meets_all: doc["verdict"]["meets_all_criteria"].as_bool() == Some(true),
-        assessable: doc["verdict"]["status"] != "not_assessable",
+        closed: m.closed.unwrap_or(false),
+        meets_all: doc.verdict.meets_all_criteria == Some(true),
+        assessable: !not_assessable,
         passed,
         judged: criteria.len(),
         failures,
         shortfall_mm,
-        coaptation_height_mm: m["coaptation_height_mm"].as_f64(),
-        central_coaptation_height_mm: m["central_coaptation_height_mm"].as_f64(),
-        effective_height_mm: m["effective_height_mm"].as_f64(),
-        coaptation_area_mm2: m["coaptation_area_mm2"]["max"].as_f64(),
-        leaflet_area_mm2: mean(&m["leaflet_area_mm2"]),
-        free_edge_length_mm: mean(&m["free_edge_length_mm"]),
+        coaptation_height_mm: m.coaptation_height_mm,
+        central_coaptation_height_mm: m.central_coaptation_height_mm,
+        effective_height_mm: m.effective_height_mm,
+        coaptation_area_mm2: m.coaptation_area_mm2.max,
+        leaflet_area_mm2: mean(&m.leaflet_area_mm2),
+        free_edge_length_mm: mean(&m.free_edge_length_mm),
     }
 }
 
@@ -273,7 +282,7 @@ mod tests {
                         "effective_height_mm": 9.5, "coaptation_area_mm2": {"max": 40.0},
                         "leaflet_area_mm2": [300.0, 310.0, 320.0], "free_edge_length_mm": [30.0, null, 30.0]}
         });
-        let m = measured(&doc);
+        let m = measured(&serde_json::from_value(doc).unwrap());
         assert_eq!((m.passed, m.judged, m.meets_all), (1, 5, false));
         assert_eq!(
             m.failures,

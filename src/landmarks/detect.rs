@@ -886,6 +886,60 @@ pub fn detect(
 mod tests {
     use super::*;
 
+    /// The report reads landmarks.json's sinuses and their naming into its
+    /// own types (`io::report_json`); what this stage writes reads back to
+    /// the same JSON, so the report's copy is the file's.
+    #[test]
+    fn the_sinuses_as_written_read_into_the_report_unchanged() {
+        use crate::io::report_json;
+        let sinuses = vec![
+            Sinus {
+                nadir: "N1".into(),
+                name: SINUS_NAMES[0],
+                ostium: Some(Ostium {
+                    point_mm: Point3::new(10.25, -201.5, 678.75),
+                    height_mm: 20.5,
+                    angle_deg: 201.125,
+                    area_mm2: 8.5,
+                }),
+            },
+            Sinus {
+                nadir: "N3".into(),
+                name: SINUS_NAMES[2],
+                ostium: None,
+            },
+        ];
+        let naming = SinusNaming {
+            by: NamedBy::CoronaryOstia,
+            confidence: 1.0,
+            agrees_with_position: true,
+            ct_searched: true,
+            lumen_hu: Some(469.0),
+            threshold_hu: None,
+            other_patches: 6,
+        };
+        let written = (
+            serde_json::to_value(&sinuses).unwrap(),
+            serde_json::to_value(&naming).unwrap(),
+        );
+        let read: (Vec<report_json::Sinus>, report_json::SinusNaming) = (
+            serde_json::from_value(written.0.clone()).unwrap(),
+            serde_json::from_value(written.1.clone()).unwrap(),
+        );
+        assert_eq!(read.0[0].ostium.as_ref().unwrap().height_mm, 20.5);
+        assert_eq!(read.1.by, "coronary_ostia");
+        assert_eq!(
+            (
+                serde_json::to_string(&read.0).unwrap(),
+                serde_json::to_string(&read.1).unwrap()
+            ),
+            (
+                serde_json::to_string(&written.0).unwrap(),
+                serde_json::to_string(&written.1).unwrap()
+            )
+        );
+    }
+
     /// On an annulus plane tilted 35° to the root axis, every angle keeps
     /// its direction about the axis and lies in the plane; square to the
     /// axis the direction is the angle itself. Dropped straight onto the

@@ -6,9 +6,10 @@
 
 use std::path::Path;
 
-use serde_json::{Value as Json, json};
+use serde_json::Value as Json;
 
 use crate::geom::ValveFrame;
+use crate::io::report_json::{Anatomy, Case, CaseLeaflet, LandmarkPoint, Landmarks, finite};
 use crate::pipeline::manifest::Manifest;
 
 /// What the header is gathered from; every source but the valve is optional.
@@ -29,7 +30,7 @@ pub struct Sources<'a> {
 }
 
 /// The `case` object of report.json.
-pub fn build(s: &Sources) -> Json {
+pub fn build(s: &Sources) -> Case {
     let name = s
         .run_dir
         .and_then(|d| d.canonicalize().ok().or_else(|| Some(d.to_path_buf())))
@@ -45,79 +46,95 @@ pub fn build(s: &Sources) -> Json {
             .map(|r| r.started.clone())
     });
     let section = |key: &str| s.valve["sections"][key]["equivalent_diameter_mm"].as_f64();
-    let anatomy = json!({
-        "annulus_diameter_mm": section("annulus"),
-        "sinus_diameter_mm": section("sinus"),
-        "stj_diameter_mm": section("stj"),
-        "intercommissural_mm": s.frame.intercommissural_mm(),
-        "annulus_plane_tilt_deg": s.valve["annulus_plane_tilt_deg"].as_f64(),
-        "diameter_definition": "area-equivalent diameter of the lumen section (valve.json sections)",
-    });
-    let leaflets: Vec<Json> = s
+    let anatomy = Anatomy {
+        annulus_diameter_mm: section("annulus"),
+        sinus_diameter_mm: section("sinus"),
+        stj_diameter_mm: section("stj"),
+        intercommissural_mm: s
+            .frame
+            .intercommissural_mm()
+            .iter()
+            .map(|&d| finite(d))
+            .collect(),
+        annulus_plane_tilt_deg: s.valve["annulus_plane_tilt_deg"].as_f64(),
+        diameter_definition: "area-equivalent diameter of the lumen section (valve.json sections)"
+            .into(),
+    };
+    let leaflets = s
         .placement
         .and_then(|p| p["leaflets"].as_array())
         .map(|ls| {
             ls.iter()
-                .map(|l| {
-                    json!({
-                        "template": l["template"].as_str(),
-                        "free_edge_mm": l["free_edge_mm"].as_f64(),
-                        "attachment_mm": l["attachment_mm"].as_f64(),
-                        "placement": placement_of(l),
-                    })
+                .map(|l| CaseLeaflet {
+                    template: l["template"].as_str().map(str::to_string),
+                    free_edge_mm: l["free_edge_mm"].as_f64(),
+                    attachment_mm: l["attachment_mm"].as_f64(),
+                    placement: placement_of(l),
                 })
                 .collect()
         })
         .unwrap_or_default();
+    let text = |v: &Json| v.as_str().map(str::to_string);
     let landmarks = match (s.detection, s.landmarks) {
-        (Some(d), _) => json!({
-            "source": "detected",
-            "points": d["points"].as_array().map(|ps| ps
-                .iter()
-                .map(|p| json!({
-                    "label": p["label"],
-                    "confidence": p["confidence"],
-                    "source": p["source"].as_str().unwrap_or("detected"),
-                    "given_to_detected_mm": p["given_to_detected_mm"],
-                }))
-                .collect::<Vec<_>>()),
-            "findings": d["findings"],
-            "sinuses": d["sinuses"],
-            "sinus_naming": d["sinus_naming"],
-            "leaflet_sinuses": d["leaflet_sinuses"],
+        (Some(d), _) => Some(Landmarks::Detected {
+            points: d["points"].as_array().map(|ps| {
+                ps.iter()
+                    .map(|p| LandmarkPoint {
+                        label: text(&p["label"]),
+                        confidence: p["confidence"].as_f64(),
+                        source: p["source"].as_str().unwrap_or("detected").to_string(),
+                        given_to_detected_mm: p["given_to_detected_mm"].as_f64(),
+                    })
+                    .collect()
+            }),
+            findings: strings(&d["findings"]),
+            sinuses: serde_json::from_value(d["sinuses"].clone()).unwrap_or_default(),
+            sinus_naming: serde_json::from_value(d["sinus_naming"].clone()).unwrap_or_default(),
+            leaflet_sinuses: strings(&d["leaflet_sinuses"]),
         }),
-        (None, Some(p)) => json!({"source": "given", "file": p.display().to_string()}),
-        (None, None) => Json::Null,
+        (None, Some(p)) => Some(Landmarks::Given {
+            file: p.display().to_string(),
+        }),
+        (None, None) => None,
     };
     let cfg = s.log.map(|l| &l["config"]);
     let field = |k: &str| cfg.map_or(Json::Null, |c| c[k].clone());
-    json!({
-        "name": name,
-        "computed_utc": computed,
-        "coapt_version": env!("CARGO_PKG_VERSION"),
-        "anatomy": anatomy,
-        "landmarks": landmarks,
-        "leaflets": leaflets,
-        "mesh_h_mm": s.placement.and_then(|p| p["h_mm"].as_f64()),
-        "material": field("model"),
-        "material_source": field("material_source"),
-        "thickness_mm": field("thickness_mm"),
-        "pressure_mmhg": field("pressure_mmhg"),
-        "effective_height_pressure_mmhg": field("effective_height_pressure_mmhg"),
-        "contact": field("contact"),
-        "bending": field("bending"),
-        "reference": field("reference"),
-        "solver": field("solver"),
-    })
+    Case {
+        name,
+        computed_utc: computed,
+        coapt_version: env!("CARGO_PKG_VERSION").into(),
+        anatomy,
+        landmarks,
+        leaflets,
+        mesh_h_mm: s.placement.and_then(|p| p["h_mm"].as_f64()),
+        material: field("model"),
+        material_source: text(&field("material_source")),
+        thickness_mm: field("thickness_mm").as_f64(),
+        pressure_mmhg: field("pressure_mmhg").as_f64(),
+        effective_height_pressure_mmhg: field("effective_height_pressure_mmhg").as_f64(),
+        contact: text(&field("contact")),
+        bending: field("bending").as_bool(),
+        reference: text(&field("reference")),
+        solver: text(&field("solver")),
+    }
 }
 
-fn placement_of(l: &Json) -> Json {
+/// The strings of a JSON list (none when it is not one).
+fn strings(v: &Json) -> Vec<String> {
+    v.as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|x| x.as_str().map(str::to_string))
+        .collect()
+}
+
+fn placement_of(l: &Json) -> Option<String> {
     if l["hanging"].is_object() {
-        json!("hanging")
-    } else if let Some(w) = l["omega_used_deg"].as_f64() {
-        json!(format!("extruded, ω {w:.0}°"))
+        Some("hanging".into())
     } else {
-        Json::Null
+        l["omega_used_deg"]
+            .as_f64()
+            .map(|w| format!("extruded, ω {w:.0}°"))
     }
 }
 
@@ -191,6 +208,7 @@ fn trim(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use serde_json::json;
 
     #[test]
     fn material_reads_with_units_and_no_debug_syntax() {

@@ -12,6 +12,8 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value as Json;
 
+use crate::io::design_json::Design;
+use crate::io::report_json::Report;
 use crate::{Error, Result};
 
 /// The columns, in order; units in the names.
@@ -94,9 +96,8 @@ fn read(path: &Path) -> Result<Option<Json>> {
     }
 }
 
-fn num(v: &Json) -> String {
-    v.as_f64()
-        .filter(|x| x.is_finite())
+fn num(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite())
         .map_or(String::new(), |x| format!("{x:.3}"))
 }
 
@@ -112,7 +113,7 @@ fn row(run: &Path, case: &str) -> Result<Vec<String>> {
         put(
             &mut r,
             "annulus_diameter_mm",
-            num(&v["sections"]["annulus"]["equivalent_diameter_mm"]),
+            num(v["sections"]["annulus"]["equivalent_diameter_mm"].as_f64()),
         );
         if let Ok(f) = crate::io::valve_json::read_frame(&run.join("valve.json")) {
             let d = f.intercommissural_mm();
@@ -128,8 +129,9 @@ fn row(run: &Path, case: &str) -> Result<Vec<String>> {
     }
     // A swept run: its design's recommended size stands for the case.
     let mut from = run.to_path_buf();
-    if let Some(d) = read(&run.join("design/design.json"))? {
-        let size = d["recommended_size"].as_u64();
+    let design = run.join("design/design.json");
+    if design.is_file() {
+        let size = Design::read(&design)?.recommended_size;
         put(
             &mut r,
             "recommended_size",
@@ -140,7 +142,7 @@ fn row(run: &Path, case: &str) -> Result<Vec<String>> {
         {
             from = run
                 .join("design")
-                .join(crate::io::design_json::size_dir(size as u32));
+                .join(crate::io::design_json::size_dir(size));
         }
     }
     if let Some(l) = read(&from.join("leaflets.json"))? {
@@ -152,7 +154,8 @@ fn row(run: &Path, case: &str) -> Result<Vec<String>> {
             .collect();
         put(&mut r, "templates", names.join(";"));
     }
-    let Some(rep) = read(&from.join("report.json"))? else {
+    let report = from.join("report.json");
+    if !report.is_file() {
         let last = read(&run.join("manifest.json"))?
             .and_then(|m| {
                 m["stages"]
@@ -163,69 +166,54 @@ fn row(run: &Path, case: &str) -> Result<Vec<String>> {
         put(&mut r, "status", "no_report".to_string());
         put(&mut r, "summary", format!("no report.json{last}"));
         return Ok(r);
-    };
-    let v = &rep["verdict"];
+    }
+    let rep = Report::read(&report)?;
+    let v = &rep.verdict;
     put(
         &mut r,
         "status",
-        v["status"].as_str().unwrap_or("").to_string(),
+        v.status.map_or(String::new(), |s| s.name().to_string()),
     );
+    put(&mut r, "summary", v.summary.clone());
+    let met = rep.criteria.iter().filter(|c| c.pass == Some(true)).count();
     put(
         &mut r,
-        "summary",
-        v["summary"].as_str().unwrap_or("").to_string(),
+        "criteria_met",
+        format!("{met}/{}", rep.criteria.len()),
     );
-    let crit = rep["criteria"].as_array().map(Vec::as_slice).unwrap_or(&[]);
-    let met = crit
-        .iter()
-        .filter(|c| c["pass"].as_bool() == Some(true))
-        .count();
-    put(&mut r, "criteria_met", format!("{met}/{}", crit.len()));
-    let failed: Vec<&str> = v["failed_criteria"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .filter_map(Json::as_str)
-        .collect();
-    put(&mut r, "failed_criteria", failed.join(";"));
+    put(&mut r, "failed_criteria", v.failed_criteria.join(";"));
     put(
         &mut r,
         "closed",
-        v["closed"]
-            .as_bool()
-            .map_or(String::new(), |b| b.to_string()),
+        v.closed.map_or(String::new(), |b| b.to_string()),
     );
-    let m = &rep["metrics"];
-    for (col, key) in [
-        ("central_coaptation_mm", "central_coaptation_height_mm"),
-        ("effective_height_mm", "effective_height_mm"),
+    let m = &rep.metrics;
+    for (col, x) in [
+        ("central_coaptation_mm", m.central_coaptation_height_mm),
+        ("effective_height_mm", m.effective_height_mm),
         (
             "effective_height_pressure_mmhg",
-            "effective_height_pressure_mmhg",
+            m.effective_height_pressure_mmhg,
         ),
-        ("coaptation_height_mm", "coaptation_height_mm"),
-        ("regurgitant_orifice_mm2", "regurgitant_orifice_area_mm2"),
+        ("coaptation_height_mm", m.coaptation_height_mm),
+        ("regurgitant_orifice_mm2", m.regurgitant_orifice_area_mm2),
+        // Per leaflet; the smallest is the one a surgeon worries about.
+        ("coaptation_area_min_mm2", m.coaptation_area_mm2.min),
     ] {
-        put(&mut r, col, num(&m[key]));
+        put(&mut r, col, num(x));
     }
-    // Per leaflet; the smallest is the one a surgeon worries about.
-    put(
-        &mut r,
-        "coaptation_area_min_mm2",
-        num(&m["coaptation_area_mm2"]["min"]),
-    );
-    let billow = m["billowing_mm"]
-        .as_array()
-        .into_iter()
+    let billow = m
+        .billowing_mm
+        .iter()
         .flatten()
-        .filter_map(Json::as_f64)
+        .copied()
         .fold(f64::NAN, f64::max);
-    put(&mut r, "billowing_max_mm", num(&Json::from(billow)));
+    put(&mut r, "billowing_max_mm", num(Some(billow)));
     put(
         &mut r,
         "solver_converged",
-        rep["solver"]["converged"]
-            .as_bool()
+        rep.solver
+            .converged
             .map_or(String::new(), |b| b.to_string()),
     );
     if let Some(c) = read(&from.join("closure.json"))? {

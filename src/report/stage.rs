@@ -13,6 +13,8 @@ use super::metrics::{self, Metrics};
 use super::stage_params::ReportParams;
 use super::{ClosedValve, Figure, case, figures, html, load, reach, symmetry, verdict, view3d};
 use crate::geom::Point3;
+use crate::io::design_json::Design;
+use crate::io::report_json::{self, InputFile, finite};
 use crate::io::{Transaction, markups, nifti, volume_file, vtp};
 use crate::pipeline::manifest::{self, Manifest};
 use crate::pipeline::{
@@ -20,6 +22,7 @@ use crate::pipeline::{
 };
 use crate::units::Kind;
 use crate::{Error, Result};
+use indexmap::IndexMap;
 
 const fn optional(
     name: &'static str,
@@ -207,21 +210,6 @@ pub static SPEC: StageSpec = StageSpec {
 /// docs/report.md, "Where leaflets touch").
 const MARGIN_PER_THICKNESS: f64 = 1.8;
 
-/// A `coapt design` sweep; only its own schema is taken.
-fn read_design(path: &Path) -> Result<Json> {
-    let d = read_json(path)?;
-    if d["schema"] != json!(crate::io::design_json::SCHEMA) || !d["sizes"].is_array() {
-        return Err(Error::bad_input(
-            path,
-            format!(
-                "not a design sweep (expected schema \"{}\" with a sizes list, as `coapt design` writes)",
-                crate::io::design_json::SCHEMA
-            ),
-        ));
-    }
-    Ok(d)
-}
-
 fn read_json(path: &Path) -> Result<Json> {
     serde_json::from_slice(&std::fs::read(path).map_err(|e| Error::read(path, e))?)
         .map_err(|e| Error::bad_input(path, format!("not JSON: {e}")))
@@ -343,19 +331,18 @@ fn mirror_positions(one: &ClosedValve, w: &ClosedValve, x: &[Point3]) -> Vec<Poi
     out
 }
 
-fn timings(run_dir: Option<&Path>) -> Json {
+fn timings(run_dir: Option<&Path>) -> IndexMap<String, Option<f64>> {
     let Some(dir) = run_dir.filter(|d| d.join(manifest::FILE_NAME).is_file()) else {
-        return json!({});
+        return IndexMap::new();
     };
     match Manifest::load(dir) {
-        Ok(m) => Json::Object(
-            m.stages
-                .iter()
-                .filter(|s| s.stage != SPEC.name)
-                .map(|s| (s.stage.clone(), json!(s.seconds)))
-                .collect(),
-        ),
-        Err(_) => json!({}),
+        Ok(m) => m
+            .stages
+            .iter()
+            .filter(|s| s.stage != SPEC.name)
+            .map(|s| (s.stage.clone(), finite(s.seconds)))
+            .collect(),
+        Err(_) => IndexMap::new(),
     }
 }
 
@@ -433,13 +420,17 @@ fn input_record(
     io: &StageIo,
     run_dir: Option<&Path>,
     required: [&Path; 3],
-) -> Result<serde_json::Map<String, Json>> {
-    let mut inputs = serde_json::Map::new();
+) -> Result<IndexMap<String, InputFile>> {
+    let mut inputs = IndexMap::new();
     let mut record = |name: &str, p: &Path| -> Result<()> {
         let (blake3, bytes) = provenance::hash_files(&volume_file::files_of(p))?;
         inputs.insert(
             name.into(),
-            json!({"path": p.display().to_string(), "blake3": blake3, "bytes": bytes}),
+            InputFile {
+                path: p.display().to_string(),
+                blake3,
+                bytes: Some(bytes),
+            },
         );
         Ok(())
     };
@@ -485,7 +476,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         None => None,
     };
     let design = match io.input("design") {
-        Some(p) => Some(read_design(p)?),
+        Some(p) => Some(Design::read(p)?),
         None => None,
     };
     let thickness = log
@@ -626,17 +617,15 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let inputs = input_record(io, run_dir, [cpath, lpath, vpath])?;
     let mut timing = timings(run_dir);
     let report_s = t0.elapsed().as_secs_f64();
-    if let Json::Object(t) = &mut timing {
-        t.insert(SPEC.name.into(), json!(report_s));
-    }
+    timing.insert(SPEC.name.into(), finite(report_s));
     let solver = match &log {
-        Some(l) => json!({
-            "converged": l["solver"]["converged"],
-            "iterations": l["solver"]["iterations"],
-            "residual_n": l["solver"]["residual_n"],
-            "reason": l["solver"]["reason"],
-        }),
-        None => json!({"converged": null, "iterations": null, "residual_n": null, "reason": null}),
+        Some(l) => report_json::Solver {
+            converged: l["solver"]["converged"].as_bool(),
+            iterations: l["solver"]["iterations"].as_u64(),
+            residual_n: l["solver"]["residual_n"].as_f64(),
+            reason: l["solver"]["reason"].as_str().map(str::to_string),
+        },
+        None => report_json::Solver::default(),
     };
     let mut parameters: serde_json::Map<String, Json> = params
         .canonical()
@@ -653,11 +642,11 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         anatomy,
         solver,
         timing_s: timing,
-        inputs: Json::Object(inputs),
-        parameters: Json::Object(parameters),
+        inputs,
+        parameters,
     };
     let mut doc = document::build(&m, &crit, &verdict, &finds, &ctx);
-    let case = case::build(&case::Sources {
+    doc.case = Some(case::build(&case::Sources {
         run_dir,
         landmarks: optional_input(io, run_dir, "landmarks").as_deref(),
         detection: detection.as_ref(),
@@ -665,27 +654,21 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         frame: &v.frame,
         placement: placement.as_ref(),
         log: log.as_ref(),
-    });
-    if let Json::Object(o) = &mut doc {
-        o.insert("case".into(), case);
-    }
-    if let (Some(d), Json::Object(o)) = (design, &mut doc) {
-        o.insert("design".into(), d);
-    }
+    }));
+    doc.design = design;
     let page = html::render(&doc, &figs, scene.as_ref());
-    let text = serde_json::to_string_pretty(&doc).expect("json") + "\n";
     let mut tx = Transaction::new();
-    tx.write_bytes(io.output("report"), text.as_bytes())?;
+    tx.write_bytes(io.output("report"), doc.to_text().as_bytes())?;
     tx.write_bytes(io.output("page"), page.as_bytes())?;
     tx.commit()?;
     progress.set(1.0);
     Ok(json!({
         "closed": m.closed,
-        "meets_all_criteria": doc["verdict"]["meets_all_criteria"],
+        "meets_all_criteria": doc.verdict.meets_all_criteria,
         "coaptation_height_mm": m.coaptation_height_mm,
         "central_coaptation_height_mm": m.central_coaptation_height_mm,
-        "effective_height_mm": doc["metrics"]["effective_height_mm"],
-        "status": doc["verdict"]["status"],
+        "effective_height_mm": doc.metrics.effective_height_mm,
+        "status": doc.verdict.status,
         "refined_triangles": coapt.refined_triangles,
         "figures": figs.len(),
     }))

@@ -6,88 +6,93 @@
 use std::fmt::Write;
 use std::path::Path;
 
-use serde_json::Value as Json;
+use crate::io::report_json::{Comparison, Criterion, Quantity, Report, Severity};
 
 /// Lines for a person reading the terminal after a run.
-pub fn summary(doc: &Json, report_html: &Path) -> String {
+pub fn summary(doc: &Report, report_html: &Path) -> String {
     let mut out = String::new();
-    let v = &doc["verdict"];
-    let sentence = v["summary"].as_str().unwrap_or("no verdict in report.json");
+    let v = &doc.verdict;
+    let sentence = if v.summary.is_empty() {
+        "no verdict in report.json"
+    } else {
+        &v.summary
+    };
     let _ = writeln!(out, "verdict: {sentence}");
-    for r in v["not_assessable_reasons"].as_array().into_iter().flatten() {
-        if let Some(r) = r.as_str() {
-            let _ = writeln!(out, "  not assessable: {r}");
-        }
+    for r in &v.not_assessable_reasons {
+        let _ = writeln!(out, "  not assessable: {r}");
     }
-    let criteria = doc["criteria"].as_array().map(Vec::as_slice).unwrap_or(&[]);
-    let width = criteria
+    let width = doc
+        .criteria
         .iter()
-        .filter_map(|c| c["name"].as_str())
-        .map(|n| n.chars().count())
+        .map(|c| c.name.chars().count())
         .max()
         .unwrap_or(0);
-    for c in criteria {
-        let mark = match c["pass"].as_bool() {
+    for c in &doc.criteria {
+        let mark = match c.pass {
             Some(true) => "pass",
             Some(false) => "FAIL",
             None => "n/a ",
         };
-        let name = c["name"].as_str().unwrap_or("?");
+        let name = if c.name.is_empty() { "?" } else { &c.name };
         let _ = writeln!(
             out,
             "  {mark}  {name:<width$}  {}",
             value_against_threshold(c)
         );
     }
-    let m = &doc["metrics"];
-    if let Some(p) = m["effective_height_pressure_mmhg"].as_f64() {
+    let m = &doc.metrics;
+    if let Some(p) = m.effective_height_pressure_mmhg {
         let _ = writeln!(
             out,
             "  (effective height judged at {} mmHg; coaptation height {}, regurgitant orifice {})",
             trim(p),
-            mm(m["coaptation_height_mm"].as_f64(), "mm"),
-            mm(m["regurgitant_orifice_area_mm2"].as_f64(), "mm²"),
+            mm(m.coaptation_height_mm, "mm"),
+            mm(m.regurgitant_orifice_area_mm2, "mm²"),
         );
     }
     // What the reader must know beyond the numbers (why it does not close,
     // crossings, suturing, what Ozaki's rule would cut): the page's findings.
-    for f in doc["findings"].as_array().into_iter().flatten() {
-        let tag = match f["severity"].as_str() {
-            Some("error") => "error",
-            Some("warning") => "warning",
-            _ => "note",
+    for f in &doc.findings {
+        let tag = match f.severity {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+            Severity::Info => "note",
         };
-        if let Some(m) = f["message"].as_str() {
-            let _ = writeln!(out, "  {tag}: {m}");
-        }
+        let _ = writeln!(out, "  {tag}: {}", f.message);
     }
     let _ = writeln!(out, "report: {}", report_html.display());
     out
 }
 
-fn value_against_threshold(c: &Json) -> String {
-    let unit = match c["unit"].as_str().unwrap_or("") {
+fn value_against_threshold(c: &Criterion) -> String {
+    let unit = match c.unit.as_str() {
         "mm2" => "mm²",
         u => u,
     };
-    let cmp = c["comparison"].as_str().unwrap_or("");
-    match (&c["value"], &c["threshold"]) {
-        (Json::Bool(v), _) => (if *v { "yes" } else { "no" }).to_string(),
-        (Json::Number(v), t) => {
-            let need = match t.as_f64() {
-                Some(t) => format!(" (needs {cmp} {})", mm(Some(t), unit)),
-                None => String::new(),
-            };
-            format!("{}{need}", mm(v.as_f64(), unit))
-        }
+    let cmp = match c.comparison {
+        Some(Comparison::Above) => ">",
+        Some(Comparison::AtMost) => "<=",
+        Some(Comparison::Is) => "is",
+        None => "",
+    };
+    let need = |t: Option<Quantity>| match t {
+        Some(Quantity::Number(t)) => Some(format!("(needs {cmp} {})", mm(Some(t), unit))),
+        _ => None,
+    };
+    match c.value {
+        Some(Quantity::Bool(v)) => (if v { "yes" } else { "no" }).to_string(),
+        Some(Quantity::Number(v)) => match need(c.threshold) {
+            Some(n) => format!("{} {n}", mm(Some(v), unit)),
+            None => mm(Some(v), unit),
+        },
         // Failed with no value: there was nothing to measure (no triple
         // zone for the central coaptation), which is not the same as a
         // criterion that could not be judged (pass null).
-        (Json::Null, t) if c["pass"] == Json::Bool(false) => match t.as_f64() {
-            Some(t) => format!("none (needs {cmp} {})", mm(Some(t), unit)),
+        None if c.pass == Some(false) => match need(c.threshold) {
+            Some(n) => format!("none {n}"),
             None => "none".to_string(),
         },
-        _ => "not measurable".to_string(),
+        None => "not measurable".to_string(),
     }
 }
 
@@ -137,7 +142,10 @@ mod tests {
                 {"severity": "warning", "message": "The free edges are too short to meet."},
             ],
         });
-        let text = summary(&doc, Path::new("/runs/a/report.html"));
+        let text = summary(
+            &serde_json::from_value(doc).unwrap(),
+            Path::new("/runs/a/report.html"),
+        );
         assert_eq!(
             text,
             "verdict: Fails 1 of 3 criteria: Central coaptation height. The three leaflets meet.\n\
@@ -163,7 +171,7 @@ mod tests {
             "criteria": [],
             "metrics": {},
         });
-        let text = summary(&doc, Path::new("r.html"));
+        let text = summary(&serde_json::from_value(doc).unwrap(), Path::new("r.html"));
         assert_eq!(
             text,
             "verdict: Not assessable.\n  not assessable: 12 pairs of triangles of different leaflets cross\nreport: r.html\n"

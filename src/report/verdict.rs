@@ -4,26 +4,12 @@
 //! that did not converge, or no record of either) is never judged green:
 //! its heights and orifice would be numbers about a shape that cannot be.
 
-use serde_json::{Value as Json, json};
+use serde_json::Value as Json;
+
+use crate::io::report_json;
+pub use crate::io::report_json::Status;
 
 use super::criteria::Criterion;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Status {
-    MeetsAllCriteria,
-    FailsCriteria,
-    NotAssessable,
-}
-
-impl Status {
-    pub fn name(self) -> &'static str {
-        match self {
-            Status::MeetsAllCriteria => "meets_all_criteria",
-            Status::FailsCriteria => "fails_criteria",
-            Status::NotAssessable => "not_assessable",
-        }
-    }
-}
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Verdict {
@@ -156,14 +142,14 @@ pub fn summary(v: &Verdict, closed: bool, criteria: &[Criterion]) -> String {
     s
 }
 
-pub fn to_json(v: &Verdict, closed: bool, criteria: &[Criterion]) -> Json {
-    json!({
-        "status": v.status.name(),
-        "closed": closed,
-        "assessable": v.assessable,
-        "not_assessable_reasons": v.not_assessable_reasons,
-        "meets_all_criteria": v.meets_all_criteria,
-        "failed_criteria": v.failed,
-        "summary": summary(v, closed, criteria),
-    })
+pub fn to_document(v: &Verdict, closed: bool, criteria: &[Criterion]) -> report_json::Verdict {
+    report_json::Verdict {
+        status: Some(v.status),
+        closed: Some(closed),
+        assessable: Some(v.assessable),
+        not_assessable_reasons: v.not_assessable_reasons.clone(),
+        meets_all_criteria: Some(v.meets_all_criteria),
+        failed_criteria: v.failed.iter().map(|id| id.to_string()).collect(),
+        summary: summary(v, closed, criteria),
+    }
 }

@@ -327,7 +327,11 @@ fn report_page_opens_clean_in_headless_chromium() {
     let page = dir.join("report.html");
     std::fs::write(
         &page,
-        coapt::report::html::render(&example(), &figures(), None),
+        coapt::report::html::render(
+            &serde_json::from_value(example()).unwrap(),
+            &figures(),
+            None,
+        ),
     )
     .unwrap();
     let (v, code) = check(&b, &page);

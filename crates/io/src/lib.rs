@@ -14,6 +14,7 @@ pub mod nrrd;
 pub mod ply;
 pub mod png;
 pub mod raw_voxels;
+pub mod report_json;
 pub mod scratch;
 pub mod sha256;
 pub mod stl;

@@ -1,34 +1,33 @@
 //! The leaflet-size sweep of `coapt design`: heights and areas against the
 //! Ozaki sizer size, with the criteria's thresholds.
 
-use serde_json::Value as Json;
-
 use super::xy_chart::{Series, XyChart, xy_chart};
+use crate::io::design_json::{Closure, Design};
 use crate::report::Figure;
 
-fn series(design: &Json, key: &str) -> Vec<(f64, f64)> {
-    design["sizes"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|s| Some((s["size"].as_f64()?, s[key].as_f64().unwrap_or(f64::NAN))))
-                .collect()
-        })
-        .unwrap_or_default()
+/// A number of one closure of the sweep.
+type Reading = fn(&Closure) -> Option<f64>;
+
+fn series(design: &Design, value: Reading) -> Vec<(f64, f64)> {
+    design
+        .sizes
+        .iter()
+        .filter_map(|s| Some((s.size? as f64, value(s).unwrap_or(f64::NAN))))
+        .collect()
 }
 
-fn recommended(design: &Json) -> String {
-    let answer = match design["recommended_size"].as_u64() {
+fn recommended(design: &Design) -> String {
+    let answer = match design.recommended_size {
         Some(s) => format!("Recommended: size {s}, the smallest meeting every criterion."),
         None => "No size of the sweep meets every criterion.".to_string(),
     };
     // Ozaki's rule cuts a size per leaflet, so it is no point of these
     // uniform-size charts; its closure is stated under the table.
-    match design["ozaki_rule_sizes"].as_array() {
+    match &design.ozaki_rule_sizes {
         Some(r) if r.len() == 3 => {
             let sizes: Vec<String> = r
                 .iter()
-                .map(|x| x.as_u64().map_or("—".to_string(), |v| v.to_string()))
+                .map(|x| x.map_or("—".to_string(), |v| v.to_string()))
                 .collect();
             format!("{answer} Ozaki's rule cuts {}.", sizes.join(" / "))
         }
@@ -38,7 +37,7 @@ fn recommended(design: &Json) -> String {
 
 /// Two charts from `design.json`: heights (mm) and areas (mm²) per size.
 /// `thresholds`: (central coaptation, effective height) in mm.
-pub fn sizing(design: &Json, thresholds: (f64, f64)) -> Vec<Figure> {
+pub fn sizing(design: &Design, thresholds: (f64, f64)) -> Vec<Figure> {
     let mut h = XyChart::new(
         "sizing-heights",
         "Coaptation and effective height against leaflet size",
@@ -46,11 +45,14 @@ pub fn sizing(design: &Json, thresholds: (f64, f64)) -> Vec<Figure> {
         "height (mm)",
     );
     h.x_integer = true;
-    for (name, key) in [
-        ("coaptation height", "coaptation_height_mm"),
-        ("central coaptation height", "central_coaptation_height_mm"),
-        ("effective height", "effective_height_mm"),
-    ] {
+    let heights: [(&str, Reading); 3] = [
+        ("coaptation height", |c| c.coaptation_height_mm),
+        ("central coaptation height", |c| {
+            c.central_coaptation_height_mm
+        }),
+        ("effective height", |c| c.effective_height_mm),
+    ];
+    for (name, key) in heights {
         h.series
             .push(Series::new(name, series(design, key)).with_markers());
     }
@@ -80,14 +82,14 @@ pub fn sizing(design: &Json, thresholds: (f64, f64)) -> Vec<Figure> {
     a.series.push(
         Series::new(
             "leaflet area (flat template)",
-            series(design, "leaflet_area_mm2"),
+            series(design, |c| c.leaflet_area_mm2),
         )
         .with_markers(),
     );
     a.series.push(
         Series::new(
             "coaptation area (largest leaflet)",
-            series(design, "coaptation_area_mm2"),
+            series(design, |c| c.coaptation_area_mm2),
         )
         .with_markers(),
     );
@@ -102,22 +104,39 @@ pub fn sizing(design: &Json, thresholds: (f64, f64)) -> Vec<Figure> {
 mod tests {
     use super::super::test_valve::{count, decode};
     use super::*;
-    use serde_json::json;
+    use crate::io::design_json::ClosureStatus;
 
     #[test]
     fn sweep_is_drawn_with_thresholds_and_gaps() {
-        let d = json!({
-            "recommended_size": 21,
-            "ozaki_rule_sizes": [21, 23, null],
-            "sizes": [
-                {"size": 19, "coaptation_height_mm": 6.0, "central_coaptation_height_mm": 3.0, "effective_height_mm": 8.0,
-                 "leaflet_area_mm2": 300.0, "coaptation_area_mm2": 40.0},
-                {"size": 21, "coaptation_height_mm": 8.0, "central_coaptation_height_mm": 5.0, "effective_height_mm": 10.0,
-                 "leaflet_area_mm2": 350.0, "coaptation_area_mm2": 60.0},
-                {"size": 23, "coaptation_height_mm": null, "central_coaptation_height_mm": null, "effective_height_mm": null,
-                 "leaflet_area_mm2": null, "coaptation_area_mm2": null}
-            ]
-        });
+        let size = |size: u32, v: Option<[f64; 5]>| Closure {
+            run: format!("size-{size}"),
+            leaflet_sizes: vec![Some(size); 3],
+            status: ClosureStatus::Measured,
+            error: None,
+            closed: Some(true),
+            meets_all_criteria: false,
+            criteria_passed: None,
+            criteria_judged: None,
+            failures: Vec::new(),
+            criteria_shortfall_mm: None,
+            coaptation_height_mm: v.map(|v| v[0]),
+            central_coaptation_height_mm: v.map(|v| v[1]),
+            effective_height_mm: v.map(|v| v[2]),
+            coaptation_area_mm2: v.map(|v| v[4]),
+            leaflet_area_mm2: v.map(|v| v[3]),
+            free_edge_length_mm: None,
+            size: Some(size),
+        };
+        let d = Design {
+            recommended_size: Some(21),
+            ozaki_rule_sizes: Some(vec![Some(21), Some(23), None]),
+            sizes: vec![
+                size(19, Some([6.0, 3.0, 8.0, 300.0, 40.0])),
+                size(21, Some([8.0, 5.0, 10.0, 350.0, 60.0])),
+                size(23, None),
+            ],
+            ..Design::default()
+        };
         let f = sizing(&d, (4.0, 9.0));
         assert_eq!(f.len(), 2);
         assert!(
@@ -137,7 +156,7 @@ mod tests {
             assert!(count(&img, c) > 50, "colour {c:?}");
         }
         assert_eq!(count(&img, [200, 30, 40]), 0);
-        let none = sizing(&json!({"recommended_size": null, "sizes": []}), (4.0, 9.0));
+        let none = sizing(&Design::default(), (4.0, 9.0));
         assert!(
             none[0].caption.contains("no finite data"),
             "{}",

@@ -3,11 +3,10 @@
 
 use std::fmt::Write as _;
 
-use base64::{Engine as _, engine::general_purpose::STANDARD as BASE64};
-use serde_json::Value;
-
+use crate::io::design_json::{Closure, ClosureStatus, Design};
 use crate::report::Figure;
 use crate::report::view3d::{self, Scene};
+use base64::{Engine as _, engine::general_purpose::STANDARD as BASE64};
 
 use super::DASH;
 use super::format::*;
@@ -68,32 +67,28 @@ pub(super) fn figure(h: &mut String, f: &Figure, number: usize, used: &mut Vec<S
 
 /// One closure of the sweep (a size, or Ozaki's rule) judged: its tag and
 /// failed criteria, or why it could not be computed.
-fn closure_result(c: &Value) -> String {
-    match c.get("status").and_then(Value::as_str) {
-        Some("measured") => {
-            let failures: Vec<String> = array(c.get("failures"))
-                .iter()
-                .filter_map(|f| f.as_str().map(esc))
-                .collect();
-            if failures.is_empty() {
+fn closure_result(c: &Closure) -> String {
+    match c.status {
+        ClosureStatus::Measured => {
+            if c.failures.is_empty() {
                 result_tag(Some(true)).to_string()
             } else {
+                let failures: Vec<String> = c.failures.iter().map(|f| esc(f)).collect();
                 format!("{} {}", result_tag(Some(false)), failures.join("; "))
             }
         }
-        _ => format!(
+        ClosureStatus::Failed => format!(
             "<span class=\"tag na\">NOT COMPUTED</span> {}",
-            esc(&text_or(c.get("error"), "no reason recorded"))
+            esc(c.error.as_deref().unwrap_or("no reason recorded"))
         ),
     }
 }
 
 /// The leaflet-size sweep of `coapt design`, when the report has one: the
 /// recommendation and its reason first, then every size, then the charts.
-pub(super) fn sizing(h: &mut String, d: &Value, figures: &[Figure]) {
+pub(super) fn sizing(h: &mut String, d: &Design, figures: &[Figure]) {
     h.push_str("<section id=\"sizing\">\n<h2>Leaflet sizing</h2>\n");
-    let recommended = d.get("recommended_size").and_then(Value::as_u64);
-    let shown = d.get("shown_size").and_then(Value::as_u64);
+    let recommended = d.recommended_size;
     let _ = writeln!(
         h,
         "<div class=\"verdict {}\"><p><strong>{}</strong></p><p>{}</p></div>",
@@ -102,80 +97,70 @@ pub(super) fn sizing(h: &mut String, d: &Value, figures: &[Figure]) {
             Some(s) => format!("Recommended: Ozaki size {s} for all three leaflets."),
             None => "No size of the sweep meets every criterion.".to_string(),
         },
-        esc(&text_or(d.get("reason"), "")),
+        esc(&d.reason),
     );
-    if let Some(s) = shown {
+    if let Some(s) = d.shown_size {
         let _ = writeln!(
             h,
             "<p>The rest of this report is the closure with size {s} leaflets; every size has its own report in <code>size-NN/report.html</code> beside this page.</p>"
         );
     }
-    let ic = array(d.get("intercommissural_distance_mm"));
-    if ic.len() == 3 {
+    if let Some([a, b, c]) = d.intercommissural_distance_mm.as_deref() {
         let _ = writeln!(
             h,
             "<p>Intercommissural distances (what the sizer measures in the opened root): C1–C2 {}, C2–C3 {}, C3–C1 {}.</p>",
-            esc(&mm(ic.first())),
-            esc(&mm(ic.get(1))),
-            esc(&mm(ic.get(2)))
+            esc(&mm(Some(*a))),
+            esc(&mm(Some(*b))),
+            esc(&mm(Some(*c)))
         );
     }
-    if let Some(rule) = d.get("ozaki_rule").and_then(Value::as_str) {
+    if let Some(rule) = &d.ozaki_rule {
         let _ = writeln!(h, "<p>{}</p>", esc(rule));
     }
-    if let Some(c) = d.get("ozaki_rule_closure").filter(|c| c.is_object()) {
-        let run = text_or(c.get("run"), "ozaki-rule");
-        let said = match c.get("status").and_then(Value::as_str) {
-            Some("measured") => {
-                let mm = |k: &str| {
-                    c.get(k)
-                        .and_then(Value::as_f64)
-                        .map_or("none".to_string(), |v| format!("{v:.2} mm"))
-                };
+    if let Some(c) = &d.ozaki_rule_closure {
+        let run = or(&c.run, "ozaki-rule");
+        let said = match c.status {
+            ClosureStatus::Measured => {
+                let mm = |x: Option<f64>| x.map_or("none".to_string(), |v| format!("{v:.2} mm"));
                 format!(
                     "central coaptation {}, effective height {}; {}",
-                    mm("central_coaptation_height_mm"),
-                    mm("effective_height_mm"),
+                    mm(c.central_coaptation_height_mm),
+                    mm(c.effective_height_mm),
                     closure_result(c)
                 )
             }
-            _ => closure_result(c),
+            ClosureStatus::Failed => closure_result(c),
         };
         let _ = writeln!(
             h,
             "<p>Closed as Ozaki&#39;s rule cuts it (<a href=\"{0}/report.html\">{0}/report.html</a>): {said}.</p>",
-            esc(&run)
+            esc(run)
         );
     }
     h.push_str(
         "<table>\n<thead><tr><th>Size</th><th>Leaflet area (mm²)</th><th>Coaptation height (mm)</th>\
          <th>Central coaptation (mm)</th><th>Effective height (mm)</th><th>Criteria met</th><th>Result</th></tr></thead>\n<tbody>\n",
     );
-    for s in array(d.get("sizes")) {
-        let size = s.get("size").and_then(Value::as_u64);
-        let mark = if size.is_some() && size == recommended {
+    for s in &d.sizes {
+        let mark = if s.size.is_some() && s.size == recommended {
             " class=\"recommended\""
         } else {
             ""
         };
-        let result = closure_result(s);
-        let met = match (
-            s.get("criteria_passed").and_then(Value::as_u64),
-            s.get("criteria_judged").and_then(Value::as_u64),
-        ) {
+        let met = match (s.criteria_passed, s.criteria_judged) {
             (Some(p), Some(j)) => format!("{p} / {j}"),
             _ => DASH.to_string(),
         };
         let _ = writeln!(
             h,
             "<tr{mark}><th scope=\"row\">{}</th><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td></tr>",
-            size.map_or(DASH.to_string(), |s| s.to_string()),
-            esc(&fixed(num(s.get("leaflet_area_mm2")), 0)),
-            esc(&fixed(num(s.get("coaptation_height_mm")), 2)),
-            esc(&fixed(num(s.get("central_coaptation_height_mm")), 2)),
-            esc(&fixed(num(s.get("effective_height_mm")), 2)),
+            s.size.map_or(DASH.to_string(), |s| s.to_string()),
+            esc(&fixed(s.leaflet_area_mm2, 0)),
+            esc(&fixed(s.coaptation_height_mm, 2)),
+            esc(&fixed(s.central_coaptation_height_mm, 2)),
+            esc(&fixed(s.effective_height_mm, 2)),
             esc(&met),
-            result,
+            closure_result(s),
         );
     }
     h.push_str("</tbody>\n</table>\n");

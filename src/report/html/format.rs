@@ -24,24 +24,16 @@ pub fn esc(s: &str) -> String {
     out
 }
 
-/// A string value, or `default` when missing or not a string.
-pub(super) fn text_or(v: Option<&Value>, default: &str) -> String {
-    v.and_then(Value::as_str).unwrap_or(default).to_string()
+/// `s`, or `default` when empty (a key missing from the report).
+pub(super) fn or<'a>(s: &'a str, default: &'a str) -> &'a str {
+    if s.is_empty() { default } else { s }
 }
 
-pub(super) fn num_text(v: Option<&Value>) -> String {
-    match v.and_then(Value::as_f64) {
+pub(super) fn num_text(x: Option<f64>) -> String {
+    match x.filter(|x| x.is_finite()) {
         Some(x) => shortest(Some(x)),
         None => NOT_MEASURED.to_string(),
     }
-}
-
-pub(super) fn array(v: Option<&Value>) -> &[Value] {
-    v.and_then(Value::as_array).map_or(&[], Vec::as_slice)
-}
-
-pub(super) fn num(v: Option<&Value>) -> Option<f64> {
-    v.and_then(Value::as_f64).filter(|x| x.is_finite())
 }
 
 /// `x` with `decimals` digits, "—" when absent; never "-0.00".
@@ -73,28 +65,30 @@ pub(super) fn with_unit(value: &str, unit: &str) -> String {
     }
 }
 
-pub(super) fn mm(v: Option<&Value>) -> String {
-    num(v).map_or(NOT_MEASURED.to_string(), |x| {
-        with_unit(&fixed(Some(x), 2), "mm")
-    })
+pub(super) fn mm(x: Option<f64>) -> String {
+    x.filter(|x| x.is_finite())
+        .map_or(NOT_MEASURED.to_string(), |x| {
+            with_unit(&fixed(Some(x), 2), "mm")
+        })
 }
 
-pub(super) fn mm2(v: Option<&Value>) -> String {
-    num(v).map_or(NOT_MEASURED.to_string(), |x| {
-        with_unit(&fixed(Some(x), 1), "mm²")
-    })
+pub(super) fn mm2(x: Option<f64>) -> String {
+    x.filter(|x| x.is_finite())
+        .map_or(NOT_MEASURED.to_string(), |x| {
+            with_unit(&fixed(Some(x), 1), "mm²")
+        })
 }
 
 /// A fraction shown as a percentage.
-pub(super) fn percent(v: Option<&Value>) -> String {
-    num(v).map_or(NOT_MEASURED.to_string(), |x| {
-        format!("{} %", fixed(Some(100.0 * x), 1))
-    })
+pub(super) fn percent(x: Option<f64>) -> String {
+    x.filter(|x| x.is_finite())
+        .map_or(NOT_MEASURED.to_string(), |x| {
+            format!("{} %", fixed(Some(100.0 * x), 1))
+        })
 }
 
-pub(super) fn boolean(v: Option<&Value>) -> String {
-    v.and_then(Value::as_bool)
-        .map_or(NOT_MEASURED.to_string(), |b| yes_no(b).to_string())
+pub(super) fn boolean(b: Option<bool>) -> String {
+    b.map_or(NOT_MEASURED.to_string(), |b| yes_no(b).to_string())
 }
 
 pub(super) fn yes_no(b: bool) -> &'static str {

@@ -3,15 +3,14 @@
 
 use std::fmt::Write as _;
 
-use serde_json::Value;
-
 use super::format::*;
 use super::{DASH, NOT_MEASURED};
+use crate::io::report_json::{Case, Landmarks, Sinus, SinusNaming};
 
 /// Who and what: the case, the root the CT gave, the leaflets, the material
 /// and load, in a few lines above the verdict.
-pub(super) fn case_header(h: &mut String, c: Option<&Value>) {
-    let Some(c) = c.filter(|c| c.is_object()) else {
+pub(super) fn case_header(h: &mut String, c: Option<&Case>) {
+    let Some(c) = c else {
         return;
     };
     h.push_str("<section id=\"case\">\n<dl class=\"case\">\n");
@@ -20,8 +19,8 @@ pub(super) fn case_header(h: &mut String, c: Option<&Value>) {
             let _ = writeln!(h, "<dt>{}</dt><dd>{}</dd>", esc(k), v);
         }
     };
-    let mut first = vec![esc(&text_or(c.get("name"), "unnamed case"))];
-    if let Some(t) = c.get("computed_utc").and_then(Value::as_str) {
+    let mut first = vec![esc(c.name.as_deref().unwrap_or("unnamed case"))];
+    if let Some(t) = &c.computed_utc {
         // "2026-11-27T19:29:54Z" → "2026-11-27 19:29 UTC"
         let shown = match (t.get(..10), t.get(11..16)) {
             (Some(d), Some(hm)) => format!("{d} {hm} UTC"),
@@ -29,27 +28,22 @@ pub(super) fn case_header(h: &mut String, c: Option<&Value>) {
         };
         first.push(format!("predicted {}", esc(&shown)));
     }
-    first.push(format!(
-        "coapt {}",
-        esc(&text_or(c.get("coapt_version"), DASH))
-    ));
+    first.push(format!("coapt {}", esc(or(&c.coapt_version, DASH))));
     row("Case", first.join(" · "));
 
-    let a = c.get("anatomy");
-    let d = |k: &str| {
-        num(a.and_then(|a| a.get(k))).map_or(NOT_MEASURED.to_string(), |x| {
-            with_unit(&fixed(Some(x), 1), "mm")
-        })
+    let a = &c.anatomy;
+    let d = |x: Option<f64>| {
+        x.filter(|x| x.is_finite())
+            .map_or(NOT_MEASURED.to_string(), |x| {
+                with_unit(&fixed(Some(x), 1), "mm")
+            })
     };
-    let ic: Vec<String> = array(a.and_then(|a| a.get("intercommissural_mm")))
-        .iter()
-        .map(|v| fixed(v.as_f64(), 1))
-        .collect();
+    let ic: Vec<String> = a.intercommissural_mm.iter().map(|&x| fixed(x, 1)).collect();
     let mut root = format!(
         "annulus {}, sinus {}, STJ {} (area-equivalent diameters)",
-        d("annulus_diameter_mm"),
-        d("sinus_diameter_mm"),
-        d("stj_diameter_mm")
+        d(a.annulus_diameter_mm),
+        d(a.sinus_diameter_mm),
+        d(a.stj_diameter_mm)
     );
     if ic.len() == 3 {
         let _ = write!(
@@ -58,7 +52,7 @@ pub(super) fn case_header(h: &mut String, c: Option<&Value>) {
             ic.join(" / ")
         );
     }
-    if let Some(t) = num(a.and_then(|a| a.get("annulus_plane_tilt_deg"))) {
+    if let Some(t) = a.annulus_plane_tilt_deg.filter(|t| t.is_finite()) {
         let _ = write!(
             root,
             "; annulus plane tilted {}° to the commissures' axis",
@@ -67,19 +61,25 @@ pub(super) fn case_header(h: &mut String, c: Option<&Value>) {
     }
     row("Root (from the CT)", root);
 
-    let lm = c.get("landmarks");
-    match lm.and_then(|l| l.get("source")).and_then(Value::as_str) {
-        Some("detected") => {
-            let points: Vec<String> = array(lm.and_then(|l| l.get("points")))
+    match &c.landmarks {
+        Some(Landmarks::Detected {
+            points,
+            sinuses,
+            sinus_naming,
+            leaflet_sinuses,
+            ..
+        }) => {
+            let points: Vec<String> = points
                 .iter()
+                .flatten()
                 .map(|p| {
-                    let label = esc(&text_or(p.get("label"), "?"));
-                    match p.get("source").and_then(Value::as_str) {
-                        Some("given") => format!(
+                    let label = esc(p.label.as_deref().unwrap_or("?"));
+                    match p.source.as_str() {
+                        "given" => format!(
                             "{label} given ({} mm from where coapt found it)",
-                            fixed(num(p.get("given_to_detected_mm")), 1)
+                            fixed(p.given_to_detected_mm, 1)
                         ),
-                        _ => format!("{label} {}", fixed(num(p.get("confidence")), 2)),
+                        _ => format!("{label} {}", fixed(p.confidence, 2)),
                     }
                 })
                 .collect();
@@ -90,28 +90,24 @@ pub(super) fn case_header(h: &mut String, c: Option<&Value>) {
                     points.join(", ")
                 ),
             );
-            if let Some(text) = sinus_names(lm) {
+            if let Some(text) = sinus_names(sinuses, sinus_naming.as_ref(), leaflet_sinuses) {
                 row("Sinuses", text);
             }
         }
-        Some("given") => row(
-            "Landmarks",
-            format!(
-                "given: {}",
-                esc(&text_or(lm.and_then(|l| l.get("file")), DASH))
-            ),
-        ),
-        _ => {}
+        Some(Landmarks::Given { file }) => {
+            row("Landmarks", format!("given: {}", esc(or(file, DASH))))
+        }
+        None => {}
     }
 
-    let ls = array(c.get("leaflets"));
+    let ls = &c.leaflets;
     if !ls.is_empty() {
-        let names: Vec<String> = ls
+        let names: Vec<&str> = ls
             .iter()
-            .map(|l| text_or(l.get("template"), DASH))
+            .map(|l| l.template.as_deref().unwrap_or(DASH))
             .collect();
         let mut text = if names.iter().all(|n| *n == names[0]) {
-            format!("{} (all three)", esc(&names[0]))
+            format!("{} (all three)", esc(names[0]))
         } else {
             names
                 .iter()
@@ -120,52 +116,49 @@ pub(super) fn case_header(h: &mut String, c: Option<&Value>) {
                 .collect::<Vec<_>>()
                 .join("; ")
         };
-        let per = |k: &str| {
+        let per = |x: fn(&crate::io::report_json::CaseLeaflet) -> Option<f64>| {
             ls.iter()
-                .map(|l| fixed(num(l.get(k)), 1))
+                .map(|l| fixed(x(l), 1))
                 .collect::<Vec<_>>()
                 .join(" / ")
         };
         let _ = write!(
             text,
             "; free edge {} mm, sutured edge {} mm",
-            per("free_edge_mm"),
-            per("attachment_mm")
+            per(|l| l.free_edge_mm),
+            per(|l| l.attachment_mm)
         );
-        if let Some(p) = ls[0].get("placement").and_then(Value::as_str) {
+        if let Some(p) = &ls[0].placement {
             let _ = write!(text, "; placed {}", esc(p));
         }
-        if let Some(hm) = num(c.get("mesh_h_mm")) {
+        if let Some(hm) = c.mesh_h_mm {
             let _ = write!(text, "; mesh size {} mm", shortest(Some(hm)));
         }
         row("Leaflets", text);
     }
 
-    if let Some(m) = c
-        .get("material")
-        .and_then(crate::report::case::material_text)
-    {
+    if let Some(m) = crate::report::case::material_text(&c.material) {
         let mut text = esc(&m);
-        if let Some(t) = num(c.get("thickness_mm")) {
+        if let Some(t) = c.thickness_mm {
             let _ = write!(text, "; thickness {} mm", shortest(Some(t)));
         }
         let source = c
-            .get("material_source")
-            .and_then(Value::as_str)
+            .material_source
+            .as_deref()
             .unwrap_or("not stated (close.toml: material_source)");
         let _ = write!(text, "; source: {}", esc(source));
         row("Material", text);
     }
-    if let Some(p) = num(c.get("pressure_mmhg")) {
+    if let Some(p) = c.pressure_mmhg {
         let mut text = format!("{} mmHg", shortest(Some(p)));
-        if let Some(lp) = num(c.get("effective_height_pressure_mmhg")) {
+        if let Some(lp) = c.effective_height_pressure_mmhg {
             let _ = write!(
                 text,
                 " (and {} mmHg for the effective height)",
                 shortest(Some(lp))
             );
         }
-        let contact = match c.get("contact").and_then(Value::as_str) {
+        let contact = match c.contact.as_deref() {
             Some("leaflets") => "true contact between the leaflets",
             Some("planes") => "contact planes through the axis (seed 001)",
             Some("none") => "no contact",
@@ -174,14 +167,14 @@ pub(super) fn case_header(h: &mut String, c: Option<&Value>) {
         if !contact.is_empty() {
             let _ = write!(text, "; {contact}");
         }
-        if let Some(b) = c.get("bending").and_then(Value::as_bool) {
+        if let Some(b) = c.bending {
             text.push_str(if b {
                 "; bending stiffness on"
             } else {
                 "; membrane (no bending)"
             });
         }
-        if let Some(r) = c.get("reference").and_then(Value::as_str) {
+        if let Some(r) = &c.reference {
             let _ = write!(text, "; stress-free state: {}", esc(r));
         }
         row("Load and model", text);
@@ -189,57 +182,49 @@ pub(super) fn case_header(h: &mut String, c: Option<&Value>) {
     h.push_str("</dl>\n</section>\n");
 }
 
-pub(super) fn description(h: &mut String, v: Option<&Value>) {
-    if let Some(d) = v.and_then(|v| v.get("description")).and_then(Value::as_str) {
-        let _ = writeln!(h, "<p>{}</p>", esc(d));
-    }
-}
-
-pub(super) fn pair_label(v: Option<&Value>) -> String {
-    let l = array(v);
-    let idx = |i: usize| {
-        l.get(i)
-            .and_then(Value::as_u64)
-            .map_or("?".to_string(), |x| x.to_string())
-    };
+/// "1–3" from a pair's 1-based leaflets.
+pub(super) fn pair_label(l: &[u64]) -> String {
+    let idx = |i: usize| l.get(i).map_or("?".to_string(), |x| x.to_string());
     format!("{}–{}", idx(0), idx(1))
 }
 
 /// "N1 right coronary (ostium 20.7 mm above the annulus), …; named by the
 /// coronary ostia in the CT" from the landmarks stage's sinuses.
-pub(super) fn sinus_names(lm: Option<&Value>) -> Option<String> {
-    let sinuses = array(lm.and_then(|l| l.get("sinuses")));
+pub(super) fn sinus_names(
+    sinuses: &[Sinus],
+    naming: Option<&SinusNaming>,
+    leaflet_sinuses: &[String],
+) -> Option<String> {
     if sinuses.is_empty() {
         return None;
     }
     let each: Vec<String> = sinuses
         .iter()
         .map(|s| {
-            let name = text_or(s.get("name"), DASH).replace('_', "-");
-            let mut t = format!("{} {}", esc(&text_or(s.get("nadir"), "?")), esc(&name));
-            if let Some(h) = num(s.get("ostium").and_then(|o| o.get("height_mm"))) {
-                let _ = write!(t, " (ostium {} mm above the annulus)", fixed(Some(h), 1));
+            let name = or(&s.name, DASH).replace('_', "-");
+            let mut t = format!("{} {}", esc(or(&s.nadir, "?")), esc(&name));
+            if let Some(o) = &s.ostium {
+                let _ = write!(
+                    t,
+                    " (ostium {} mm above the annulus)",
+                    fixed(Some(o.height_mm), 1)
+                );
             }
             t
         })
         .collect();
-    let naming = lm.and_then(|l| l.get("sinus_naming"));
-    let how = match naming.and_then(|n| n.get("by")).and_then(Value::as_str) {
-        Some("coronary_ostia") => "named by the coronary ostia seen in the CT",
-        _ if naming
-            .and_then(|n| n.get("ct_searched"))
-            .and_then(Value::as_bool)
-            == Some(true) =>
-        {
+    let how = match naming {
+        Some(n) if n.by == "coronary_ostia" => "named by the coronary ostia seen in the CT",
+        Some(n) if n.ct_searched => {
             "named by position (the CT did not show two coronary ostia): the sinus facing anterior taken for the right-coronary one"
         }
         _ => {
             "named by position (no CT searched for the coronary ostia): the sinus facing anterior taken for the right-coronary one"
         }
     };
-    let leaflets: Vec<String> = array(lm.and_then(|l| l.get("leaflet_sinuses")))
+    let leaflets: Vec<String> = leaflet_sinuses
         .iter()
-        .map(|n| esc(&text_or(Some(n), DASH).replace('_', "-")))
+        .map(|n| esc(&n.replace('_', "-")))
         .collect();
     let sewn = if leaflets.len() == 3 {
         format!(

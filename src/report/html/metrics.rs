@@ -3,107 +3,104 @@
 
 use std::fmt::Write as _;
 
-use serde_json::Value;
-
 use super::format::*;
-use super::header::{description, pair_label};
+use super::header::pair_label;
 use super::{DASH, NOT_MEASURED};
+use crate::io::report_json::{Conventions, Metrics, Report, Stats};
 
-pub(super) fn key_metrics(h: &mut String, m: Option<&Value>) {
+pub(super) fn key_metrics(h: &mut String, m: &Metrics) {
     h.push_str("<section id=\"metrics\">\n<h2>Key metrics</h2>\n");
     h.push_str("<table>\n<thead><tr><th>Quantity</th><th>Value</th><th>Definition</th></tr></thead>\n<tbody>\n");
-    let get = |k: &str| m.and_then(|m| m.get(k));
-    let area = get("coaptation_area_mm2");
     // "Valve closed" is a criterion, judged above; it is not repeated here.
     let rows: [(&str, String, &str); 18] = [
         (
             "Coaptation height",
-            mm(get("coaptation_height_mm")),
+            mm(m.coaptation_height_mm),
             "largest axial extent of the zone where two leaflets touch",
         ),
         (
             "Central coaptation height",
-            mm(get("central_coaptation_height_mm")),
+            mm(m.central_coaptation_height_mm),
             "axial extent of the zone where all three leaflets touch",
         ),
         (
             "Effective height (judged)",
-            mm(get("effective_height_mm")),
+            mm(m.effective_height_mm),
             "annulus plane to the central free-edge point, along the axis, at the pressure below: the seeds' 3 mmHg when that closure was run, else the closing pressure",
         ),
         (
             "… judged at (mmHg)",
-            num_text(get("effective_height_pressure_mmhg")),
+            num_text(m.effective_height_pressure_mmhg),
             "pressure of the closure the judged effective height is read on",
         ),
         (
             "Effective height, closing pressure",
-            mm(get("effective_height_closing_pressure_mm")),
+            mm(m.effective_height_closing_pressure_mm),
             "the same point on the closure at the closing (diastolic) pressure",
         ),
         (
             "Effective height, low pressure",
-            mm(get("effective_height_low_pressure_mm")),
+            mm(m.effective_height_low_pressure_mm),
             "the same point on the extra low-pressure closure (seeds 000/002: h<sub>E</sub> at 3 mmHg); not measured unless the close config sets effective_height_pressure",
         ),
         (
             "h<sub>C-C</sub>",
-            mm(get("h_cc_mm")),
+            mm(m.h_cc_mm),
             "axial extent of a pair's zone 5 mm from the axis (mean over the pairs)",
         ),
         (
             "h<sub>avr</sub>",
-            mm(get("h_avr_mm")),
+            mm(m.h_avr_mm),
             "coaptation area / free-edge length",
         ),
         (
             "NCCA",
-            percent(get("ncca")),
+            percent(m.ncca),
             "normalised coaptation area: coaptation area / cusp area",
         ),
         (
             "Coaptation area, largest leaflet",
-            mm2(area.and_then(|a| a.get("max"))),
+            mm2(m.coaptation_area_mm2.max),
             "the largest of the three leaflets' coaptation areas (a leaflet's area in contact with another leaflet)",
         ),
         (
             "Coaptation area, smallest leaflet",
-            mm2(area.and_then(|a| a.get("min"))),
+            mm2(m.coaptation_area_mm2.min),
             "the smallest of the three leaflets' coaptation areas",
         ),
         (
             "Regurgitant orifice area",
-            mm2(get("regurgitant_orifice_area_mm2")),
+            mm2(m.regurgitant_orifice_area_mm2),
             "lumen cross-section not covered by the closed leaflets, seen along the axis",
         ),
         (
             "Coaptation above the VAJ",
-            boolean(get("coaptation_above_vaj")),
+            boolean(m.coaptation_above_vaj),
             "the central coaptation (all three leaflets touching) lies above the ventriculo-aortic junction",
         ),
         (
             "Lowest free edge above annulus",
-            mm(get("lowest_free_edge_above_annulus_mm")),
+            mm(m.lowest_free_edge_above_annulus_mm),
             "axial distance, annulus plane to the lowest free-edge point",
         ),
         (
             "Lowest coaptation above annulus",
-            mm(get("lowest_coaptation_above_annulus_mm")),
+            mm(m.lowest_coaptation_above_annulus_mm),
             "axial distance, annulus plane to the lowest point where two leaflets touch (next to the commissures too)",
         ),
         (
             "Lowest central coaptation above annulus",
-            mm(get("lowest_central_coaptation_above_annulus_mm")),
+            mm(m.lowest_central_coaptation_above_annulus_mm),
             "axial distance, annulus plane to the lowest point where all three leaflets touch",
         ),
         (
             "Lowest commissure tip above annulus",
-            mm(get("lowest_commissure_above_annulus_mm")),
+            mm(m.lowest_commissure_above_annulus_mm),
             "axial distance, annulus plane to the lowest commissure (valve.json)",
         ),
         (
             "STJ above annulus",
-            mm(get("stj_above_annulus_mm")),
+            mm(m.stj_above_annulus_mm),
             "axial distance, annulus plane to the sinotubular junction's section (valve.json)",
         ),
     ];
@@ -118,10 +115,9 @@ pub(super) fn key_metrics(h: &mut String, m: Option<&Value>) {
     h.push_str("</tbody>\n</table>\n</section>\n");
 }
 
-pub(super) fn leaflets(h: &mut String, report: &Value) {
+pub(super) fn leaflets(h: &mut String, report: &Report) {
     h.push_str("<section id=\"leaflets\">\n<h2>Per leaflet</h2>\n");
-    let list = array(report.get("leaflets"));
-    let metrics = report.get("metrics");
+    let list = &report.leaflets;
     if list.is_empty() {
         h.push_str("<p>No per-leaflet values in the report.</p>\n</section>\n");
         return;
@@ -134,22 +130,20 @@ pub(super) fn leaflets(h: &mut String, report: &Value) {
     }
     h.push_str("</tr></thead>\n<tbody>\n");
     for (i, l) in list.iter().enumerate() {
-        let index = l
-            .get("index")
-            .and_then(Value::as_u64)
-            .unwrap_or(i as u64 + 1);
-        // `cusp_area_closed_mm2` is only in the metrics block, by 1-based index.
-        let cusp = metrics
-            .and_then(|m| m.get("cusp_area_closed_mm2"))
-            .and_then(|a| a.get(index.checked_sub(1)? as usize));
+        let index = l.index.unwrap_or(i as u64 + 1);
+        // The closed cusp area by 1-based index, as the metrics list it.
+        let cusp = index
+            .checked_sub(1)
+            .and_then(|k| report.metrics.cusp_area_closed_mm2.get(k as usize).copied())
+            .flatten();
         let cells = [
-            fixed(num(l.get("coaptation_area_mm2")), 1),
-            fixed(num(l.get("free_edge_length_mm")), 1),
-            fixed(num(l.get("leaflet_area_mm2")), 1),
-            fixed(num(cusp), 1),
-            fixed(num(l.get("billowing_mm")), 2),
-            fixed(num(l.get("h_avr_mm")), 2),
-            percent(l.get("ncca")),
+            fixed(l.coaptation_area_mm2, 1),
+            fixed(l.free_edge_length_mm, 1),
+            fixed(l.leaflet_area_mm2, 1),
+            fixed(cusp, 1),
+            fixed(l.billowing_mm, 2),
+            fixed(l.h_avr_mm, 2),
+            percent(l.ncca),
         ];
         let _ = write!(h, "<tr><th scope=\"row\">{index}</th>");
         for c in cells {
@@ -210,79 +204,92 @@ pub(super) fn plain(html: &str) -> String {
     out
 }
 
-pub(super) fn conventions(h: &mut String, c: Option<&Value>) {
+pub(super) fn conventions(h: &mut String, c: &Conventions) {
     h.push_str("<section id=\"conventions\">\n<h2>The two measurement conventions</h2>\n<div class=\"conventions\">\n");
     // Seeds' group.
-    let s = c.and_then(|c| c.get("seeds"));
+    let s = &c.seeds;
     h.push_str("<div id=\"convention-seeds\">\n<h3>Contact margin (the seeds' group)</h3>\n");
-    description(h, s);
+    description(h, &s.description);
     let _ = writeln!(
         h,
         "<p>Contact margin {}; partially touching triangles refined {} time(s).</p>",
-        esc(&mm(s.and_then(|s| s.get("margin_mm")))),
-        esc(&s
-            .and_then(|s| s.get("refinement"))
-            .and_then(Value::as_u64)
-            .map_or(DASH.to_string(), |r| r.to_string())),
+        esc(&mm(s.margin_mm)),
+        esc(&s.refinement.map_or(DASH.to_string(), |r| r.to_string())),
     );
-    let pairs = array(s.and_then(|s| s.get("pairs")));
-    if pairs.is_empty() {
+    if s.pairs.is_empty() {
         h.push_str("<p>No leaflet pairs measured.</p>\n");
     } else {
         h.push_str("<table>\n<thead><tr><th>Pair</th><th>Coaptation height (mm)</th><th>Area on first (mm²)</th><th>Area on second (mm²)</th></tr></thead>\n<tbody>\n");
-        for p in pairs {
-            let area = p.get("area_mm2");
+        for p in &s.pairs {
+            let area = |k: usize| p.area_mm2.get(k).copied().flatten();
             let _ = writeln!(
                 h,
                 "<tr><th scope=\"row\">{}</th><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
-                esc(&pair_label(p.get("leaflets"))),
-                esc(&fixed(num(p.get("coaptation_height_mm")), 2)),
-                esc(&fixed(num(area.and_then(|a| a.get(0))), 1)),
-                esc(&fixed(num(area.and_then(|a| a.get(1))), 1)),
+                esc(&pair_label(&p.leaflets)),
+                esc(&fixed(p.coaptation_height_mm, 2)),
+                esc(&fixed(area(0), 1)),
+                esc(&fixed(area(1), 1)),
             );
         }
         h.push_str("</tbody>\n</table>\n");
     }
     h.push_str("</div>\n");
     // SlicerHeart.
-    let s = c.and_then(|c| c.get("slicerheart"));
+    let s = &c.slicerheart;
     h.push_str(
         "<div id=\"convention-slicerheart\">\n<h3>Base line to margin line (SlicerHeart)</h3>\n",
     );
-    description(h, s);
-    let pairs = array(s.and_then(|s| s.get("pairs")));
-    if pairs.is_empty() {
+    description(h, &s.description);
+    if s.pairs.is_empty() {
         h.push_str("<p>No leaflet pairs measured.</p>\n");
     } else {
         h.push_str(
             "<table>\n<thead><tr><th>Pair</th><th>Area (mm²)</th><th>Height (mm): min · mean · max<br>\
              percentiles 10 · 25 · 50 · 75 · 90</th></tr></thead>\n<tbody>\n",
         );
-        for p in pairs {
-            let heights = match p.get("height_mm") {
-                Some(Value::Object(o)) => {
-                    let line = |keys: &[&str]| {
-                        keys.iter()
-                            .map(|k| esc(&fixed(num(o.get(*k)), 2)))
+        for p in &s.pairs {
+            let heights = match &p.height_mm {
+                Some(o) => {
+                    let line = |values: &[Option<f64>]| {
+                        values
+                            .iter()
+                            .map(|&x| esc(&fixed(x, 2)))
                             .collect::<Vec<_>>()
                             .join(" · ")
                     };
+                    let Stats {
+                        min,
+                        mean,
+                        max,
+                        p10,
+                        p25,
+                        p50,
+                        p75,
+                        p90,
+                    } = *o;
                     format!(
                         "{}<br>{}",
-                        line(&["min", "mean", "max"]),
-                        line(&["p10", "p25", "p50", "p75", "p90"])
+                        line(&[min, mean, max]),
+                        line(&[p10, p25, p50, p75, p90])
                     )
                 }
-                _ => NOT_MEASURED.to_string(),
+                None => NOT_MEASURED.to_string(),
             };
             let _ = writeln!(
                 h,
                 "<tr><th scope=\"row\">{}</th><td class=\"num\">{}</td><td>{heights}</td></tr>",
-                esc(&pair_label(p.get("leaflets"))),
-                esc(&fixed(num(p.get("area_mm2")), 1)),
+                esc(&pair_label(&p.leaflets)),
+                esc(&fixed(p.area_mm2, 1)),
             );
         }
         h.push_str("</tbody>\n</table>\n");
     }
     h.push_str("</div>\n</div>\n</section>\n");
+}
+
+/// A convention's description as a paragraph, when it has one.
+fn description(h: &mut String, text: &str) {
+    if !text.is_empty() {
+        let _ = writeln!(h, "<p>{}</p>", esc(text));
+    }
 }

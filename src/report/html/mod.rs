@@ -2,9 +2,9 @@
 //!
 //! Verdict and criteria first, then findings, key metrics, per-leaflet
 //! values, the two measurement conventions side by side, figures, solver,
-//! timings and provenance. The page is built from `report.json` (as a
-//! `serde_json::Value`, so a missing key, a `null` or a wrong type shows as
-//! "—" or "not measured" instead of failing) and the figures' PNG bytes,
+//! timings and provenance. The page is built from the typed report document
+//! (`io::report_json::Report`, what report.json holds: a value it lacks
+//! shows as "—" or "not measured") and the figures' PNG bytes,
 //! embedded as `data:` URLs, and the interactive 3-D view when there is
 //! one. No external URL; a Content Security Policy forbids any load but
 //! inline styles, `data:` images and the one viewer script (by its hash).
@@ -12,10 +12,9 @@
 
 use std::fmt::Write as _;
 
-use serde_json::Value;
-
 use super::view3d::{self, Scene};
 use super::{Figure, references};
+use crate::io::report_json::Report;
 
 mod figures;
 mod format;
@@ -47,9 +46,8 @@ const CSS: &str = include_str!("style.css");
 
 /// The HTML page for `report` (the content of `report.json`), `figures`
 /// and, when given, the interactive view of `scene` before the figures.
-/// Never panics: every value is looked up, and shown as "—" or "not
-/// measured" when missing, `null` or of another type.
-pub fn render(report: &Value, figures: &[Figure], scene: Option<&Scene>) -> String {
+/// A value the report lacks is shown as "—" or "not measured".
+pub fn render(report: &Report, figures: &[Figure], scene: Option<&Scene>) -> String {
     let mut h = String::with_capacity(
         16 * 1024
             + figures
@@ -57,7 +55,7 @@ pub fn render(report: &Value, figures: &[Figure], scene: Option<&Scene>) -> Stri
                 .map(|f| f.png.len() * 4 / 3 + 512)
                 .sum::<usize>(),
     );
-    let version = text_or(report.get("coapt_version"), DASH);
+    let version = or(&report.coapt_version, DASH);
     h.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
     h.push_str("<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n");
     let script = match scene {
@@ -80,9 +78,9 @@ pub fn render(report: &Value, figures: &[Figure], scene: Option<&Scene>) -> Stri
     let _ = writeln!(
         h,
         "<p class=\"meta\">Predicted by coapt {} · coordinates {} (mm) · {}</p>",
-        esc(&version),
-        esc(&text_or(report.get("frame"), DASH)),
-        esc(&text_or(report.get("schema"), "schema not stated")),
+        esc(version),
+        esc(or(&report.frame, DASH)),
+        esc(or(&report.schema, "schema not stated")),
     );
     let _ = write!(
         h,
@@ -90,18 +88,17 @@ pub fn render(report: &Value, figures: &[Figure], scene: Option<&Scene>) -> Stri
          <a href=\"#leaflets\">Leaflets</a><a href=\"#conventions\">Conventions</a><a href=\"#figures\">Figures</a>\
          <a href=\"#solver\">Solver</a><a href=\"#timing\">Timing</a><a href=\"#provenance\">Provenance</a>\
          <a href=\"#references\">References</a></nav>\n</header>\n",
-        if report.get("design").is_some() {
+        if report.design.is_some() {
             "<a href=\"#sizing\">Sizing</a>"
         } else {
             ""
         }
     );
-    let criteria = array(report.get("criteria"));
-    case_header(&mut h, report.get("case"));
-    verdict(&mut h, report, criteria);
-    criteria_table(&mut h, criteria);
-    findings(&mut h, report, criteria);
-    if let Some(d) = report.get("design") {
+    case_header(&mut h, report.case.as_ref());
+    verdict(&mut h, report);
+    criteria_table(&mut h, &report.criteria);
+    findings(&mut h, report);
+    if let Some(d) = &report.design {
         let sweep: Vec<Figure> = figures
             .iter()
             .filter(|f| f.id.starts_with("sizing"))
@@ -109,23 +106,23 @@ pub fn render(report: &Value, figures: &[Figure], scene: Option<&Scene>) -> Stri
             .collect();
         sizing(&mut h, d, &sweep);
     }
-    key_metrics(&mut h, report.get("metrics"));
+    key_metrics(&mut h, &report.metrics);
     leaflets(&mut h, report);
-    conventions(&mut h, report.get("conventions"));
+    conventions(&mut h, &report.conventions);
     // The sweep's charts sit with its table, numbered first.
     let (sweep, others): (Vec<Figure>, Vec<Figure>) = figures
         .iter()
         .cloned()
         .partition(|f| f.id.starts_with("sizing"));
     figures_section(&mut h, &others, sweep.len() + 1, scene);
-    solver(&mut h, report.get("solver"));
-    timing(&mut h, report.get("timing_s"));
+    solver(&mut h, &report.solver);
+    timing(&mut h, &report.timing_s);
     provenance(&mut h, report);
     references::section(&mut h);
     let _ = writeln!(
         h,
         "<footer>coapt {} — a model prediction from CT, to be read with the clinical picture; not a measurement on the patient.</footer>",
-        esc(&version)
+        esc(version)
     );
     h.push_str("</body>\n</html>\n");
     h

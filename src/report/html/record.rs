@@ -3,15 +3,16 @@
 
 use std::fmt::Write as _;
 
+use indexmap::IndexMap;
 use serde_json::Value;
 
 use super::format::*;
 use super::{DASH, STAGE_ORDER};
+use crate::io::report_json::{Report, Solver};
 
-pub(super) fn solver(h: &mut String, s: Option<&Value>) {
+pub(super) fn solver(h: &mut String, s: &Solver) {
     h.push_str("<section id=\"solver\">\n<h2>Solver</h2>\n<table class=\"narrow\">\n<tbody>\n");
-    let get = |k: &str| s.and_then(|s| s.get(k));
-    let converged = match get("converged").and_then(Value::as_bool) {
+    let converged = match s.converged {
         Some(true) => "<span class=\"tag pass\">CONVERGED</span>",
         Some(false) => "<span class=\"tag fail\">NOT CONVERGED</span>",
         None => "<span class=\"tag na\">UNKNOWN</span>",
@@ -20,15 +21,16 @@ pub(super) fn solver(h: &mut String, s: Option<&Value>) {
         h,
         "<tr><th scope=\"row\">Converged</th><td>{converged}</td></tr>"
     );
-    let iterations = get("iterations")
-        .and_then(Value::as_u64)
-        .map_or(DASH.to_string(), |i| i.to_string());
+    let iterations = s.iterations.map_or(DASH.to_string(), |i| i.to_string());
     let _ = writeln!(
         h,
         "<tr><th scope=\"row\">Iterations</th><td>{}</td></tr>",
         esc(&iterations)
     );
-    let residual = num(get("residual_n")).map_or(DASH.to_string(), |r| format!("{r:.3e} N"));
+    let residual = s
+        .residual_n
+        .filter(|r| r.is_finite())
+        .map_or(DASH.to_string(), |r| format!("{r:.3e} N"));
     let _ = writeln!(
         h,
         "<tr><th scope=\"row\">Final residual ‖R‖₂ (all free-node forces)</th><td>{}</td></tr>",
@@ -37,18 +39,18 @@ pub(super) fn solver(h: &mut String, s: Option<&Value>) {
     let _ = writeln!(
         h,
         "<tr><th scope=\"row\">Stop reason</th><td>{}</td></tr>",
-        esc(&text_or(get("reason"), DASH))
+        esc(s.reason.as_deref().unwrap_or(DASH))
     );
     h.push_str("</tbody>\n</table>\n</section>\n");
 }
 
-pub(super) fn timing(h: &mut String, t: Option<&Value>) {
+pub(super) fn timing(h: &mut String, t: &IndexMap<String, Option<f64>>) {
     h.push_str("<section id=\"timing\">\n<h2>Time per stage</h2>\n");
-    let Some(Value::Object(map)) = t else {
+    if t.is_empty() {
         h.push_str("<p>No timings in the report.</p>\n</section>\n");
         return;
-    };
-    let mut keys: Vec<&String> = map.keys().collect();
+    }
+    let mut keys: Vec<&String> = t.keys().collect();
     keys.sort_by_key(|k| {
         (
             STAGE_ORDER
@@ -61,7 +63,7 @@ pub(super) fn timing(h: &mut String, t: Option<&Value>) {
     h.push_str("<table class=\"narrow\">\n<thead><tr><th>Stage</th><th>Seconds</th></tr></thead>\n<tbody>\n");
     let mut total = 0.0;
     for k in keys {
-        let s = num(map.get(k));
+        let s = t[k].filter(|s| s.is_finite());
         total += s.unwrap_or(0.0);
         let _ = writeln!(
             h,
@@ -78,56 +80,50 @@ pub(super) fn timing(h: &mut String, t: Option<&Value>) {
     h.push_str("</tbody>\n</table>\n</section>\n");
 }
 
-pub(super) fn provenance(h: &mut String, report: &Value) {
+pub(super) fn provenance(h: &mut String, report: &Report) {
     h.push_str("<section id=\"provenance\">\n<h2>Provenance</h2>\n");
     let _ = writeln!(
         h,
         "<p>coapt version {} · report schema {} · frame {}</p>",
-        esc(&text_or(report.get("coapt_version"), DASH)),
-        esc(&text_or(report.get("schema"), DASH)),
-        esc(&text_or(report.get("frame"), DASH)),
+        esc(or(&report.coapt_version, DASH)),
+        esc(or(&report.schema, DASH)),
+        esc(or(&report.frame, DASH)),
     );
     h.push_str("<h3>Input files</h3>\n");
-    match report.get("inputs") {
-        Some(Value::Object(map)) if !map.is_empty() => {
-            h.push_str("<table>\n<thead><tr><th>Input</th><th>Path</th><th>Bytes</th><th>blake3</th></tr></thead>\n<tbody>\n");
-            for (k, v) in sorted(map) {
-                let bytes = v
-                    .get("bytes")
-                    .and_then(Value::as_u64)
-                    .map_or(DASH.to_string(), |b| b.to_string());
-                let _ = writeln!(
-                    h,
-                    "<tr><th scope=\"row\">{}</th><td class=\"mono\">{}</td><td class=\"num\">{}</td><td class=\"mono\">{}</td></tr>",
-                    esc(k),
-                    esc(&text_or(v.get("path"), DASH)),
-                    esc(&bytes),
-                    esc(&text_or(v.get("blake3"), DASH)),
-                );
-            }
-            h.push_str("</tbody>\n</table>\n");
+    if report.inputs.is_empty() {
+        h.push_str("<p>No input files recorded.</p>\n");
+    } else {
+        h.push_str("<table>\n<thead><tr><th>Input</th><th>Path</th><th>Bytes</th><th>blake3</th></tr></thead>\n<tbody>\n");
+        let mut inputs: Vec<_> = report.inputs.iter().collect();
+        inputs.sort_by(|a, b| a.0.cmp(b.0));
+        for (k, v) in inputs {
+            let _ = writeln!(
+                h,
+                "<tr><th scope=\"row\">{}</th><td class=\"mono\">{}</td><td class=\"num\">{}</td><td class=\"mono\">{}</td></tr>",
+                esc(k),
+                esc(or(&v.path, DASH)),
+                esc(&v.bytes.map_or(DASH.to_string(), |b| b.to_string())),
+                esc(or(&v.blake3, DASH)),
+            );
         }
-        _ => h.push_str("<p>No input files recorded.</p>\n"),
+        h.push_str("</tbody>\n</table>\n");
     }
     h.push_str("<h3>Parameters</h3>\n");
-    match report.get("parameters") {
-        Some(Value::Object(map)) if !map.is_empty() => {
-            h.push_str(
-                "<table>\n<thead><tr><th>Parameter</th><th>Value</th></tr></thead>\n<tbody>\n",
+    if report.parameters.is_empty() {
+        h.push_str("<p>No parameters recorded.</p>\n");
+    } else {
+        h.push_str("<table>\n<thead><tr><th>Parameter</th><th>Value</th></tr></thead>\n<tbody>\n");
+        let mut rows = Vec::new();
+        flatten("", &Value::Object(report.parameters.clone()), &mut rows);
+        for (k, shown) in rows {
+            let _ = writeln!(
+                h,
+                "<tr><th scope=\"row\">{}</th><td class=\"mono\">{}</td></tr>",
+                esc(&k),
+                esc(&shown)
             );
-            let mut rows = Vec::new();
-            flatten("", &Value::Object(map.clone()), &mut rows);
-            for (k, shown) in rows {
-                let _ = writeln!(
-                    h,
-                    "<tr><th scope=\"row\">{}</th><td class=\"mono\">{}</td></tr>",
-                    esc(&k),
-                    esc(&shown)
-                );
-            }
-            h.push_str("</tbody>\n</table>\n");
         }
-        _ => h.push_str("<p>No parameters recorded.</p>\n"),
+        h.push_str("</tbody>\n</table>\n");
     }
     h.push_str("</section>\n");
 }

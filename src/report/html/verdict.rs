@@ -2,39 +2,24 @@
 
 use std::fmt::Write as _;
 
-use serde_json::Value;
-
 use super::format::*;
 use super::{DASH, NOT_MEASURED};
+use crate::io::report_json::{Comparison, Criterion, Quantity, Report, Severity, Status};
 
-pub(super) fn verdict(h: &mut String, report: &Value, criteria: &[Value]) {
-    let v = report.get("verdict");
-    let closed = v
-        .and_then(|v| v.get("closed"))
-        .and_then(Value::as_bool)
-        .or_else(|| {
-            report
-                .get("metrics")
-                .and_then(|m| m.get("closed"))
-                .and_then(Value::as_bool)
-        });
+pub(super) fn verdict(h: &mut String, report: &Report) {
+    let (v, criteria) = (&report.verdict, &report.criteria);
+    let closed = v.closed.or(report.metrics.closed);
     let failed = criteria_names(criteria, Some(false));
     let unmeasured = criteria_names(criteria, None);
-    let meets_all = v
-        .and_then(|v| v.get("meets_all_criteria"))
-        .and_then(Value::as_bool)
-        .or_else(|| {
-            (!criteria.is_empty() && failed.is_empty() && unmeasured.is_empty())
-                .then_some(true)
-                .or((!failed.is_empty()).then_some(false))
-        });
-    let status = v.and_then(|v| v.get("status")).and_then(Value::as_str);
-    let reasons: Vec<String> = array(v.and_then(|v| v.get("not_assessable_reasons")))
-        .iter()
-        .filter_map(|r| r.as_str().map(str::to_string))
-        .collect();
+    let meets_all = v.meets_all_criteria.or_else(|| {
+        (!criteria.is_empty() && failed.is_empty() && unmeasured.is_empty())
+            .then_some(true)
+            .or((!failed.is_empty()).then_some(false))
+    });
+    let status = v.status;
+    let reasons = &v.not_assessable_reasons;
     let class = match (status, closed, meets_all) {
-        (Some("not_assessable"), _, _) => "na",
+        (Some(Status::NotAssessable), _, _) => "na",
         (_, Some(true), Some(true)) => "ok",
         (_, Some(false), _) | (_, _, Some(false)) => "bad",
         _ => "na",
@@ -45,7 +30,7 @@ pub(super) fn verdict(h: &mut String, report: &Value, criteria: &[Value]) {
     // closure would be read and the rest skipped), then what it fails.
     let names = |list: &[String]| esc(&list.join(", "));
     let headline = match (status, meets_all) {
-        (Some("not_assessable"), _) => {
+        (Some(Status::NotAssessable), _) => {
             "NOT ASSESSABLE: this closure cannot be judged against the criteria.".to_string()
         }
         (_, Some(true)) => format!("Meets all {} criteria.", criteria.len()),
@@ -61,12 +46,12 @@ pub(super) fn verdict(h: &mut String, report: &Value, criteria: &[Value]) {
     let _ = writeln!(h, "<p class=\"headline\">{headline}</p>");
     if !reasons.is_empty() {
         h.push_str("<ul class=\"reasons\">\n");
-        for r in &reasons {
+        for r in reasons {
             let _ = writeln!(h, "<li>{}</li>", esc(r));
         }
         h.push_str("</ul>\n");
     }
-    if status == Some("not_assessable") {
+    if status == Some(Status::NotAssessable) {
         let _ = writeln!(
             h,
             "<p>{}</p>",
@@ -96,7 +81,7 @@ pub(super) fn verdict(h: &mut String, report: &Value, criteria: &[Value]) {
     h.push_str("</section>\n");
 }
 
-pub(super) fn criteria_table(h: &mut String, criteria: &[Value]) {
+pub(super) fn criteria_table(h: &mut String, criteria: &[Criterion]) {
     h.push_str("<section id=\"criteria\">\n<h2>Criteria</h2>\n");
     if criteria.is_empty() {
         h.push_str("<p>No criteria in the report.</p>\n</section>\n");
@@ -104,120 +89,97 @@ pub(super) fn criteria_table(h: &mut String, criteria: &[Value]) {
     }
     h.push_str("<table>\n<thead><tr><th>Criterion</th><th>Value</th><th>Required</th><th>Result</th><th>Note</th><th>Source</th></tr></thead>\n<tbody>\n");
     for c in criteria {
-        let name = criterion_name(c);
-        let unit = match text_or(c.get("unit"), "").as_str() {
-            "mm2" => "mm²".to_string(),
-            u => u.to_string(),
+        let unit = match c.unit.as_str() {
+            "mm2" => "mm²",
+            u => u,
         };
-        let value = match c.get("value") {
-            Some(Value::Bool(b)) => yes_no(*b).to_string(),
-            Some(Value::Number(n)) => with_unit(&fixed(n.as_f64(), 2), &unit),
-            _ => NOT_MEASURED.to_string(),
+        let value = match c.value {
+            Some(Quantity::Bool(b)) => yes_no(b).to_string(),
+            Some(Quantity::Number(x)) => with_unit(&fixed(Some(x), 2), unit),
+            None => NOT_MEASURED.to_string(),
         };
-        let threshold = match c.get("threshold") {
-            Some(Value::Bool(b)) => yes_no(*b).to_string(),
-            Some(Value::Number(n)) => with_unit(&shortest(n.as_f64()), &unit),
-            _ => DASH.to_string(),
+        let threshold = match c.threshold {
+            Some(Quantity::Bool(b)) => yes_no(b).to_string(),
+            Some(Quantity::Number(x)) => with_unit(&shortest(Some(x)), unit),
+            None => DASH.to_string(),
         };
-        let required = match c.get("comparison").and_then(Value::as_str) {
-            Some(">") => format!("&gt; {}", esc(&threshold)),
-            Some(">=") => format!("&ge; {}", esc(&threshold)),
-            Some("<") => format!("&lt; {}", esc(&threshold)),
-            Some("<=") => format!("&le; {}", esc(&threshold)),
-            Some("is") => esc(&threshold),
-            Some(other) => format!("{} {}", esc(other), esc(&threshold)),
-            None => esc(&threshold),
+        let required = match c.comparison {
+            Some(Comparison::Above) => format!("&gt; {}", esc(&threshold)),
+            Some(Comparison::AtMost) => format!("&le; {}", esc(&threshold)),
+            Some(Comparison::Is) | None => esc(&threshold),
         };
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            esc(&name),
+            esc(criterion_name(c)),
             esc(&value),
             required,
-            result_tag(c.get("pass").and_then(Value::as_bool)),
-            esc(&text_or(c.get("note"), "")),
-            esc(&text_or(c.get("source"), "")),
+            result_tag(c.pass),
+            esc(&c.note),
+            esc(&c.source),
         );
     }
     h.push_str("</tbody>\n</table>\n</section>\n");
 }
 
-pub(super) fn findings(h: &mut String, report: &Value, criteria: &[Value]) {
+pub(super) fn findings(h: &mut String, report: &Report) {
     h.push_str("<section id=\"findings\">\n<h2>Findings</h2>\n");
-    // (severity rank, severity, message), JSON findings first in their order.
-    let mut items: Vec<(u8, String, String)> = Vec::new();
-    for f in array(report.get("findings")) {
-        let sev = text_or(f.get("severity"), "info");
-        let msg = text_or(f.get("message"), DASH);
-        items.push((severity_rank(&sev), sev, msg));
-    }
+    // (severity, message), the report's findings first in their order.
+    let mut items: Vec<(Severity, String)> = report
+        .findings
+        .iter()
+        .map(|f| (f.severity, f.message.clone()))
+        .collect();
     // What the page can see for itself, unless a finding already says it.
-    let said = |words: &[&str], items: &[(u8, String, String)]| {
-        items.iter().any(|(_, _, m)| {
+    let said = |words: &[&str], items: &[(Severity, String)]| {
+        items.iter().any(|(_, m)| {
             let m = m.to_lowercase();
             words.iter().any(|w| m.contains(w))
         })
     };
-    let solver = report.get("solver");
-    if solver
-        .and_then(|s| s.get("converged"))
-        .and_then(Value::as_bool)
-        == Some(false)
-        && !said(&["converge"], &items)
-    {
-        let reason = solver
-            .and_then(|s| s.get("reason"))
-            .and_then(Value::as_str)
-            .unwrap_or("no reason given");
-        items.push((1, "warning".into(), format!("The mechanics solver did not converge ({reason}): the closed shape and every metric are uncertain.")));
+    let solver = &report.solver;
+    if solver.converged == Some(false) && !said(&["converge"], &items) {
+        let reason = solver.reason.as_deref().unwrap_or("no reason given");
+        items.push((Severity::Warning, format!("The mechanics solver did not converge ({reason}): the closed shape and every metric are uncertain.")));
     }
-    let metrics = report.get("metrics");
-    let closed = metrics
-        .and_then(|m| m.get("closed"))
-        .and_then(Value::as_bool);
-    let max_area = metrics
-        .and_then(|m| m.get("coaptation_area_mm2"))
-        .and_then(|a| a.get("max"))
-        .and_then(Value::as_f64);
+    let metrics = &report.metrics;
+    let closed = metrics.closed;
+    let max_area = metrics.coaptation_area_mm2.max;
     if max_area == Some(0.0) && !said(&["contact", "coapt"], &items) {
         items.push((
-            1,
-            "warning".into(),
+            Severity::Warning,
             "No contact at all: no leaflet touches another.".into(),
         ));
     } else if closed == Some(false) && !said(&["close", "contact", "coapt"], &items) {
         items.push((
-            1,
-            "warning".into(),
+            Severity::Warning,
             "The leaflets do not all meet: there is no central coaptation.".into(),
         ));
     }
-    let meets_all = report
-        .get("verdict")
-        .and_then(|v| v.get("meets_all_criteria"))
-        .and_then(Value::as_bool);
-    let failed = criteria_names(criteria, Some(false));
-    if meets_all == Some(true) && !failed.is_empty() {
+    let failed = criteria_names(&report.criteria, Some(false));
+    if report.verdict.meets_all_criteria == Some(true) && !failed.is_empty() {
         items.push((
-            0,
-            "error".into(),
+            Severity::Error,
             format!(
                 "Inconsistent report: the verdict says all criteria are met, but these fail: {}.",
                 failed.join(", ")
             ),
         ));
     }
-    items.sort_by_key(|(rank, _, _)| *rank); // stable: order within a severity kept
+    items.sort_by_key(|(severity, _)| *severity); // stable: order within a severity kept
     if items.is_empty() {
         h.push_str("<p>No findings.</p>\n");
     } else {
         h.push_str("<ul class=\"findings\">\n");
-        for (rank, sev, msg) in &items {
-            let class = ["sev-error", "sev-warning", "sev-info", "sev-info"][*rank as usize];
+        for (severity, msg) in &items {
+            let (class, tag) = match severity {
+                Severity::Error => ("sev-error", "ERROR"),
+                Severity::Warning => ("sev-warning", "WARNING"),
+                Severity::Info => ("sev-info", "INFO"),
+            };
             let _ = writeln!(
                 h,
-                "<li><span class=\"tag {class}\">{}</span> {}</li>",
-                esc(&sev.to_uppercase()),
+                "<li><span class=\"tag {class}\">{tag}</span> {}</li>",
                 esc(msg)
             );
         }
@@ -226,28 +188,15 @@ pub(super) fn findings(h: &mut String, report: &Value, criteria: &[Value]) {
     h.push_str("</section>\n");
 }
 
-pub(super) fn criterion_name(c: &Value) -> String {
-    c.get("name")
-        .and_then(Value::as_str)
-        .or_else(|| c.get("id").and_then(Value::as_str))
-        .unwrap_or("(unnamed criterion)")
-        .to_string()
+pub(super) fn criterion_name(c: &Criterion) -> &str {
+    or(or(&c.name, &c.id), "(unnamed criterion)")
 }
 
-/// Names of the criteria whose `pass` is `want` (`None`: null or missing).
-pub(super) fn criteria_names(criteria: &[Value], want: Option<bool>) -> Vec<String> {
+/// Names of the criteria whose `pass` is `want` (`None`: not judged).
+pub(super) fn criteria_names(criteria: &[Criterion], want: Option<bool>) -> Vec<String> {
     criteria
         .iter()
-        .filter(|c| c.get("pass").and_then(Value::as_bool) == want)
-        .map(criterion_name)
+        .filter(|c| c.pass == want)
+        .map(|c| criterion_name(c).to_string())
         .collect()
-}
-
-pub(super) fn severity_rank(s: &str) -> u8 {
-    match s {
-        "error" => 0,
-        "warning" => 1,
-        "info" => 2,
-        _ => 3,
-    }
 }
