@@ -11,6 +11,7 @@ mod ct_formats_chain;
 mod dependencies;
 mod design;
 mod dicom;
+mod docs;
 mod end_to_end;
 mod flat_reference;
 mod formats;
