@@ -1,15 +1,17 @@
 //! The grid's picture: wall time (log) against the error in coaptation
 //! height (log), one line per model × solver × contact through its meshes,
 //! each point labelled with its h. Colour is the model, marker the solver;
-//! hollow markers did not converge. Drawn by plotters with the embedded
-//! font, so the same rows give the same bytes.
-
-use plotters::prelude::*;
+//! hollow markers did not converge. Drawn on the report's frame
+//! (`report::figures::plot_frame`) with the embedded font, so the same rows
+//! give the same bytes.
 
 use super::close_grid::{Grid, Row};
-use crate::io::png::{Rgb, encode};
-use crate::report::figures::font::{FAMILY, register_with_plotters};
+use crate::io::png::encode;
 use crate::report::figures::notice::notice;
+use crate::report::figures::palette::INK;
+use crate::report::figures::plot_frame::{Axes, Frame, draw_axes, ticks};
+use crate::report::figures::text::{HAlign, TextStyle, VAlign, draw_text};
+use crate::report::raster::{Canvas, Rgb8};
 
 const WIDTH: u32 = 960;
 const HEIGHT: u32 = 640;
@@ -17,19 +19,14 @@ const HEIGHT: u32 = 640;
 const LEGEND_W: u32 = 250;
 
 /// Okabe–Ito colours, one per model.
-const COLOURS: [RGBColor; 4] = [
-    RGBColor(0, 114, 178),
-    RGBColor(213, 94, 0),
-    RGBColor(0, 158, 115),
-    RGBColor(204, 121, 167),
-];
+const COLOURS: [Rgb8; 4] = [[0, 114, 178], [213, 94, 0], [0, 158, 115], [204, 121, 167]];
 
 /// One drawable point: (wall s, |error| mm, h mm, converged).
 type Point = (f64, f64, f64, bool);
 
 struct Series {
     name: String,
-    colour: RGBColor,
+    colour: Rgb8,
     marker: usize,
     points: Vec<Point>,
 }
@@ -108,107 +105,102 @@ pub fn png(g: &Grid, title: &str) -> Vec<u8> {
     let widen = |lo: f64, hi: f64| (lo / 10f64.powf(0.25), hi * 10f64.powf(0.25));
     let (x0, x1) = widen(x0, x1);
     let (y0, y1) = widen(y0, y1);
-    let mut buf = vec![255u8; (WIDTH * HEIGHT * 3) as usize];
-    register_with_plotters();
-    if let Err(e) = draw(&s, title, (x0, x1, y0, y1), &mut buf) {
-        return notice(
-            "close_grid",
-            title,
-            &format!("the chart could not be drawn ({e})"),
-        )
-        .png;
-    }
-    encode(&Rgb {
-        w: WIDTH as usize,
-        h: HEIGHT as usize,
-        px: buf.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
-    })
+    let mut canvas = Canvas::new(WIDTH, HEIGHT, 2, [255, 255, 255]);
+    draw(&s, title, (x0, x1, y0, y1), &mut canvas);
+    encode(&canvas.finish())
 }
 
-fn draw(
-    series: &[Series],
-    title: &str,
-    (x0, x1, y0, y1): (f64, f64, f64, f64),
-    buf: &mut [u8],
-) -> Result<(), Box<dyn std::error::Error>> {
-    let root =
-        BitMapBackend::<plotters::backend::RGBPixel>::with_buffer_and_format(buf, (WIDTH, HEIGHT))?
-            .into_drawing_area();
-    root.fill(&WHITE)?;
-    // The legend gets its own panel so it never hides a point.
-    let (plot, side) = root.split_horizontally(WIDTH - LEGEND_W);
-    let mut cc = ChartBuilder::on(&plot)
-        .caption(title, (FAMILY, 18).into_font())
-        .margin(14)
-        .x_label_area_size(46)
-        .y_label_area_size(76)
-        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
-    cc.configure_mesh()
-        .x_desc("wall time of the closure (s, log scale)")
-        .y_desc("|error in coaptation height| vs reference (mm, log scale)")
-        .label_style((FAMILY, 13).into_font())
-        .axis_desc_style((FAMILY, 14).into_font())
-        .x_label_formatter(&|v: &f64| label(*v))
-        .y_label_formatter(&|v: &f64| label(*v))
-        .light_line_style(RGBColor(238, 238, 238))
-        .bold_line_style(RGBColor(215, 215, 215))
-        .draw()?;
+/// Ticks of a log axis over [lo, hi] (values, not logarithms): each decade,
+/// or 1, 2 and 5 of each when the range spans less than three.
+fn log_ticks(lo: f64, hi: f64) -> Vec<(f64, String)> {
+    let (a, b) = (lo.log10(), hi.log10());
+    let mut out: Vec<f64> = ticks(a, b, 12, 1.0)
+        .into_iter()
+        .map(|e| 10f64.powf(e))
+        .collect();
+    if b - a < 3.0 {
+        out = (a.floor() as i32..=b.ceil() as i32)
+            .flat_map(|e| [1.0, 2.0, 5.0].map(|m| m * 10f64.powi(e)))
+            .filter(|v| *v >= lo && *v <= hi)
+            .collect();
+    }
+    out.into_iter().map(|v| (v.log10(), label(v))).collect()
+}
+
+fn draw(series: &[Series], title: &str, (x0, x1, y0, y1): (f64, f64, f64, f64), c: &mut Canvas) {
+    // The data in decades; the legend gets its own panel at the right so it
+    // never hides a point.
+    let f = Frame {
+        x: (x0.log10(), x1.log10()),
+        y: (y0.log10(), y1.log10()),
+        left: 14.0 + 76.0,
+        top: 14.0 + 30.0,
+        right: (WIDTH - LEGEND_W) as f64 - 14.0,
+        bottom: HEIGHT as f64 - 14.0 - 46.0,
+    };
+    draw_axes(
+        c,
+        &f,
+        &Axes {
+            title,
+            x_desc: "wall time of the closure (s, log scale)",
+            y_desc: "|error in coaptation height| vs reference (mm, log scale)",
+            x_ticks: log_ticks(x0, x1),
+            y_ticks: log_ticks(y0, y1),
+        },
+    );
+    let at = |x: f64, y: f64| f.px(x.log10(), y.log10());
+    let small = TextStyle::new(11.0, INK).align(HAlign::Left, VAlign::Baseline);
     for s in series {
-        let colour = s.colour;
-        let line = ShapeStyle::from(&colour).stroke_width(1);
-        cc.draw_series(LineSeries::new(s.points.iter().map(|p| (p.0, p.1)), line))?;
-        for &(x, y, h, conv) in &s.points {
-            cc.draw_series(std::iter::once(
-                EmptyElement::at((x, y))
-                    + shape(s.marker, (0, 0), colour, conv)
-                    + Text::new(format!("{h}"), (6, -14), (FAMILY, 11).into_font()),
-            ))?;
+        let pts: Vec<[f64; 2]> = s.points.iter().map(|p| at(p.0, p.1)).collect();
+        c.polyline(&pts, 1.0, s.colour);
+        for (p, &(_, _, h, conv)) in pts.iter().zip(&s.points) {
+            shape(c, s.marker, *p, s.colour, conv);
+            draw_text(c, p[0] + 6.0, p[1] - 6.0, &format!("{h}"), &small);
         }
     }
-    let font = (FAMILY, 13).into_font();
-    let mut y = 48;
+    let x = (WIDTH - LEGEND_W) as f64 + 8.0;
+    let text = TextStyle::new(13.0, INK).align(HAlign::Left, VAlign::Middle);
+    let mut y = 48.0;
     for s in series {
-        let line = ShapeStyle::from(&s.colour).stroke_width(1);
-        side.draw(
-            &(EmptyElement::at((8, y))
-                + PathElement::new(vec![(0, 0), (24, 0)], line)
-                + shape(s.marker, (12, 0), s.colour, true)
-                + Text::new(s.name.clone(), (32, -7), font.clone())),
-        )?;
-        y += 22;
+        c.line([x, y], [x + 24.0, y], 1.0, s.colour);
+        shape(c, s.marker, [x + 12.0, y], s.colour, true);
+        draw_text(c, x + 32.0, y, &s.name, &text);
+        y += 22.0;
     }
-    for note in [
+    let note = TextStyle::new(12.0, INK).align(HAlign::Left, VAlign::Baseline);
+    for line in [
         "point labels: h (mm)",
         "hollow marker: not converged",
         "reference rows (zero error)",
         "are not drawn",
     ] {
-        y += 18;
-        side.draw(&Text::new(note, (8, y), (FAMILY, 12).into_font()))?;
+        y += 18.0;
+        draw_text(c, x, y, line, &note);
     }
-    root.present()?;
-    Ok(())
 }
 
-/// Marker of a solver at an offset (pixels): circle Newton, triangle
-/// combined, square relaxation.
-fn shape<DB: DrawingBackend>(
-    kind: usize,
-    at: (i32, i32),
-    colour: RGBColor,
-    filled: bool,
-) -> DynElement<'static, DB, (i32, i32)> {
-    let style = if filled {
-        colour.filled()
-    } else {
-        ShapeStyle::from(&colour).stroke_width(2)
-    };
-    let (x, y) = at;
-    let tri = vec![(x, y - 5), (x - 5, y + 4), (x + 5, y + 4)];
-    match kind {
-        0 => Circle::new((x, y), 4, style).into_dyn(),
-        1 if filled => Polygon::new(tri, style).into_dyn(),
-        1 => PathElement::new(vec![tri[0], tri[1], tri[2], tri[0]], style).into_dyn(),
-        _ => Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], style).into_dyn(),
+/// Marker of a solver at pixel `p`: circle Newton, triangle combined,
+/// square relaxation; hollow when the closure did not converge.
+fn shape(c: &mut Canvas, kind: usize, p: [f64; 2], colour: Rgb8, filled: bool) {
+    let [x, y] = p;
+    let tri = [[x, y - 5.0], [x - 5.0, y + 4.0], [x + 5.0, y + 4.0]];
+    match (kind, filled) {
+        (0, true) => c.disc(x, y, 4.0, colour),
+        (0, false) => c.ring(x, y, 4.0, 2.0, colour),
+        (1, true) => c.fill_with(x - 5.0, y - 5.0, x + 5.0, y + 4.0, |px, py| {
+            inside(&tri, [px, py]).then_some(colour)
+        }),
+        (1, false) => c.polyline(&[tri[0], tri[1], tri[2], tri[0]], 2.0, colour),
+        (_, true) => c.rect(x - 4.0, y - 4.0, x + 4.0, y + 4.0, colour),
+        (_, false) => c.rect_outline(x - 4.0, y - 4.0, x + 4.0, y + 4.0, 2.0, colour),
     }
+}
+
+/// Whether `p` lies in the triangle `t` (either winding).
+fn inside(t: &[[f64; 2]; 3], p: [f64; 2]) -> bool {
+    let side =
+        |a: [f64; 2], b: [f64; 2]| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+    let s = [side(t[0], t[1]), side(t[1], t[2]), side(t[2], t[0])];
+    s.iter().all(|v| *v >= 0.0) || s.iter().all(|v| *v <= 0.0)
 }

@@ -2,31 +2,14 @@
 //! on every machine: DejaVu Sans (Bitstream Vera licence, see
 //! `assets/fonts/LICENSE`).
 
-use std::sync::Once;
-
 use ab_glyph::FontRef;
 
 static DEJAVU_SANS: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
-
-/// Family name under which plotters finds the embedded font.
-pub const FAMILY: &str = "sans-serif";
 
 /// The embedded font; `None` only if the embedded file were corrupt, which
 /// the tests rule out.
 pub fn font() -> Option<FontRef<'static>> {
     FontRef::try_from_slice(DEJAVU_SANS).ok()
-}
-
-/// Make the embedded font plotters' "sans-serif" (all styles fall back to
-/// it). Plotters keeps a global table, so registering once is enough.
-pub fn register_with_plotters() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        // A failure leaves the table empty: charts then come back as text
-        // errors from plotters, which `xy_chart` turns into a notice figure.
-        let _ =
-            plotters::style::register_font(FAMILY, plotters::style::FontStyle::Normal, DEJAVU_SANS);
-    });
 }
 
 #[cfg(test)]

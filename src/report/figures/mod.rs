@@ -5,7 +5,7 @@
 //! - `valve_views.rs`: the closed valve from the aorta and from the side,
 //!   coloured by contact; `coaptation_map.rs`: the same classes on the flat
 //!   templates; `ct_check.rs`: CT planes with mask contour, landmarks and
-//!   suture paths; `convergence.rs`, `xy_chart.rs`: charts (plotters).
+//!   suture paths; `convergence.rs`, `xy_chart.rs`: charts, on the frame of `plot_frame.rs`.
 //! - Shared pieces: `palette.rs` (contact classes), `text.rs` and `font.rs`,
 //!   `legend.rs`, `scale_bar.rs`, `notice.rs` (a figure that says why there
 //!   is no picture).
@@ -20,6 +20,7 @@ pub mod legend;
 pub mod mesh_edges;
 pub mod notice;
 pub mod palette;
+pub mod plot_frame;
 pub mod scale_bar;
 pub mod sizing;
 pub mod text;

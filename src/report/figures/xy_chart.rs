@@ -1,14 +1,11 @@
-//! Line charts (plotters on an in-memory RGB buffer, embedded font): solver
-//! convergence now, the leaflet-size sweep later.
+//! Line charts on the one rasteriser (`plot_frame.rs`, the embedded font):
+//! solver convergence and the leaflet-size sweep.
 
-use plotters::prelude::*;
-use plotters::series::DashedLineSeries;
-
-use super::font::{FAMILY, register_with_plotters};
 use super::notice::notice;
-use crate::io::png::{Rgb, encode};
+use super::plot_frame::{Axes, Frame, draw_axes, legend_box, legend_width, ticks};
+use super::to_figure;
 use crate::report::Figure;
-use crate::report::raster::Rgb8;
+use crate::report::raster::{Canvas, Rgb8};
 
 /// One named curve; non-finite points (and, on a log axis, non-positive
 /// values) are left out and the line is broken there.
@@ -84,10 +81,6 @@ const COLOURS: [Rgb8; 6] = [
 ];
 const HLINE: Rgb8 = [200, 30, 40];
 
-fn rgb(c: Rgb8) -> RGBColor {
-    RGBColor(c[0], c[1], c[2])
-}
-
 /// Render the chart; a notice figure when no series has a drawable point.
 pub fn xy_chart(chart: &XyChart) -> Figure {
     let ty = |y: f64| {
@@ -150,29 +143,9 @@ pub fn xy_chart(chart: &XyChart) -> Figure {
     let (x0, x1) = pad(x0, x1, 0.02);
     let (y0, y1) = pad(y0, y1, 0.06);
     let (w, h) = (chart.width.clamp(200, 4000), chart.height.clamp(150, 4000));
-    let mut buf = vec![255u8; (w * h * 3) as usize];
-    register_with_plotters();
-    let drawn = draw(chart, &runs, &hlines, (x0, x1, y0, y1), &mut buf, (w, h));
-    if let Err(e) = drawn {
-        return notice(
-            &chart.id,
-            &chart.title,
-            &format!("the chart could not be drawn ({e})"),
-        );
-    }
-    let img = Rgb {
-        w: w as usize,
-        h: h as usize,
-        px: buf.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
-    };
-    Figure {
-        id: chart.id.clone(),
-        title: chart.title.clone(),
-        caption: chart.caption.clone(),
-        width: w,
-        height: h,
-        png: encode(&img),
-    }
+    let mut canvas = Canvas::new(w, h, 2, [255, 255, 255]);
+    draw(chart, &runs, &hlines, (x0, x1, y0, y1), &mut canvas);
+    to_figure(&chart.id, &chart.title, &chart.caption, &canvas)
 }
 
 /// Widen [lo, hi] by `frac` of its span on each side (±1 around a single value).
@@ -212,81 +185,107 @@ fn tick_label(v: f64) -> String {
 
 type Ranges = (f64, f64, f64, f64);
 
+/// Margin around the chart, and room for the title, the x labels and the
+/// y labels (pixels).
+const MARGIN: f64 = 14.0;
+const TITLE_ROOM: f64 = 30.0;
+const X_LABEL_ROOM: f64 = 44.0;
+const Y_LABEL_ROOM: f64 = 72.0;
+
 fn draw(
     chart: &XyChart,
     runs: &[Vec<Vec<(f64, f64)>>],
     hlines: &[(&str, f64, Option<usize>)],
     (x0, x1, y0, y1): Ranges,
-    buf: &mut [u8],
-    size: (u32, u32),
-) -> Result<(), Box<dyn std::error::Error>> {
-    let root = BitMapBackend::<plotters::backend::RGBPixel>::with_buffer_and_format(buf, size)?
-        .into_drawing_area();
-    root.fill(&WHITE)?;
-    let mut cc = ChartBuilder::on(&root)
-        .caption(&chart.title, (FAMILY, 18).into_font())
-        .margin(14)
-        .x_label_area_size(44)
-        .y_label_area_size(72)
-        .build_cartesian_2d(x0..x1, y0..y1)?;
+    c: &mut Canvas,
+) {
+    let (w, h) = (c.width() as f64, c.height() as f64);
+    let f = Frame {
+        x: (x0, x1),
+        y: (y0, y1),
+        left: MARGIN + Y_LABEL_ROOM,
+        top: MARGIN + TITLE_ROOM,
+        right: w - MARGIN,
+        bottom: h - MARGIN - X_LABEL_ROOM,
+    };
     let log = chart.log_y;
-    let y_fmt = move |v: &f64| if log { log_label(*v) } else { tick_label(*v) };
-    let whole = chart.x_integer;
-    let x_fmt = move |v: &f64| {
-        if whole && (v - v.round()).abs() > 1e-6 {
-            String::new()
-        } else {
-            tick_label(*v)
-        }
-    };
-    // With one label per unit at most, plotters puts its ticks on whole numbers.
-    let x_labels = if whole {
-        ((x1 - x0).floor() as usize + 1).clamp(2, 12)
-    } else {
-        10
-    };
-    cc.configure_mesh()
-        .x_labels(x_labels)
-        .x_desc(chart.x_label.as_str())
-        .y_desc(chart.y_label.as_str())
-        .label_style((FAMILY, 13).into_font())
-        .axis_desc_style((FAMILY, 14).into_font())
-        .y_label_formatter(&y_fmt)
-        .x_label_formatter(&x_fmt)
-        .light_line_style(RGBColor(238, 238, 238))
-        .bold_line_style(RGBColor(215, 215, 215))
-        .draw()?;
+    let y_ticks = ticks(y0, y1, 10, 0.0)
+        .into_iter()
+        .map(|v| (v, if log { log_label(v) } else { tick_label(v) }))
+        .collect();
+    let x_ticks = x_ticks(chart, runs, (x0, x1))
+        .into_iter()
+        .map(|v| (v, tick_label(v)))
+        .collect();
+    draw_axes(
+        c,
+        &f,
+        &Axes {
+            title: &chart.title,
+            x_desc: &chart.x_label,
+            y_desc: &chart.y_label,
+            x_ticks,
+            y_ticks,
+        },
+    );
+    let colour_of = |k: usize| COLOURS[k % COLOURS.len()];
     for (k, (s, r)) in chart.series.iter().zip(runs).enumerate() {
-        let colour = rgb(COLOURS[k % COLOURS.len()]);
-        let style = ShapeStyle::from(&colour).stroke_width(2);
-        let mut first = true;
         for run in r {
-            let a = cc.draw_series(LineSeries::new(run.iter().copied(), style))?;
-            if first {
-                a.label(s.name.as_str())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], style));
-                first = false;
-            }
+            let pts: Vec<[f64; 2]> = run.iter().map(|&(x, y)| f.px(x, y)).collect();
+            c.polyline(&pts, 2.0, colour_of(k));
             if s.markers {
-                cc.draw_series(run.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+                for p in &pts {
+                    c.disc(p[0], p[1], 3.0, colour_of(k));
+                }
             }
         }
     }
-    for &(name, y, of) in hlines {
-        let colour = of.map_or(HLINE, |k| COLOURS[k % COLOURS.len()]);
-        let style = ShapeStyle::from(&rgb(colour)).stroke_width(2);
-        cc.draw_series(DashedLineSeries::new(vec![(x0, y), (x1, y)], 8, 5, style))?
-            .label(name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], style));
+    for &(_, y, of) in hlines {
+        let colour = of.map_or(HLINE, colour_of);
+        c.dashed_polyline(&[f.px(x0, y), f.px(x1, y)], 2.0, 8.0, 5.0, colour);
     }
-    cc.configure_series_labels()
-        .position(legend_corner(runs, hlines, (x0, x1, y0, y1)).position())
-        .label_font((FAMILY, 13).into_font())
-        .background_style(WHITE.mix(0.9))
-        .border_style(RGBColor(160, 160, 160))
-        .draw()?;
-    root.present()?;
-    Ok(())
+    // The legend: each series that has a line, then each reference line.
+    let mut entries: Vec<(&str, Rgb8, bool)> = Vec::new();
+    for (k, (s, r)) in chart.series.iter().zip(runs).enumerate() {
+        if !r.is_empty() {
+            entries.push((s.name.as_str(), colour_of(k), false));
+        }
+    }
+    for &(name, _, of) in hlines {
+        entries.push((name, of.map_or(HLINE, colour_of), true));
+    }
+    let names: Vec<&str> = entries.iter().map(|e| e.0).collect();
+    let size = [legend_width(&names), 8.0 + 20.0 * names.len() as f64];
+    let at = match legend_corner(runs, hlines, (x0, x1, y0, y1)) {
+        Corner::UpperRight => [f.right - 8.0 - size[0], f.top + 8.0],
+        Corner::UpperLeft => [f.left + 8.0, f.top + 8.0],
+        Corner::LowerRight => [f.right - 8.0 - size[0], f.bottom - 8.0 - size[1]],
+        Corner::LowerLeft => [f.left + 8.0, f.bottom - 8.0 - size[1]],
+    };
+    legend_box(c, at, &names, &mut |c, k, p| {
+        let (_, colour, dashed) = entries[k];
+        let line = [p, [p[0] + 24.0, p[1]]];
+        if dashed {
+            c.dashed_polyline(&line, 2.0, 8.0, 5.0, colour);
+        } else {
+            c.polyline(&line, 2.0, colour);
+        }
+    });
+}
+
+/// Ticks of the x axis: on a whole-number axis with a dozen values at
+/// most (sizes of a sweep), those values; else round numbers, whole ones
+/// on a whole-number axis.
+fn x_ticks(chart: &XyChart, runs: &[Vec<Vec<(f64, f64)>>], (x0, x1): (f64, f64)) -> Vec<f64> {
+    if chart.x_integer {
+        let mut xs: Vec<f64> = runs.iter().flatten().flatten().map(|p| p.0).collect();
+        xs.sort_by(f64::total_cmp);
+        xs.dedup();
+        if (2..=12).contains(&xs.len()) && xs.iter().all(|x| x.fract() == 0.0) {
+            return xs;
+        }
+    }
+    ticks(x0, x1, 10, if chart.x_integer { 1.0 } else { 0.0 })
 }
 
 /// A corner of the plot for the legend.
@@ -296,17 +295,6 @@ enum Corner {
     UpperLeft,
     LowerRight,
     LowerLeft,
-}
-
-impl Corner {
-    fn position(self) -> SeriesLabelPosition {
-        match self {
-            Corner::UpperRight => SeriesLabelPosition::UpperRight,
-            Corner::UpperLeft => SeriesLabelPosition::UpperLeft,
-            Corner::LowerRight => SeriesLabelPosition::LowerRight,
-            Corner::LowerLeft => SeriesLabelPosition::LowerLeft,
-        }
-    }
 }
 
 /// The corner whose box (the outer 40 % of each axis) holds the least of the
