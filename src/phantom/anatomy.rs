@@ -534,111 +534,10 @@ impl Anatomy {
         const SPINE_FROM_DA: [f64; 2] = [-16.0, 28.0];
         let spine_centre = [da.cx + SPINE_FROM_DA[0], da.cy + SPINE_FROM_DA[1]];
 
-        // --- Pulmonary artery: place, then slide until the gap is right -----
-        // The pulmonary valve sits anterior-left of the aortic root, a little
-        // higher; the trunk runs superior-posterior-left to the bifurcation;
-        // the left PA continues left-posterior, the right PA turns right and
-        // passes behind the ascending aorta. All offsets in mm (x L, y P, z S).
-        const PA_VALVE_HEIGHT_MM: f64 = 8.0;
-        const TRUNK_LENGTH_MM: f64 = 38.0;
-        const TRUNK_BELOW_VALVE_MM: f64 = 10.0;
-        const BRANCH_RADIUS_FRACTION: f64 = 0.8;
-        const RPA_BELOW_BIFURCATION_MM: f64 = 4.0;
-        let pa_r = d.pa_radius;
-        let branch_r = BRANCH_RADIUS_FRACTION * pa_r;
         let wall = wall_samples(&lumen, -lvot_len, z_asc_top);
-        let ant_left = Vector3::new(1.0, -1.3, 0.0).normalize();
-        let d_pa = (ant_left - axis * ant_left.dot(&axis)).normalize();
-        let p0 = cl.station(PA_VALVE_HEIGHT_MM).point + d_pa * (r_max + d.pa_gap + pa_r);
-        let trunk_dir = Vector3::new(0.35, 0.45, 0.82).normalize();
-        let bif = p0 + trunk_dir * TRUNK_LENGTH_MM;
-        let z_r = bif.z - RPA_BELOW_BIFURCATION_MM;
-        let s_r = s_at_z(cl, z_r);
-        let c_aa = cl.station(s_r).point;
-        let r_aa = profile.eval(s_r, 0.0).r;
-        // y of the RPA axis where it passes behind the ascending aorta.
-        let behind = c_aa.y + r_aa + d.pa_gap + branch_r;
-        let mut pa = vec![
-            Tube::new(
-                vec![
-                    p0 - trunk_dir * TRUNK_BELOW_VALVE_MM,
-                    p0,
-                    p0 + trunk_dir * (0.5 * TRUNK_LENGTH_MM),
-                    bif,
-                ],
-                vec![pa_r; 3],
-            ),
-            Tube::new(
-                vec![
-                    bif,
-                    bif + Vector3::new(16.0, 16.0, -2.0),
-                    bif + Vector3::new(28.0, 30.0, -8.0),
-                ],
-                vec![branch_r; 2],
-            ),
-            Tube::new(
-                vec![
-                    bif,
-                    Point3::new(c_aa.x + 12.0, behind, z_r),
-                    Point3::new(c_aa.x - 15.0, behind + 2.0, z_r - 3.0),
-                    Point3::new(c_aa.x - 40.0, behind + 8.0, z_r - 8.0),
-                ],
-                vec![branch_r; 3],
-            ),
-        ];
-        slide_to_gap(&mut pa, &wall, d.pa_gap);
-
-        // --- Left atrium: posterior of the root, slid to a tissue gap --------
-        // Start position (x L, y P, z S from the annulus); y is then solved.
-        const LA_START: [f64; 3] = [-6.0, 30.0, -6.0];
-        let mut la = Ellipsoid {
-            centre: Point3::new(
-                origin.x + LA_START[0],
-                origin.y + LA_START[1],
-                origin.z + LA_START[2],
-            ),
-            rot: Matrix3::identity(),
-            semi: Vector3::new(LA_SEMI[0], LA_SEMI[1], LA_SEMI[2]),
-        };
-        for _ in 0..6 {
-            place_la(&mut la, &wall, d.la_gap);
-            // Keep clear of the DA and the PA branches; shrink if not.
-            let clear = ellipsoid_samples(&la)
-                .iter()
-                .map(|p| {
-                    da.eval(p)
-                        .0
-                        .min(pa.iter().map(|t| t.eval(p).0).fold(f64::INFINITY, f64::min))
-                })
-                .fold(f64::INFINITY, f64::min);
-            if clear >= CLEARANCE_MM {
-                break;
-            }
-            la.semi *= 0.9;
-        }
-
-        // --- Calcium blobs in the wall near the nadirs -----------------------
-        let calcium = d
-            .calcium
-            .iter()
-            .map(|&(k, s, dth, out, sz)| {
-                let th = profile.sinus_centre(k) + dth;
-                // Above the (possibly tilted) annulus at that angle.
-                let s = s + profile.annulus_s(th).0;
-                let st = cl.station(s);
-                let u = st.e1 * th.cos() + st.e2 * th.sin();
-                let r = profile.eval(s, th).r;
-                // Long axis along the annulus (circumferential), short radially.
-                let circ = st.tangent.cross(&u);
-                Ellipsoid {
-                    // Centre in the wall, a fraction of the radial semi-axis
-                    // outside the lumen: every blob protrudes into the lumen.
-                    centre: st.point + u * (r + out * sz[2]),
-                    rot: Matrix3::from_columns(&[circ, st.tangent, u]),
-                    semi: Vector3::new(sz[0], sz[1], sz[2]),
-                }
-            })
-            .collect();
+        let pa = pulmonary_artery(&lumen, &d, &axis, r_max, &wall);
+        let la = left_atrium(&origin, &wall, &d, &da, &pa);
+        let calcium = calcium(&lumen, &d);
 
         let h_comm = d.h_stj - d.comm_below_stj;
         let cusps = extras.native_cusps.then_some(Cusps {
@@ -656,7 +555,7 @@ impl Anatomy {
             myocardium,
             coronaries,
             pa,
-            pa_radius_mm: pa_r,
+            pa_radius_mm: d.pa_radius,
             la,
             da,
             spine_centre,
@@ -790,6 +689,135 @@ pub fn s_at_z(cl: &Centreline, z: f64) -> f64 {
         }
     }
     0.5 * (lo + hi)
+}
+
+/// The pulmonary artery: placed, then slid until its gap to the aortic wall
+/// (`wall`) is the drawn one. The pulmonary valve sits anterior-left of the
+/// aortic root, a little higher; the trunk runs superior-posterior-left to
+/// the bifurcation; the left PA continues left-posterior, the right PA turns
+/// right and passes behind the ascending aorta. All offsets in mm (x L, y P,
+/// z S).
+fn pulmonary_artery(
+    lumen: &Lumen,
+    d: &Draws,
+    axis: &Vector3,
+    r_max: f64,
+    wall: &[Point3],
+) -> Vec<Tube> {
+    const PA_VALVE_HEIGHT_MM: f64 = 8.0;
+    const TRUNK_LENGTH_MM: f64 = 38.0;
+    const TRUNK_BELOW_VALVE_MM: f64 = 10.0;
+    const BRANCH_RADIUS_FRACTION: f64 = 0.8;
+    const RPA_BELOW_BIFURCATION_MM: f64 = 4.0;
+    let (cl, profile) = (&lumen.centreline, &lumen.profile);
+    let pa_r = d.pa_radius;
+    let branch_r = BRANCH_RADIUS_FRACTION * pa_r;
+    let ant_left = Vector3::new(1.0, -1.3, 0.0).normalize();
+    let d_pa = (ant_left - axis * ant_left.dot(axis)).normalize();
+    let p0 = cl.station(PA_VALVE_HEIGHT_MM).point + d_pa * (r_max + d.pa_gap + pa_r);
+    let trunk_dir = Vector3::new(0.35, 0.45, 0.82).normalize();
+    let bif = p0 + trunk_dir * TRUNK_LENGTH_MM;
+    let z_r = bif.z - RPA_BELOW_BIFURCATION_MM;
+    let s_r = s_at_z(cl, z_r);
+    let c_aa = cl.station(s_r).point;
+    let r_aa = profile.eval(s_r, 0.0).r;
+    // y of the RPA axis where it passes behind the ascending aorta.
+    let behind = c_aa.y + r_aa + d.pa_gap + branch_r;
+    let mut pa = vec![
+        Tube::new(
+            vec![
+                p0 - trunk_dir * TRUNK_BELOW_VALVE_MM,
+                p0,
+                p0 + trunk_dir * (0.5 * TRUNK_LENGTH_MM),
+                bif,
+            ],
+            vec![pa_r; 3],
+        ),
+        Tube::new(
+            vec![
+                bif,
+                bif + Vector3::new(16.0, 16.0, -2.0),
+                bif + Vector3::new(28.0, 30.0, -8.0),
+            ],
+            vec![branch_r; 2],
+        ),
+        Tube::new(
+            vec![
+                bif,
+                Point3::new(c_aa.x + 12.0, behind, z_r),
+                Point3::new(c_aa.x - 15.0, behind + 2.0, z_r - 3.0),
+                Point3::new(c_aa.x - 40.0, behind + 8.0, z_r - 8.0),
+            ],
+            vec![branch_r; 3],
+        ),
+    ];
+    slide_to_gap(&mut pa, wall, d.pa_gap);
+    pa
+}
+
+/// The left atrium: posterior of the root (`origin`, the annulus centre),
+/// slid to its tissue gap from the aortic wall, and shrunk until it keeps
+/// clear of the descending aorta and the PA branches.
+fn left_atrium(
+    origin: &Point3,
+    wall: &[Point3],
+    d: &Draws,
+    da: &ZCylinder,
+    pa: &[Tube],
+) -> Ellipsoid {
+    // Start position (x L, y P, z S from the annulus); y is then solved.
+    const LA_START: [f64; 3] = [-6.0, 30.0, -6.0];
+    let mut la = Ellipsoid {
+        centre: Point3::new(
+            origin.x + LA_START[0],
+            origin.y + LA_START[1],
+            origin.z + LA_START[2],
+        ),
+        rot: Matrix3::identity(),
+        semi: Vector3::new(LA_SEMI[0], LA_SEMI[1], LA_SEMI[2]),
+    };
+    for _ in 0..6 {
+        place_la(&mut la, wall, d.la_gap);
+        let clear = ellipsoid_samples(&la)
+            .iter()
+            .map(|p| {
+                da.eval(p)
+                    .0
+                    .min(pa.iter().map(|t| t.eval(p).0).fold(f64::INFINITY, f64::min))
+            })
+            .fold(f64::INFINITY, f64::min);
+        if clear >= CLEARANCE_MM {
+            break;
+        }
+        la.semi *= 0.9;
+    }
+    la
+}
+
+/// Calcium blobs in the wall near the nadirs, each protruding into the
+/// lumen.
+fn calcium(lumen: &Lumen, d: &Draws) -> Vec<Ellipsoid> {
+    let (cl, profile) = (&lumen.centreline, &lumen.profile);
+    d.calcium
+        .iter()
+        .map(|&(k, s, dth, out, sz)| {
+            let th = profile.sinus_centre(k) + dth;
+            // Above the (possibly tilted) annulus at that angle.
+            let s = s + profile.annulus_s(th).0;
+            let st = cl.station(s);
+            let u = st.e1 * th.cos() + st.e2 * th.sin();
+            let r = profile.eval(s, th).r;
+            // Long axis along the annulus (circumferential), short radially.
+            let circ = st.tangent.cross(&u);
+            Ellipsoid {
+                // Centre in the wall, a fraction of the radial semi-axis
+                // outside the lumen: every blob protrudes into the lumen.
+                centre: st.point + u * (r + out * sz[2]),
+                rot: Matrix3::from_columns(&[circ, st.tangent, u]),
+                semi: Vector3::new(sz[0], sz[1], sz[2]),
+            }
+        })
+        .collect()
 }
 
 /// Points on the analytic aortic wall, ~0.5 mm apart, up to height z_top.
