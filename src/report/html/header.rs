@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use super::format::*;
 use super::{DASH, NOT_MEASURED};
-use crate::io::report_json::{Case, Landmarks, Sinus, SinusNaming};
+use crate::io::report_json::{Case, CaseLeaflet, Landmarks, Sinus, SinusNaming};
 
 /// Who and what: the case, the root the CT gave, the leaflets, the material
 /// and load, in a few lines above the verdict.
@@ -13,12 +13,26 @@ pub(super) fn case_header(h: &mut String, c: Option<&Case>) {
     let Some(c) = c else {
         return;
     };
+    let mut rows = vec![("Case", case_line(c)), ("Root (from the CT)", root_line(c))];
+    rows.extend(landmark_rows(c.landmarks.as_ref()));
+    for (k, v) in [
+        ("Leaflets", leaflets_line(c)),
+        ("Material", material_line(c)),
+        ("Load and model", load_line(c)),
+    ] {
+        rows.extend(v.map(|v| (k, v)));
+    }
     h.push_str("<section id=\"case\">\n<dl class=\"case\">\n");
-    let mut row = |k: &str, v: String| {
+    for (k, v) in rows {
         if !v.is_empty() {
             let _ = writeln!(h, "<dt>{}</dt><dd>{}</dd>", esc(k), v);
         }
-    };
+    }
+    h.push_str("</dl>\n</section>\n");
+}
+
+/// The case's name, when it was predicted, and by which coapt.
+fn case_line(c: &Case) -> String {
     let mut first = vec![esc(c.name.as_deref().unwrap_or("unnamed case"))];
     if let Some(t) = &c.computed_utc {
         // "2026-11-27T19:29:54Z" → "2026-11-27 19:29 UTC"
@@ -29,8 +43,11 @@ pub(super) fn case_header(h: &mut String, c: Option<&Case>) {
         first.push(format!("predicted {}", esc(&shown)));
     }
     first.push(format!("coapt {}", esc(or(&c.coapt_version, DASH))));
-    row("Case", first.join(" · "));
+    first.join(" · ")
+}
 
+/// The root's diameters, intercommissural distances and annulus tilt.
+fn root_line(c: &Case) -> String {
     let a = &c.anatomy;
     let d = |x: Option<f64>| {
         x.filter(|x| x.is_finite())
@@ -59,9 +76,13 @@ pub(super) fn case_header(h: &mut String, c: Option<&Case>) {
             fixed(Some(t), 1)
         );
     }
-    row("Root (from the CT)", root);
+    root
+}
 
-    match &c.landmarks {
+/// Where the landmarks came from and, when coapt found them, how sure it
+/// is of each and how it named the sinuses.
+fn landmark_rows(lm: Option<&Landmarks>) -> Vec<(&'static str, String)> {
+    match lm {
         Some(Landmarks::Detected {
             points,
             sinuses,
@@ -83,103 +104,111 @@ pub(super) fn case_header(h: &mut String, c: Option<&Case>) {
                     }
                 })
                 .collect();
-            row(
+            let mut rows = vec![(
                 "Landmarks",
                 format!(
                     "detected by coapt from the segmented root (not placed by hand: check them on the CT figure), except those given; confidence {}",
                     points.join(", ")
                 ),
-            );
+            )];
             if let Some(text) = sinus_names(sinuses, sinus_naming.as_ref(), leaflet_sinuses) {
-                row("Sinuses", text);
+                rows.push(("Sinuses", text));
             }
+            rows
         }
         Some(Landmarks::Given { file }) => {
-            row("Landmarks", format!("given: {}", esc(or(file, DASH))))
+            vec![("Landmarks", format!("given: {}", esc(or(file, DASH))))]
         }
-        None => {}
+        None => Vec::new(),
     }
+}
 
+/// The templates, their edges, the placement and the mesh size.
+fn leaflets_line(c: &Case) -> Option<String> {
     let ls = &c.leaflets;
-    if !ls.is_empty() {
-        let names: Vec<&str> = ls
+    let first = ls.first()?;
+    let names: Vec<&str> = ls
+        .iter()
+        .map(|l| l.template.as_deref().unwrap_or(DASH))
+        .collect();
+    let mut text = if names.iter().all(|n| *n == names[0]) {
+        format!("{} (all three)", esc(names[0]))
+    } else {
+        names
             .iter()
-            .map(|l| l.template.as_deref().unwrap_or(DASH))
-            .collect();
-        let mut text = if names.iter().all(|n| *n == names[0]) {
-            format!("{} (all three)", esc(names[0]))
-        } else {
-            names
-                .iter()
-                .enumerate()
-                .map(|(i, n)| format!("{}: {}", i + 1, esc(n)))
-                .collect::<Vec<_>>()
-                .join("; ")
-        };
-        let per = |x: fn(&crate::io::report_json::CaseLeaflet) -> Option<f64>| {
-            ls.iter()
-                .map(|l| fixed(x(l), 1))
-                .collect::<Vec<_>>()
-                .join(" / ")
-        };
+            .enumerate()
+            .map(|(i, n)| format!("{}: {}", i + 1, esc(n)))
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    let per = |x: fn(&CaseLeaflet) -> Option<f64>| {
+        ls.iter()
+            .map(|l| fixed(x(l), 1))
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    let _ = write!(
+        text,
+        "; free edge {} mm, sutured edge {} mm",
+        per(|l| l.free_edge_mm),
+        per(|l| l.attachment_mm)
+    );
+    if let Some(p) = &first.placement {
+        let _ = write!(text, "; placed {}", esc(p));
+    }
+    if let Some(hm) = c.mesh_h_mm {
+        let _ = write!(text, "; mesh size {} mm", shortest(Some(hm)));
+    }
+    Some(text)
+}
+
+/// The material law with its units, the thickness and where the law's
+/// parameters come from.
+fn material_line(c: &Case) -> Option<String> {
+    let m = crate::report::case::material_text(&c.material)?;
+    let mut text = esc(&m);
+    if let Some(t) = c.thickness_mm {
+        let _ = write!(text, "; thickness {} mm", shortest(Some(t)));
+    }
+    let source = c
+        .material_source
+        .as_deref()
+        .unwrap_or("not stated (close.toml: material_source)");
+    let _ = write!(text, "; source: {}", esc(source));
+    Some(text)
+}
+
+/// The pressures, the contact, bending and the stress-free state.
+fn load_line(c: &Case) -> Option<String> {
+    let p = c.pressure_mmhg?;
+    let mut text = format!("{} mmHg", shortest(Some(p)));
+    if let Some(lp) = c.effective_height_pressure_mmhg {
         let _ = write!(
             text,
-            "; free edge {} mm, sutured edge {} mm",
-            per(|l| l.free_edge_mm),
-            per(|l| l.attachment_mm)
+            " (and {} mmHg for the effective height)",
+            shortest(Some(lp))
         );
-        if let Some(p) = &ls[0].placement {
-            let _ = write!(text, "; placed {}", esc(p));
-        }
-        if let Some(hm) = c.mesh_h_mm {
-            let _ = write!(text, "; mesh size {} mm", shortest(Some(hm)));
-        }
-        row("Leaflets", text);
     }
-
-    if let Some(m) = crate::report::case::material_text(&c.material) {
-        let mut text = esc(&m);
-        if let Some(t) = c.thickness_mm {
-            let _ = write!(text, "; thickness {} mm", shortest(Some(t)));
-        }
-        let source = c
-            .material_source
-            .as_deref()
-            .unwrap_or("not stated (close.toml: material_source)");
-        let _ = write!(text, "; source: {}", esc(source));
-        row("Material", text);
+    let contact = match c.contact.as_deref() {
+        Some("leaflets") => "true contact between the leaflets",
+        Some("planes") => "contact planes through the axis (seed 001)",
+        Some("none") => "no contact",
+        _ => "",
+    };
+    if !contact.is_empty() {
+        let _ = write!(text, "; {contact}");
     }
-    if let Some(p) = c.pressure_mmhg {
-        let mut text = format!("{} mmHg", shortest(Some(p)));
-        if let Some(lp) = c.effective_height_pressure_mmhg {
-            let _ = write!(
-                text,
-                " (and {} mmHg for the effective height)",
-                shortest(Some(lp))
-            );
-        }
-        let contact = match c.contact.as_deref() {
-            Some("leaflets") => "true contact between the leaflets",
-            Some("planes") => "contact planes through the axis (seed 001)",
-            Some("none") => "no contact",
-            _ => "",
-        };
-        if !contact.is_empty() {
-            let _ = write!(text, "; {contact}");
-        }
-        if let Some(b) = c.bending {
-            text.push_str(if b {
-                "; bending stiffness on"
-            } else {
-                "; membrane (no bending)"
-            });
-        }
-        if let Some(r) = &c.reference {
-            let _ = write!(text, "; stress-free state: {}", esc(r));
-        }
-        row("Load and model", text);
+    if let Some(b) = c.bending {
+        text.push_str(if b {
+            "; bending stiffness on"
+        } else {
+            "; membrane (no bending)"
+        });
     }
-    h.push_str("</dl>\n</section>\n");
+    if let Some(r) = &c.reference {
+        let _ = write!(text, "; stress-free state: {}", esc(r));
+    }
+    Some(text)
 }
 
 /// "1–3" from a pair's 1-based leaflets.
