@@ -185,7 +185,6 @@ impl Scene {
     pub fn new(anatomy: Arc<Anatomy>, contrast: Contrast, z_range: (f64, f64)) -> Scene {
         let an = &anatomy;
         let mut layers: Vec<Layer> = Vec::new();
-        let o = an.lumen.centreline.origin;
         let lvot = an.lumen.lvot_length_mm;
         // Blood value at a point for a structure with contrast factor f.
         let blood = {
@@ -202,56 +201,7 @@ impl Scene {
 
         let arch_aabb = an.arch.as_ref().map_or(Aabb::empty(), |a| a.tube.aabb());
 
-        // --- Body: subcutaneous fat, then soft tissue -----------------------
-        let [bx, by] = an.body_centre;
-        for (name, shrink, hu) in [
-            ("body_fat", 0.0, FAT_HU),
-            ("body_soft", SUBCUTANEOUS_FAT_MM, SOFT_TISSUE_HU),
-        ] {
-            let c = ZCylinder {
-                cx: bx,
-                cy: by,
-                rx: BODY_SEMI[0] - shrink,
-                ry: BODY_SEMI[1] - shrink,
-                z_lo: f64::NEG_INFINITY,
-                z_hi: f64::INFINITY,
-            };
-            layers.push(cylinder_layer(name, c, hu));
-        }
-
-        // --- Lungs, both sides of the mediastinum ---------------------------
-        // Centres (x L, y P from the annulus) and semi-axes: tall ellipsoids
-        // whose medial parts the mediastinal layers paint over.
-        const LUNG_SEMI: [f64; 3] = [60.0, 85.0, 220.0];
-        for (name, dx, dy) in [("lung_right", -85.0, 25.0), ("lung_left", 80.0, 30.0)] {
-            let e = super::shapes::Ellipsoid {
-                centre: Point3::new(o.x + dx, o.y + dy, o.z),
-                rot: crate::geom::Matrix3::identity(),
-                semi: Vector3::new(LUNG_SEMI[0], LUNG_SEMI[1], LUNG_SEMI[2]),
-            };
-            let aabb = e.aabb().grow(AABB_MARGIN_MM);
-            layers.push(Layer {
-                thin_mm: None,
-                name: name.into(),
-                shape: Box::new(move |pr| e.eval(&pr.p)),
-                hu: constant(LUNG_HU),
-                aabb,
-            });
-        }
-        {
-            const PARASPINAL_RADIUS_MM: f64 = 32.0;
-            // Centred a little behind the vertebral body (paraspinal muscles).
-            const PARASPINAL_BEHIND_BODY_MM: f64 = 10.0;
-            let c = ZCylinder {
-                cx: an.spine_centre[0],
-                cy: an.spine_centre[1] + PARASPINAL_BEHIND_BODY_MM,
-                rx: PARASPINAL_RADIUS_MM,
-                ry: PARASPINAL_RADIUS_MM,
-                z_lo: f64::NEG_INFINITY,
-                z_hi: f64::INFINITY,
-            };
-            layers.push(cylinder_layer("paraspinal", c, SOFT_TISSUE_HU));
-        }
+        layers.extend(body_and_lungs(an));
 
         // --- Mediastinal fat around heart and great vessels -----------------
         {
@@ -443,91 +393,10 @@ impl Scene {
             });
         }
 
-        // --- Bone: sternum, vertebral column, posterior arch ----------------
-        {
-            let [sx, sy] = an.sternum_centre;
-            for (name, shrink, hu) in [
-                ("sternum_cortex", 0.0, an.cortical_hu),
-                ("sternum_marrow", CORTEX_MM, an.cancellous_hu),
-            ] {
-                let c = ZCylinder {
-                    cx: sx,
-                    cy: sy,
-                    rx: STERNUM_SEMI[0] - shrink,
-                    ry: STERNUM_SEMI[1] - shrink,
-                    z_lo: f64::NEG_INFINITY,
-                    z_hi: f64::INFINITY,
-                };
-                layers.push(cylinder_layer(name, c, hu));
-            }
-            let [vx, vy] = an.spine_centre;
-            let rv = an.vertebra_radius_mm;
-            let column = ZCylinder {
-                cx: vx,
-                cy: vy,
-                rx: rv,
-                ry: rv,
-                z_lo: f64::NEG_INFINITY,
-                z_hi: f64::INFINITY,
-            };
-            layers.push(cylinder_layer("discs", column, DISC_HU));
-            let period = an.vertebra_period_mm;
-            let first = ((z_range.0 - an.vertebra_phase_mm) / period).floor() as i64 - 1;
-            let last = ((z_range.1 - an.vertebra_phase_mm) / period).ceil() as i64 + 1;
-            for k in first..=last {
-                let z0 = an.vertebra_phase_mm + k as f64 * period + 0.5 * DISC_MM;
-                let z1 = z0 + period - DISC_MM;
-                for (part, shrink, hu) in [
-                    ("cortex", 0.0, an.cortical_hu),
-                    ("body", CORTEX_MM, an.cancellous_hu),
-                ] {
-                    let c = ZCylinder {
-                        cx: vx,
-                        cy: vy,
-                        rx: rv - shrink,
-                        ry: rv - shrink,
-                        z_lo: z0 + shrink,
-                        z_hi: z1 - shrink,
-                    };
-                    layers.push(cylinder_layer(format!("vertebra_{k}_{part}"), c, hu));
-                }
-            }
-            const CANAL_RADIUS_MM: f64 = 8.0;
-            const ARCH_RADIUS_MM: f64 = 12.0;
-            let canal_y = vy + rv + CANAL_RADIUS_MM + 1.0;
-            for (name, r, hu) in [
-                (
-                    "posterior_arch",
-                    ARCH_RADIUS_MM,
-                    an.cortical_hu * ARCH_FRACTION_OF_CORTICAL,
-                ),
-                ("spinal_canal", CANAL_RADIUS_MM, CANAL_HU),
-            ] {
-                let c = ZCylinder {
-                    cx: vx,
-                    cy: canal_y,
-                    rx: r,
-                    ry: r,
-                    z_lo: f64::NEG_INFINITY,
-                    z_hi: f64::INFINITY,
-                };
-                layers.push(cylinder_layer(name, c, hu));
-            }
-        }
+        layers.extend(bones(an, z_range));
 
-        // --- Annular calcium -------------------------------------------------
         if contrast.calcium {
-            for (i, e) in an.calcium.iter().enumerate() {
-                let e = e.clone();
-                let aabb = e.aabb().grow(AABB_MARGIN_MM);
-                layers.push(Layer {
-                    thin_mm: None,
-                    name: format!("calcium_{i}"),
-                    shape: Box::new(move |pr| e.eval(&pr.p)),
-                    hu: constant(CALCIUM_HU),
-                    aabb,
-                });
-            }
+            layers.extend(calcium(an));
         }
         let truth_aabb = an.lumen.aabb(-1.0, 400.0).grow(1.0);
         Scene {
@@ -536,4 +405,155 @@ impl Scene {
             truth_aabb,
         }
     }
+}
+
+/// The body (subcutaneous fat, then soft tissue), the lungs either side of
+/// the mediastinum and the paraspinal muscles.
+fn body_and_lungs(an: &Anatomy) -> Vec<Layer> {
+    let mut layers = Vec::new();
+    let o = an.lumen.centreline.origin;
+    let [bx, by] = an.body_centre;
+    for (name, shrink, hu) in [
+        ("body_fat", 0.0, FAT_HU),
+        ("body_soft", SUBCUTANEOUS_FAT_MM, SOFT_TISSUE_HU),
+    ] {
+        let c = ZCylinder {
+            cx: bx,
+            cy: by,
+            rx: BODY_SEMI[0] - shrink,
+            ry: BODY_SEMI[1] - shrink,
+            z_lo: f64::NEG_INFINITY,
+            z_hi: f64::INFINITY,
+        };
+        layers.push(cylinder_layer(name, c, hu));
+    }
+
+    // --- Lungs, both sides of the mediastinum ---------------------------
+    // Centres (x L, y P from the annulus) and semi-axes: tall ellipsoids
+    // whose medial parts the mediastinal layers paint over.
+    const LUNG_SEMI: [f64; 3] = [60.0, 85.0, 220.0];
+    for (name, dx, dy) in [("lung_right", -85.0, 25.0), ("lung_left", 80.0, 30.0)] {
+        let e = super::shapes::Ellipsoid {
+            centre: Point3::new(o.x + dx, o.y + dy, o.z),
+            rot: crate::geom::Matrix3::identity(),
+            semi: Vector3::new(LUNG_SEMI[0], LUNG_SEMI[1], LUNG_SEMI[2]),
+        };
+        let aabb = e.aabb().grow(AABB_MARGIN_MM);
+        layers.push(Layer {
+            thin_mm: None,
+            name: name.into(),
+            shape: Box::new(move |pr| e.eval(&pr.p)),
+            hu: constant(LUNG_HU),
+            aabb,
+        });
+    }
+    {
+        const PARASPINAL_RADIUS_MM: f64 = 32.0;
+        // Centred a little behind the vertebral body (paraspinal muscles).
+        const PARASPINAL_BEHIND_BODY_MM: f64 = 10.0;
+        let c = ZCylinder {
+            cx: an.spine_centre[0],
+            cy: an.spine_centre[1] + PARASPINAL_BEHIND_BODY_MM,
+            rx: PARASPINAL_RADIUS_MM,
+            ry: PARASPINAL_RADIUS_MM,
+            z_lo: f64::NEG_INFINITY,
+            z_hi: f64::INFINITY,
+        };
+        layers.push(cylinder_layer("paraspinal", c, SOFT_TISSUE_HU));
+    }
+    layers
+}
+
+/// Bone: the sternum, the vertebral column (bodies and discs within
+/// `z_range`, the scan's extent) and the posterior arch over the canal.
+fn bones(an: &Anatomy, z_range: (f64, f64)) -> Vec<Layer> {
+    let mut layers = Vec::new();
+    let [sx, sy] = an.sternum_centre;
+    for (name, shrink, hu) in [
+        ("sternum_cortex", 0.0, an.cortical_hu),
+        ("sternum_marrow", CORTEX_MM, an.cancellous_hu),
+    ] {
+        let c = ZCylinder {
+            cx: sx,
+            cy: sy,
+            rx: STERNUM_SEMI[0] - shrink,
+            ry: STERNUM_SEMI[1] - shrink,
+            z_lo: f64::NEG_INFINITY,
+            z_hi: f64::INFINITY,
+        };
+        layers.push(cylinder_layer(name, c, hu));
+    }
+    let [vx, vy] = an.spine_centre;
+    let rv = an.vertebra_radius_mm;
+    let column = ZCylinder {
+        cx: vx,
+        cy: vy,
+        rx: rv,
+        ry: rv,
+        z_lo: f64::NEG_INFINITY,
+        z_hi: f64::INFINITY,
+    };
+    layers.push(cylinder_layer("discs", column, DISC_HU));
+    let period = an.vertebra_period_mm;
+    let first = ((z_range.0 - an.vertebra_phase_mm) / period).floor() as i64 - 1;
+    let last = ((z_range.1 - an.vertebra_phase_mm) / period).ceil() as i64 + 1;
+    for k in first..=last {
+        let z0 = an.vertebra_phase_mm + k as f64 * period + 0.5 * DISC_MM;
+        let z1 = z0 + period - DISC_MM;
+        for (part, shrink, hu) in [
+            ("cortex", 0.0, an.cortical_hu),
+            ("body", CORTEX_MM, an.cancellous_hu),
+        ] {
+            let c = ZCylinder {
+                cx: vx,
+                cy: vy,
+                rx: rv - shrink,
+                ry: rv - shrink,
+                z_lo: z0 + shrink,
+                z_hi: z1 - shrink,
+            };
+            layers.push(cylinder_layer(format!("vertebra_{k}_{part}"), c, hu));
+        }
+    }
+    const CANAL_RADIUS_MM: f64 = 8.0;
+    const ARCH_RADIUS_MM: f64 = 12.0;
+    let canal_y = vy + rv + CANAL_RADIUS_MM + 1.0;
+    for (name, r, hu) in [
+        (
+            "posterior_arch",
+            ARCH_RADIUS_MM,
+            an.cortical_hu * ARCH_FRACTION_OF_CORTICAL,
+        ),
+        ("spinal_canal", CANAL_RADIUS_MM, CANAL_HU),
+    ] {
+        let c = ZCylinder {
+            cx: vx,
+            cy: canal_y,
+            rx: r,
+            ry: r,
+            z_lo: f64::NEG_INFINITY,
+            z_hi: f64::INFINITY,
+        };
+        layers.push(cylinder_layer(name, c, hu));
+    }
+    layers
+}
+
+/// The annular calcium blobs.
+fn calcium(an: &Anatomy) -> Vec<Layer> {
+    an.calcium
+        .iter()
+        .enumerate()
+        .map(|(i, e)| {
+            let e = e.clone();
+            let aabb = e.aabb().grow(AABB_MARGIN_MM);
+            Layer {
+                thin_mm: None,
+                name: format!("calcium_{i}"),
+                shape: Box::new(move |pr| e.eval(&pr.p)),
+                hu: constant(CALCIUM_HU),
+                aabb,
+            }
+        })
+        .collect()
 }
