@@ -360,20 +360,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
         // The first choice in this process: cannot disagree.
         let _ = crate::io::volume_file::set_series(pick);
     }
-    let threads = match m.get_one::<usize>("threads") {
-        Some(0) => return Err(Error::usage("--threads must be at least 1")),
-        // Each thread is a stack and a worker: a million of them was a hang.
-        Some(&n) if n > MAX_THREADS => {
-            return Err(Error::usage(format!(
-                "--threads {n}: at most {MAX_THREADS} (this machine has {})",
-                std::thread::available_parallelism().map_or(1, |n| n.get())
-            )));
-        }
-        Some(&n) => n,
-        None => std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1),
-    };
+    let threads = threads(m)?;
     // The global pool may already exist when the CLI runs inside a test process.
     let _ = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -388,94 +375,9 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
     };
     let (name, sub) = m.subcommand().expect("a subcommand is required");
     match name {
-        "run" => {
-            let opts = runner::RunOptions {
-                config: sub.get_one::<PathBuf>("config").expect("required").clone(),
-                out: sub.get_one::<PathBuf>("out").cloned(),
-                from: sub.get_one::<String>("from").cloned(),
-                until: sub.get_one::<String>("until").cloned(),
-                force: sub.get_flag("force"),
-            };
-            let report = runner::run(&opts, stages::registry(), &inv)?;
-            if !log.quiet && !log.json && !report.stages.is_empty() {
-                eprintln!("run directory: {}", report.run_dir.display());
-            }
-            for (stage, missing) in &report.left_out {
-                let after = report
-                    .stages
-                    .last()
-                    .map_or("nothing ran".to_string(), |(s, ..)| {
-                        format!("the chain stops after {s}")
-                    });
-                tracing::warn!(
-                    event = "stage_left_out",
-                    stage = stage.as_str(),
-                    "{}: {after}: stage {stage} needs {} (give {} under [inputs])",
-                    opts.config.display(),
-                    missing.join(", "),
-                    missing
-                        .iter()
-                        .map(|m| format!("`{m} = \"…\"`"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                );
-            }
-            // The run's answer, when it reached the report: the same words
-            // as report.json, on stdout like `design`'s table.
-            if report.stages.iter().any(|(s, ..)| s == "report") {
-                let doc =
-                    crate::io::report_json::Report::read(&report.run_dir.join("report.json"))?;
-                print!(
-                    "{}",
-                    crate::report::terminal::summary(&doc, &report.run_dir.join("report.html"))
-                );
-            }
-            Ok(())
-        }
-        "design" => {
-            let sizes = match sub.get_one::<String>("sizes") {
-                Some(t) => Some(
-                    design::settings::parse_sizes(t)
-                        .map_err(|e| Error::usage(format!("--sizes {t}: {e}")))?,
-                ),
-                None => None,
-            };
-            let opts = design::Options {
-                config: sub.get_one::<PathBuf>("config").expect("required").clone(),
-                out: sub.get_one::<PathBuf>("out").cloned(),
-                sizes,
-                force: sub.get_flag("force"),
-            };
-            let summary = design::run(&opts, stages::registry(), &inv)?;
-            print!("{}", design::table(&summary));
-            if !log.quiet && !log.json {
-                eprintln!(
-                    "design report: {}",
-                    summary.design_dir.join("report.html").display()
-                );
-            }
-            Ok(())
-        }
-        "cohort" => {
-            let (_, sub) = sub.subcommand().expect("a cohort subcommand is required");
-            let runs: Vec<PathBuf> = sub
-                .get_many::<PathBuf>("runs")
-                .expect("required")
-                .cloned()
-                .collect();
-            let out = sub.get_one::<PathBuf>("out").expect("required");
-            if runs.iter().any(|r| r == out) {
-                return Err(Error::usage(format!(
-                    "--out {} is one of the run directories",
-                    out.display()
-                )));
-            }
-            let n = crate::report::cohort_summary::write(&runs, out)?;
-            if !log.quiet && !log.json {
-                eprintln!("cohort summary: {n} runs → {}", out.display());
-            }
-            Ok(())
-        }
+        "run" => run(sub, &inv),
+        "design" => design(sub, &inv),
+        "cohort" => cohort(sub, log),
         "info" => {
             let file = sub.get_one::<PathBuf>("file").expect("required");
             let out = inspect::describe(file, sub.get_flag("json"))?;
@@ -501,120 +403,7 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 frame,
             )
         }
-        "bench" => match sub.subcommand() {
-            Some(("phantom", b)) => {
-                let presets: Vec<String> = b
-                    .get_one::<String>("presets")
-                    .expect("has default")
-                    .split(',')
-                    .map(|s| s.trim().to_string())
-                    .collect();
-                let repeat = *b.get_one::<u32>("repeat").expect("has default");
-                let table = bench::phantom::run(&presets, repeat, threads)?;
-                println!("{table}");
-                Ok(())
-            }
-            Some(("surface", b)) => bench::surface::dispatch(b, threads),
-            Some(("close", b)) => bench::close::dispatch(b, threads),
-            Some(("stress-close", b)) => {
-                let limit = *b.get_one::<f64>("time-limit").expect("has default");
-                if !(limit > 0.0 && limit.is_finite()) {
-                    return Err(Error::usage(
-                        "--time-limit must be a positive number of seconds",
-                    ));
-                }
-                let indices: Vec<usize> = match b.get_many::<usize>("only") {
-                    Some(v) => v.copied().collect(),
-                    None => (0..*b.get_one::<usize>("cases").expect("has default")).collect(),
-                };
-                let cases = indices.len();
-                // Running counts on stderr as cases finish: a run stopped
-                // part-way (a cluster's wall limit) still reports its count.
-                let tally = std::sync::Mutex::new([0usize; 4]);
-                let progress = |r: &bench::stress_close::Run| {
-                    let mut t = tally.lock().unwrap_or_else(|p| p.into_inner());
-                    t[match r.verdict.name() {
-                        "converged" => 0,
-                        "failed" => 1,
-                        "non-finite" => 2,
-                        _ => 3,
-                    }] += 1;
-                    if log.quiet {
-                        return;
-                    }
-                    eprintln!(
-                        "case {:>4} {:<10} {:>4} its {:>8.2} s | {}/{cases} done: {} converged, {} failed, {} non-finite, {} hang",
-                        r.case.index,
-                        r.verdict.name(),
-                        r.iterations,
-                        r.wall_s,
-                        t.iter().sum::<usize>(),
-                        t[0],
-                        t[1],
-                        t[2],
-                        t[3],
-                    );
-                };
-                let s = bench::stress_close::run(
-                    *b.get_one::<u64>("seed").expect("has default"),
-                    &indices,
-                    (
-                        *b.get_one::<f64>("h-min").expect("has default"),
-                        *b.get_one::<f64>("h-max").expect("has default"),
-                    ),
-                    if b.get_flag("plausible") {
-                        &bench::stress_close::PLAUSIBLE
-                    } else {
-                        &bench::stress_close::HOSTILE
-                    },
-                    limit,
-                    &progress,
-                )?;
-                if let Some(path) = b.get_one::<PathBuf>("csv") {
-                    crate::io::write_atomic(path, |w| {
-                        std::io::Write::write_all(w, s.csv().as_bytes())
-                    })?;
-                }
-                print!("{}", s.table());
-                if b.get_flag("explain") {
-                    let failed: Vec<bench::stress_close::Case> = s
-                        .results
-                        .iter()
-                        .filter(|r| matches!(r.verdict, bench::stress_close::Verdict::Failed(_)))
-                        .map(|r| r.case.clone())
-                        .collect();
-                    let ladders = bench::limit_load::explain(&failed, limit);
-                    print!(
-                        "{}",
-                        bench::limit_load::table(&ladders, s.count("converged"), s.results.len())
-                    );
-                }
-                if s.unexplained().is_empty() {
-                    Ok(())
-                } else {
-                    Err(Error::failed(
-                        "bench stress-close",
-                        format!(
-                            "{} case(s) ended without a diagnosis, with non-finite numbers or past their time limit",
-                            s.unexplained().len()
-                        ),
-                    ))
-                }
-            }
-            Some(("pipeline", b)) => bench::pipeline::dispatch(b, threads),
-            Some(("seed001", b)) => bench::seed001::dispatch(b),
-            Some(("marom", b)) => bench::marom::dispatch(b),
-            Some(("segment", b)) => {
-                let set = b.get_one::<String>("cases").expect("has default");
-                let baseline = b.get_one::<String>("baseline").map(String::as_str);
-                let csv = b.get_one::<PathBuf>("csv").map(PathBuf::as_path);
-                println!("{}", bench::segment::run(set, baseline, csv)?);
-                Ok(())
-            }
-            _ => Err(Error::usage(
-                "coapt bench: name a benchmark (phantom, segment, surface, close, seed001, marom, stress-close, pipeline)",
-            )),
-        },
+        "bench" => bench_command(sub, threads, log),
         stage => {
             let spec = stages::registry()
                 .iter()
@@ -622,6 +411,154 @@ fn dispatch(m: &ArgMatches, args: &[OsString]) -> Result<()> {
                 .expect("clap only accepts registered stages");
             run_stage(spec, sub, &inv)
         }
+    }
+}
+
+/// `--threads`, or every core.
+fn threads(m: &ArgMatches) -> Result<usize> {
+    Ok(match m.get_one::<usize>("threads") {
+        Some(0) => return Err(Error::usage("--threads must be at least 1")),
+        // Each thread is a stack and a worker: a million of them was a hang.
+        Some(&n) if n > MAX_THREADS => {
+            return Err(Error::usage(format!(
+                "--threads {n}: at most {MAX_THREADS} (this machine has {})",
+                std::thread::available_parallelism().map_or(1, |n| n.get())
+            )));
+        }
+        Some(&n) => n,
+        None => std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1),
+    })
+}
+
+/// `coapt run`: the chain, then the verdict on stdout when it reached the
+/// report.
+fn run(sub: &ArgMatches, inv: &Invocation) -> Result<()> {
+    let log = inv.log;
+    let opts = runner::RunOptions {
+        config: sub.get_one::<PathBuf>("config").expect("required").clone(),
+        out: sub.get_one::<PathBuf>("out").cloned(),
+        from: sub.get_one::<String>("from").cloned(),
+        until: sub.get_one::<String>("until").cloned(),
+        force: sub.get_flag("force"),
+    };
+    let report = runner::run(&opts, stages::registry(), inv)?;
+    if !log.quiet && !log.json && !report.stages.is_empty() {
+        eprintln!("run directory: {}", report.run_dir.display());
+    }
+    for (stage, missing) in &report.left_out {
+        let after = report
+            .stages
+            .last()
+            .map_or("nothing ran".to_string(), |(s, ..)| {
+                format!("the chain stops after {s}")
+            });
+        tracing::warn!(
+            event = "stage_left_out",
+            stage = stage.as_str(),
+            "{}: {after}: stage {stage} needs {} (give {} under [inputs])",
+            opts.config.display(),
+            missing.join(", "),
+            missing
+                .iter()
+                .map(|m| format!("`{m} = \"…\"`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    // The run's answer, when it reached the report: the same words
+    // as report.json, on stdout like `design`'s table.
+    if report.stages.iter().any(|(s, ..)| s == "report") {
+        let doc = crate::io::report_json::Report::read(&report.run_dir.join("report.json"))?;
+        print!(
+            "{}",
+            crate::report::terminal::summary(&doc, &report.run_dir.join("report.html"))
+        );
+    }
+    Ok(())
+}
+
+/// `coapt design`: the size sweep, its table on stdout.
+fn design(sub: &ArgMatches, inv: &Invocation) -> Result<()> {
+    let log = inv.log;
+    let sizes = match sub.get_one::<String>("sizes") {
+        Some(t) => Some(
+            design::settings::parse_sizes(t)
+                .map_err(|e| Error::usage(format!("--sizes {t}: {e}")))?,
+        ),
+        None => None,
+    };
+    let opts = design::Options {
+        config: sub.get_one::<PathBuf>("config").expect("required").clone(),
+        out: sub.get_one::<PathBuf>("out").cloned(),
+        sizes,
+        force: sub.get_flag("force"),
+    };
+    let summary = design::run(&opts, stages::registry(), inv)?;
+    print!("{}", design::table(&summary));
+    if !log.quiet && !log.json {
+        eprintln!(
+            "design report: {}",
+            summary.design_dir.join("report.html").display()
+        );
+    }
+    Ok(())
+}
+
+/// `coapt cohort summary`: one CSV row per run directory.
+fn cohort(sub: &ArgMatches, log: LogMode) -> Result<()> {
+    let (_, sub) = sub.subcommand().expect("a cohort subcommand is required");
+    let runs: Vec<PathBuf> = sub
+        .get_many::<PathBuf>("runs")
+        .expect("required")
+        .cloned()
+        .collect();
+    let out = sub.get_one::<PathBuf>("out").expect("required");
+    if runs.iter().any(|r| r == out) {
+        return Err(Error::usage(format!(
+            "--out {} is one of the run directories",
+            out.display()
+        )));
+    }
+    let n = crate::report::cohort_summary::write(&runs, out)?;
+    if !log.quiet && !log.json {
+        eprintln!("cohort summary: {n} runs → {}", out.display());
+    }
+    Ok(())
+}
+
+/// `coapt bench …`: each benchmark reads its own options.
+fn bench_command(sub: &ArgMatches, threads: usize, log: LogMode) -> Result<()> {
+    match sub.subcommand() {
+        Some(("phantom", b)) => {
+            let presets: Vec<String> = b
+                .get_one::<String>("presets")
+                .expect("has default")
+                .split(',')
+                .map(|s| s.trim().to_string())
+                .collect();
+            let repeat = *b.get_one::<u32>("repeat").expect("has default");
+            let table = bench::phantom::run(&presets, repeat, threads)?;
+            println!("{table}");
+            Ok(())
+        }
+        Some(("surface", b)) => bench::surface::dispatch(b, threads),
+        Some(("close", b)) => bench::close::dispatch(b, threads),
+        Some(("stress-close", b)) => bench::stress_close::dispatch(b, log.quiet),
+        Some(("pipeline", b)) => bench::pipeline::dispatch(b, threads),
+        Some(("seed001", b)) => bench::seed001::dispatch(b),
+        Some(("marom", b)) => bench::marom::dispatch(b),
+        Some(("segment", b)) => {
+            let set = b.get_one::<String>("cases").expect("has default");
+            let baseline = b.get_one::<String>("baseline").map(String::as_str);
+            let csv = b.get_one::<PathBuf>("csv").map(PathBuf::as_path);
+            println!("{}", bench::segment::run(set, baseline, csv)?);
+            Ok(())
+        }
+        _ => Err(Error::usage(
+            "coapt bench: name a benchmark (phantom, segment, surface, close, seed001, marom, stress-close, pipeline)",
+        )),
     }
 }
 

@@ -11,6 +11,7 @@
 //! NaN, no hang, and a reason for every failure.
 
 use std::collections::BTreeMap;
+use std::path::PathBuf;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -385,6 +386,93 @@ pub fn run(
         })
         .collect();
     Ok(Summary { results })
+}
+
+/// `coapt bench stress-close`: the cases, a running tally on stderr (unless
+/// `quiet`), the table on stdout; exit 1 when a case ends without a
+/// diagnosis.
+pub fn dispatch(b: &clap::ArgMatches, quiet: bool) -> Result<()> {
+    let limit = *b.get_one::<f64>("time-limit").expect("has default");
+    if !(limit > 0.0 && limit.is_finite()) {
+        return Err(Error::usage(
+            "--time-limit must be a positive number of seconds",
+        ));
+    }
+    let indices: Vec<usize> = match b.get_many::<usize>("only") {
+        Some(v) => v.copied().collect(),
+        None => (0..*b.get_one::<usize>("cases").expect("has default")).collect(),
+    };
+    let cases = indices.len();
+    // Running counts on stderr as cases finish: a run stopped
+    // part-way (a cluster's wall limit) still reports its count.
+    let tally = std::sync::Mutex::new([0usize; 4]);
+    let progress = |r: &Run| {
+        let mut t = tally.lock().unwrap_or_else(|p| p.into_inner());
+        t[match r.verdict.name() {
+            "converged" => 0,
+            "failed" => 1,
+            "non-finite" => 2,
+            _ => 3,
+        }] += 1;
+        if quiet {
+            return;
+        }
+        eprintln!(
+            "case {:>4} {:<10} {:>4} its {:>8.2} s | {}/{cases} done: {} converged, {} failed, {} non-finite, {} hang",
+            r.case.index,
+            r.verdict.name(),
+            r.iterations,
+            r.wall_s,
+            t.iter().sum::<usize>(),
+            t[0],
+            t[1],
+            t[2],
+            t[3],
+        );
+    };
+    let s = run(
+        *b.get_one::<u64>("seed").expect("has default"),
+        &indices,
+        (
+            *b.get_one::<f64>("h-min").expect("has default"),
+            *b.get_one::<f64>("h-max").expect("has default"),
+        ),
+        if b.get_flag("plausible") {
+            &PLAUSIBLE
+        } else {
+            &HOSTILE
+        },
+        limit,
+        &progress,
+    )?;
+    if let Some(path) = b.get_one::<PathBuf>("csv") {
+        crate::io::write_atomic(path, |w| std::io::Write::write_all(w, s.csv().as_bytes()))?;
+    }
+    print!("{}", s.table());
+    if b.get_flag("explain") {
+        let failed: Vec<Case> = s
+            .results
+            .iter()
+            .filter(|r| matches!(r.verdict, Verdict::Failed(_)))
+            .map(|r| r.case.clone())
+            .collect();
+        let ladders = super::limit_load::explain(&failed, limit);
+        print!(
+            "{}",
+            super::limit_load::table(&ladders, s.count("converged"), s.results.len())
+        );
+    }
+    if s.unexplained().is_empty() {
+        Ok(())
+    } else {
+        Err(Error::failed(
+            "bench stress-close",
+            format!(
+                "{} case(s) ended without a diagnosis, with non-finite numbers or past their time limit",
+                s.unexplained().len()
+            ),
+        ))
+    }
 }
 
 #[cfg(test)]
