@@ -19,25 +19,7 @@ fn opt(x: Option<f64>) -> Option<f64> {
 /// One closure of the sweep as `design.json` holds it: a size's, or the
 /// closure of Ozaki's rule.
 fn closure(run: &str, leaflet_sizes: &[Option<u32>], result: &Result<Measured, String>) -> Closure {
-    let failed = Closure {
-        run: run.into(),
-        leaflet_sizes: leaflet_sizes.to_vec(),
-        status: ClosureStatus::Failed,
-        error: None,
-        closed: None,
-        meets_all_criteria: false,
-        criteria_passed: None,
-        criteria_judged: None,
-        failures: Vec::new(),
-        criteria_shortfall_mm: None,
-        coaptation_height_mm: None,
-        central_coaptation_height_mm: None,
-        effective_height_mm: None,
-        coaptation_area_mm2: None,
-        leaflet_area_mm2: None,
-        free_edge_length_mm: None,
-        size: None,
-    };
+    let failed = Closure::unmeasured(run, leaflet_sizes);
     match result {
         Ok(m) => Closure {
             status: ClosureStatus::Measured,

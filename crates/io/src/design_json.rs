@@ -93,6 +93,32 @@ pub struct Closure {
     pub size: Option<u32>,
 }
 
+impl Closure {
+    /// A closure of `run` that measured nothing (status failed, no error
+    /// named yet): the record a result fills in.
+    pub fn unmeasured(run: &str, leaflet_sizes: &[Option<u32>]) -> Closure {
+        Closure {
+            run: run.into(),
+            leaflet_sizes: leaflet_sizes.to_vec(),
+            status: ClosureStatus::Failed,
+            error: None,
+            closed: None,
+            meets_all_criteria: false,
+            criteria_passed: None,
+            criteria_judged: None,
+            failures: Vec::new(),
+            criteria_shortfall_mm: None,
+            coaptation_height_mm: None,
+            central_coaptation_height_mm: None,
+            effective_height_mm: None,
+            coaptation_area_mm2: None,
+            leaflet_area_mm2: None,
+            free_edge_length_mm: None,
+            size: None,
+        }
+    }
+}
+
 impl Design {
     /// Read `path`, which must be a sweep of this schema.
     pub fn read(path: &Path) -> Result<Design> {
@@ -130,23 +156,9 @@ mod tests {
             schema: SCHEMA.into(),
             recommended_size: Some(21),
             sizes: vec![Closure {
-                run: size_dir(21),
-                leaflet_sizes: vec![Some(21); 3],
-                status: ClosureStatus::Failed,
                 error: Some("the closure did not converge".into()),
-                closed: None,
-                meets_all_criteria: false,
-                criteria_passed: None,
-                criteria_judged: None,
-                failures: Vec::new(),
-                criteria_shortfall_mm: None,
-                coaptation_height_mm: None,
-                central_coaptation_height_mm: None,
-                effective_height_mm: None,
-                coaptation_area_mm2: None,
-                leaflet_area_mm2: None,
-                free_edge_length_mm: None,
                 size: Some(21),
+                ..Closure::unmeasured(&size_dir(21), &[Some(21); 3])
             }],
             ..Design::default()
         };

@@ -109,23 +109,15 @@ mod tests {
     #[test]
     fn sweep_is_drawn_with_thresholds_and_gaps() {
         let size = |size: u32, v: Option<[f64; 5]>| Closure {
-            run: format!("size-{size}"),
-            leaflet_sizes: vec![Some(size); 3],
             status: ClosureStatus::Measured,
-            error: None,
             closed: Some(true),
-            meets_all_criteria: false,
-            criteria_passed: None,
-            criteria_judged: None,
-            failures: Vec::new(),
-            criteria_shortfall_mm: None,
             coaptation_height_mm: v.map(|v| v[0]),
             central_coaptation_height_mm: v.map(|v| v[1]),
             effective_height_mm: v.map(|v| v[2]),
-            coaptation_area_mm2: v.map(|v| v[4]),
             leaflet_area_mm2: v.map(|v| v[3]),
-            free_edge_length_mm: None,
+            coaptation_area_mm2: v.map(|v| v[4]),
             size: Some(size),
+            ..Closure::unmeasured(&format!("size-{size}"), &[Some(size); 3])
         };
         let d = Design {
             recommended_size: Some(21),
