@@ -197,6 +197,133 @@ fn vec3(v: &Json) -> Option<Vector3> {
     Some(Vector3::new(v[0].as_f64()?, v[1].as_f64()?, v[2].as_f64()?))
 }
 
+/// The root a leaflet is placed in: its axis, the commissures' centre, the
+/// wall, and the annulus plane the hanging placement keeps above.
+struct Root<'a> {
+    axis: Vector3,
+    centre: Point3,
+    wall: &'a Wall,
+    floor: Option<(Point3, Vector3)>,
+}
+
+/// One leaflet meshed and placed.
+struct Placed {
+    mesh: aft::FlatMesh,
+    x: Vec<Point3>,
+    fibre1: Vec<[f64; 3]>,
+    fibre2: Vec<[f64; 3]>,
+    commissure: Point3,
+    /// The aortic side (`pressure_sign`).
+    sign: f64,
+    hanging: bool,
+    mesh_ms: f64,
+    /// Its entry in leaflets.json.
+    record: Json,
+}
+
+/// Leaflet `k` cut as `t`, meshed at `lp.h_mm` and placed on the suture
+/// path through `sewn_on`: extruded towards the axis, or hung; nodes a
+/// little outside the wall pulled back in, far outside refused.
+fn place_one(
+    k: usize,
+    t: &Template,
+    sewn_on: Vec<Point3>,
+    lp: &LeafletParams,
+    root: &Root,
+) -> Result<Placed> {
+    let (axis, centre) = (root.axis, root.centre);
+    let h = lp.h_mm;
+    let outline = t.outline();
+    let t0 = std::time::Instant::now();
+    let m = aft::mesh(&outline, h)
+        .map_err(|e| Error::failed("leaflets", format!("leaflet {}: {e}", k + 1)))?;
+    let mesh_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let gathering = match (lp.gathering, t) {
+        (place::Gathering::Ozaki, Template::Arc(_) | Template::Ozaki(_)) => place::Gathering::Ozaki,
+        _ => place::Gathering::Uniform,
+    };
+    let path = Path3::sewn(sewn_on, outline.length(Edge::Sutured), gathering);
+    let hanging = lp.placement == Placement::Hanging && !matches!(t, Template::Seed001(_));
+    // The aortic side is judged on the leaflet extruded towards the
+    // axis, where it is the outer one whatever the template's winding
+    // (the closure's own rule); a hanging leaflet turns it inwards.
+    let (s_e, w_e) = place::column_coords(t, &m);
+    let omega = match t {
+        Template::Seed001(s) => s.omega,
+        _ => lp.omega_rad,
+    };
+    let (x_e, om_e) = place::place_radial(&s_e, &w_e, &path, &axis, &centre, omega, 0.5);
+    let sign = pressure_sign(&x_e, &m.tris, &centre, &axis);
+    let (mut x, om, hang_record) = if hanging {
+        let c = place::columns(&m);
+        let v = hang::vee(
+            path.at(0.0),
+            path.at(1.0),
+            outline.length(Edge::Free),
+            &axis,
+            &centre,
+            lp.clearance_mm,
+        );
+        let (x, excess) = hang::place(&c.s, &c.lam, &c.len, &path, &v, &axis, root.floor);
+        (
+            x,
+            None,
+            Some(json!({"free_edge": v.info, "column_excess_mm": excess})),
+        )
+    } else {
+        (x_e, Some(om_e), None)
+    };
+    // Every node off the attachment edge must be inside the lumen. On a
+    // real, slightly rough wall a few land just outside: they go back
+    // radially to just inside the wall; far outside, the template does
+    // not fit this root.
+    let pulled = pull_inside(&mut x, &m.boundary, root.wall);
+    if pulled.max_mm > FAR_OUTSIDE_MM {
+        return Err(Error::failed(
+            "leaflets",
+            format!(
+                "leaflet {}: {} nodes lie outside the wall, up to {:.2} mm (more than {FAR_OUTSIDE_MM} mm): the template does not fit this root",
+                k + 1,
+                pulled.count,
+                pulled.max_mm
+            ),
+        ));
+    }
+    let (fibre1, fibre2) = place::fibres(&m, &x, lp.fiber_angle_rad);
+    let stats = m.stats(h);
+    let att = outline.length(Edge::Sutured);
+    let record = json!({
+        "leaflet": k + 1,
+        "template": t.name(),
+        "nodes": stats.nodes,
+        "triangles": stats.triangles,
+        "quality": stats,
+        "attachment_mm": att,
+        "free_edge_mm": outline.length(Edge::Free),
+        "path_mm": path.length(),
+        "attachment_vs_path": (att - path.length()) / path.length(),
+        "gathering": path.gathering(),
+        "omega_used_deg": om.map(f64::to_degrees),
+        "hanging": hang_record,
+        "outside_wall": {
+            "nodes_moved_inside": pulled.count,
+            "max_mm": pulled.max_mm,
+            "mean_mm": pulled.mean_mm,
+        },
+    });
+    Ok(Placed {
+        mesh: m,
+        x,
+        fibre1,
+        fibre2,
+        commissure: path.at(0.0),
+        sign,
+        hanging,
+        mesh_ms,
+        record,
+    })
+}
+
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let lp = LeafletParams::try_from(params)?;
     let valve_path = io.input("valve").expect("required");
@@ -246,7 +373,6 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             )));
         }
     }
-    let theta = lp.fiber_angle_rad;
     let mut out = TriMesh::new(Vec::new(), Vec::new());
     let (mut uv, mut bnd, mut lf, mut f1, mut f2) = (vec![], vec![], vec![], vec![], vec![]);
     let mut per = Vec::new();
@@ -256,105 +382,35 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let mut signs = Vec::new();
     let (mut all_hanging, mut any_hanging) = (true, false);
     let floor = annulus_plane(&pd, &axis);
-    for k in 0..3 {
-        let t: &Template = &templates[k];
-        let outline = t.outline();
-        let t0 = std::time::Instant::now();
-        let m = aft::mesh(&outline, h)
-            .map_err(|e| Error::failed("leaflets", format!("leaflet {}: {e}", k + 1)))?;
-        let mesh_ms = t0.elapsed().as_secs_f64() * 1e3;
-        mesh_ms_all.push(mesh_ms);
-        let gathering = match (lp.gathering, t) {
-            (place::Gathering::Ozaki, Template::Arc(_) | Template::Ozaki(_)) => {
-                place::Gathering::Ozaki
-            }
-            _ => place::Gathering::Uniform,
-        };
-        let path = Path3::sewn(
-            pd.lines[k].iter().map(|&i| pd.points[i as usize]).collect(),
-            outline.length(Edge::Sutured),
-            gathering,
-        );
-        commissures.push(path.at(0.0));
-        let hanging = lp.placement == Placement::Hanging && !matches!(t, Template::Seed001(_));
-        all_hanging &= hanging;
-        any_hanging |= hanging;
-        // The aortic side is judged on the leaflet extruded towards the
-        // axis, where it is the outer one whatever the template's winding
-        // (the closure's own rule); a hanging leaflet turns it inwards.
-        let (s_e, w_e) = place::column_coords(t, &m);
-        let omega = match t {
-            Template::Seed001(s) => s.omega,
-            _ => lp.omega_rad,
-        };
-        let (x_e, om_e) = place::place_radial(&s_e, &w_e, &path, &axis, &centre, omega, 0.5);
-        signs.push(pressure_sign(&x_e, &m.tris, &centre, &axis));
-        let (mut x, om, hang_record) = if hanging {
-            let c = place::columns(&m);
-            let v = hang::vee(
-                path.at(0.0),
-                path.at(1.0),
-                outline.length(Edge::Free),
-                &axis,
-                &centre,
-                lp.clearance_mm,
-            );
-            let (x, excess) = hang::place(&c.s, &c.lam, &c.len, &path, &v, &axis, floor);
-            (
-                x,
-                None,
-                Some(json!({"free_edge": v.info, "column_excess_mm": excess})),
-            )
-        } else {
-            (x_e, Some(om_e), None)
-        };
-        // Every node off the attachment edge must be inside the lumen. On a
-        // real, slightly rough wall a few land just outside: they go back
-        // radially to just inside the wall; far outside, the template does
-        // not fit this root.
-        let pulled = pull_inside(&mut x, &m.boundary, &wall);
-        if pulled.max_mm > FAR_OUTSIDE_MM {
-            return Err(Error::failed(
-                "leaflets",
-                format!(
-                    "leaflet {}: {} nodes lie outside the wall, up to {:.2} mm (more than {FAR_OUTSIDE_MM} mm): the template does not fit this root",
-                    k + 1,
-                    pulled.count,
-                    pulled.max_mm
-                ),
-            ));
-        }
-        let (a1, a2) = place::fibres(&m, &x, theta);
-        let stats = m.stats(h);
-        let base = out.vertices.len() as u32;
-        out.vertices.extend_from_slice(&x);
-        out.triangles
-            .extend(m.tris.iter().map(|t| t.map(|i| i + base)));
-        uv.extend(m.nodes.iter().copied());
-        bnd.extend(m.boundary.iter().copied());
-        lf.extend(std::iter::repeat_n(k as i32 + 1, m.tris.len()));
-        f1.extend(a1);
-        f2.extend(a2);
-        let att = outline.length(Edge::Sutured);
-        per.push(json!({
-            "leaflet": k + 1,
-            "template": t.name(),
-            "nodes": stats.nodes,
-            "triangles": stats.triangles,
-            "quality": stats,
-            "attachment_mm": att,
-            "free_edge_mm": outline.length(Edge::Free),
-            "path_mm": path.length(),
-            "attachment_vs_path": (att - path.length()) / path.length(),
-            "gathering": path.gathering(),
-            "omega_used_deg": om.map(f64::to_degrees),
-            "hanging": hang_record,
-            "outside_wall": {
-                "nodes_moved_inside": pulled.count,
-                "max_mm": pulled.max_mm,
-                "mean_mm": pulled.mean_mm,
+    for (k, t) in templates.iter().enumerate() {
+        let sewn_on: Vec<Point3> = pd.lines[k].iter().map(|&i| pd.points[i as usize]).collect();
+        let p = place_one(
+            k,
+            t,
+            sewn_on,
+            &lp,
+            &Root {
+                axis,
+                centre,
+                wall: &wall,
+                floor,
             },
-        }));
+        )?;
+        mesh_ms_all.push(p.mesh_ms);
+        commissures.push(p.commissure);
+        signs.push(p.sign);
+        all_hanging &= p.hanging;
+        any_hanging |= p.hanging;
+        let base = out.vertices.len() as u32;
+        out.vertices.extend_from_slice(&p.x);
+        out.triangles
+            .extend(p.mesh.tris.iter().map(|t| t.map(|i| i + base)));
+        uv.extend(p.mesh.nodes.iter().copied());
+        bnd.extend(p.mesh.boundary.iter().copied());
+        lf.extend(std::iter::repeat_n(k as i32 + 1, p.mesh.tris.len()));
+        f1.extend(p.fibre1);
+        f2.extend(p.fibre2);
+        per.push(p.record);
         progress.set((k + 1) as f64 / 3.5);
     }
     // Free edges too short to meet cannot close the valve unstretched,
@@ -413,7 +469,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         .map_err(|e| Error::failed("leaflets", e.to_string()))?;
     let summary = json!({
         "h_mm": h,
-        "fiber_angle_deg": theta.to_degrees(),
+        "fiber_angle_deg": lp.fiber_angle_rad.to_degrees(),
         "leaflets": per,
         "crossings": crossings,
     });
