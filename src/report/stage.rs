@@ -455,6 +455,72 @@ fn input_record(
     Ok(inputs)
 }
 
+/// The contact margin (mm) and, when it had to be assumed, a note saying
+/// so: `given`, else seed 001 §3.1's 0.01 R either side of a contact plane
+/// for a one-leaflet closure (`one_leaflet`), else 1.8 thicknesses.
+fn contact_margin(
+    given: Option<f64>,
+    one_leaflet: bool,
+    thickness: Option<f64>,
+    valve: &ClosedValve,
+) -> (f64, Option<String>) {
+    match (given, one_leaflet, thickness) {
+        (Some(m), _, _) => (m, None),
+        // Seed 001 §3.1: the zone is where the signed distance to a
+        // contact plane is at most 0.01 R (R: the commissures' radius).
+        (None, true, _) => {
+            let f = &valve.frame;
+            let r = f
+                .commissures_mm
+                .iter()
+                .map(|c| {
+                    let d = c - f.origin_mm;
+                    (d - f.axis * d.dot(&f.axis)).norm()
+                })
+                .sum::<f64>()
+                / 3.0;
+            (0.02 * r, None)
+        }
+        (None, false, Some(t)) => (MARGIN_PER_THICKNESS * t, None),
+        (None, false, None) => (
+            MARGIN_PER_THICKNESS * 0.5,
+            Some("No closure.json with the leaflet thickness: the contact margin assumes 0.5 mm leaflets (0.9 mm); pass --margin to set it.".to_string()),
+        ),
+    }
+}
+
+/// The page's figures in their order: the valve seen two ways, the
+/// coaptation maps, the CT check (when the CT is at hand), the solver's
+/// convergence (with closure.json) and the size sweep's charts (with a
+/// design).
+#[allow(clippy::too_many_arguments)]
+fn figures_of(
+    io: &StageIo,
+    run_dir: Option<&Path>,
+    v: &ClosedValve,
+    node_mask: &[u8],
+    detection: Option<&Json>,
+    log: Option<&Json>,
+    design: Option<&Design>,
+    rp: &ReportParams,
+) -> Result<Vec<Figure>> {
+    let mut figs: Vec<Figure> = figures::valve_views::valve_views(v, node_mask);
+    figs.extend(figures::coaptation_map::coaptation_maps(v, node_mask));
+    if let Some(f) = ct_figure(io, run_dir, detection, v)? {
+        figs.push(f);
+    }
+    if let Some(f) = log.and_then(convergence_figure) {
+        figs.push(f);
+    }
+    if let Some(d) = design {
+        figs.extend(figures::sizing::sizing(
+            d,
+            (rp.min_central_coaptation_mm, rp.min_effective_height_mm),
+        ));
+    }
+    Ok(figs)
+}
+
 fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let rp = ReportParams::try_from(params)?;
     let t0 = Instant::now();
@@ -484,29 +550,8 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         .and_then(|l| l["config"]["thickness_mm"].as_f64())
         .filter(|t| *t > 0.0);
     let completed = symmetry::complete(&valve);
-    let (margin, margin_note) = match (rp.margin_mm, &completed, thickness) {
-        (Some(m), _, _) => (m, None),
-        // Seed 001 §3.1: the zone is where the signed distance to a
-        // contact plane is at most 0.01 R (R: the commissures' radius).
-        (None, Some(_), _) => {
-            let f = &valve.frame;
-            let r = f
-                .commissures_mm
-                .iter()
-                .map(|c| {
-                    let d = c - f.origin_mm;
-                    (d - f.axis * d.dot(&f.axis)).norm()
-                })
-                .sum::<f64>()
-                / 3.0;
-            (0.02 * r, None)
-        }
-        (None, None, Some(t)) => (MARGIN_PER_THICKNESS * t, None),
-        (None, None, None) => (
-            MARGIN_PER_THICKNESS * 0.5,
-            Some("No closure.json with the leaflet thickness: the contact margin assumes 0.5 mm leaflets (0.9 mm); pass --margin to set it.".to_string()),
-        ),
-    };
+    let (margin, margin_note) =
+        contact_margin(rp.margin_mm, completed.is_some(), thickness, &valve);
     progress.set(0.1);
     let (v, planes) = match &completed {
         Some((w, p)) => (w, p.as_slice()),
@@ -582,12 +627,6 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     finds.extend(reach::findings(&reach, m.closed));
     progress.set(0.5);
 
-    // Figures.
-    let mut figs: Vec<Figure> = figures::valve_views::valve_views(v, &coapt.node_mask);
-    figs.extend(figures::coaptation_map::coaptation_maps(
-        v,
-        &coapt.node_mask,
-    ));
     // Only as wired by the runner or given: a landmarks.json left in the
     // run directory by an earlier run without landmarks does not make
     // given points "detected".
@@ -595,18 +634,16 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         Some(p) => Some(read_json(p)?),
         None => None,
     };
-    if let Some(f) = ct_figure(io, run_dir, detection.as_ref(), v)? {
-        figs.push(f);
-    }
-    if let Some(f) = log.as_ref().and_then(convergence_figure) {
-        figs.push(f);
-    }
-    if let Some(d) = &design {
-        figs.extend(figures::sizing::sizing(
-            d,
-            (rp.min_central_coaptation_mm, rp.min_effective_height_mm),
-        ));
-    }
+    let figs = figures_of(
+        io,
+        run_dir,
+        v,
+        &coapt.node_mask,
+        detection.as_ref(),
+        log.as_ref(),
+        design.as_ref(),
+        &rp,
+    )?;
     let wall = match optional_input(io, run_dir, "surface") {
         Some(p) => Some(vtp::read_mesh(&p)?),
         None => None,
