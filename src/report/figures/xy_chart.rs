@@ -434,6 +434,29 @@ mod tests {
         assert_eq!(f.width, 200);
     }
 
+    /// A sweep's few whole sizes are its ticks; many sizes, or a
+    /// continuous axis, tick on round numbers.
+    #[test]
+    fn a_sweep_ticks_at_its_own_sizes() {
+        let mut c = XyChart::new("s", "Sweep", "size", "mm");
+        c.x_integer = true;
+        let runs = |xs: &[f64]| vec![vec![xs.iter().map(|&x| (x, 1.0)).collect::<Vec<_>>()]];
+        assert_eq!(
+            x_ticks(&c, &runs(&[13.0, 15.0, 19.0]), (12.0, 20.0)),
+            [13.0, 15.0, 19.0]
+        );
+        let many: Vec<f64> = (0..20).map(f64::from).collect();
+        assert_eq!(
+            x_ticks(&c, &runs(&many), (-0.5, 19.5)),
+            [0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0]
+        );
+        c.x_integer = false;
+        assert_eq!(
+            x_ticks(&c, &runs(&[13.0, 15.0]), (12.5, 15.5)),
+            [12.5, 13.0, 13.5, 14.0, 14.5, 15.0, 15.5]
+        );
+    }
+
     #[test]
     fn log_labels_read_as_values() {
         assert_eq!(log_label(-2.0), "0.01");
