@@ -197,7 +197,6 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
     let spath = io.input("surface").expect("required");
     let wall = vtp::read_mesh(spath)?;
     let d = suture_distances(&leaflets, &wall);
-    let dmax = d.iter().cloned().fold(0.0, f64::max);
     let axis = match io.input("valve") {
         Some(p) => Some(axis_from_valve(p)?),
         None => None,
@@ -256,8 +255,65 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
     // triangle–triangle tests between different leaflets, by the rule of
     // leaflets.json (neighbours sewn to one post touch there: counted apart).
     let crossing = &closed.crossings;
-    // Touching another leaflet (or plane), not the wall (its own record).
-    let in_contact = |c: &[u8]| c.iter().filter(|&&m| m & !WALL_BIT != 0).count();
+    let log = closure_log(&cfg, &leaflets, &d, already_sutured, &closed, low.as_ref());
+    let text = serde_json::to_string_pretty(&log).expect("json") + "\n";
+    let low_failed = low.as_ref().filter(|l| !l.outcome.converged);
+    if !o.converged || low_failed.is_some() {
+        let (what, reason) = match low_failed {
+            Some(l) if o.converged => (
+                "the low-pressure closure (effective_height_pressure) did not converge",
+                &l.outcome.reason,
+            ),
+            _ => ("did not converge", &o.reason),
+        };
+        atomic::write_atomic(io.output("log"), |w| {
+            std::io::Write::write_all(w, text.as_bytes())
+        })?;
+        return Err(Error::failed(
+            "close",
+            format!(
+                "{what}: {reason} (history in {})",
+                io.output("log").display()
+            ),
+        ));
+    }
+    let out = closed_mesh(&mesh, &leaflets, &closed, low.as_ref());
+    let pd = out.to_polydata();
+    let mut tx = Transaction::new();
+    tx.write(io.output("closed"), |w| {
+        vtp::encode(w, &pd, &vtp::WriteOptions::default())
+    })?;
+    tx.write_bytes(io.output("log"), text.as_bytes())?;
+    tx.commit()?;
+    progress.set(1.0);
+    Ok(json!({
+        "converged": true,
+        "iterations": o.iterations,
+        "residual_n": o.residual_n,
+        "nodes_in_contact": in_contact(&closed.contact),
+        "intersecting_triangle_pairs": crossing.len(),
+        "solve_s": closed.solve_s,
+    }))
+}
+
+/// Nodes touching another leaflet (or a plane), not the wall (the wall
+/// contact has its own record).
+fn in_contact(contact: &[u8]) -> usize {
+    contact.iter().filter(|&&m| m & !WALL_BIT != 0).count()
+}
+
+/// closure.json: the config, the mesh, the suturing, the solver's account
+/// (and the low-pressure closure's), contacts, crossings and timings.
+fn closure_log(
+    cfg: &config::CloseConfig,
+    leaflets: &Leaflets,
+    d: &[f64],
+    already_sutured: bool,
+    closed: &closure::Closed,
+    low: Option<&closure::Closed>,
+) -> Json {
+    let o = &closed.outcome;
+    let dmax = d.iter().cloned().fold(0.0, f64::max);
     let mut log = json!({
         "frame": "LPS",
         "config": cfg.to_json(),
@@ -282,10 +338,10 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
             "history": o.history,
         },
         "nodes_in_contact": in_contact(&closed.contact),
-        "intersecting_triangle_pairs": crossing.len(),
+        "intersecting_triangle_pairs": closed.crossings.len(),
         "sewn_contacts": closed.sewn_contacts.len(),
         "crossing_rule": crossings::RULE,
-        "low_pressure": low.as_ref().map(|l| json!({
+        "low_pressure": low.map(|l| json!({
             "pressure_mmhg": cfg.effective_height_pressure.map(|p| p / crate::units::MMHG_IN_MPA),
             "converged": l.outcome.converged,
             "stopped_by": l.outcome.stopped_by,
@@ -295,7 +351,7 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
             "intersecting_triangle_pairs": l.crossings.len(),
             "history": l.outcome.history,
         })),
-        "timing_s": {"setup": closed.setup_s, "suture": closed.suturing.as_ref().map(|s| s.seconds), "solve": closed.solve_s, "low_pressure_solve": low.as_ref().map(|l| l.solve_s)},
+        "timing_s": {"setup": closed.setup_s, "suture": closed.suturing.as_ref().map(|s| s.seconds), "solve": closed.solve_s, "low_pressure_solve": low.map(|l| l.solve_s)},
     });
     if let (Some(w), Some(o)) = (&closed.wall_contact, log.as_object_mut()) {
         o.insert(
@@ -303,27 +359,24 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
             serde_json::to_value(w).expect("json"),
         );
     }
-    let text = serde_json::to_string_pretty(&log).expect("json") + "\n";
-    let low_failed = low.as_ref().filter(|l| !l.outcome.converged);
-    if !o.converged || low_failed.is_some() {
-        let (what, reason) = match low_failed {
-            Some(l) if o.converged => (
-                "the low-pressure closure (effective_height_pressure) did not converge",
-                &l.outcome.reason,
-            ),
-            _ => ("did not converge", &o.reason),
-        };
-        atomic::write_atomic(io.output("log"), |w| {
-            std::io::Write::write_all(w, text.as_bytes())
-        })?;
-        return Err(Error::failed(
-            "close",
-            format!(
-                "{what}: {reason} (history in {})",
-                io.output("log").display()
-            ),
-        ));
+    if let (Some(w), Some(o)) = (&closed.wall_contact, log.as_object_mut()) {
+        o.insert(
+            "wall_contact".into(),
+            serde_json::to_value(w).expect("json"),
+        );
     }
+    log
+}
+
+/// The closed leaflets: the placed mesh moved to the closed positions, with
+/// the displacement, the sutured and low-pressure positions, the contact
+/// bits and the stretches.
+fn closed_mesh(
+    mesh: &TriMesh,
+    leaflets: &Leaflets,
+    closed: &closure::Closed,
+    low: Option<&closure::Closed>,
+) -> TriMesh {
     let mut out = mesh.clone();
     out.vertices = closed
         .x
@@ -343,7 +396,7 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         out.point_data
             .insert(DataArray::vectors_f64("sutured_position", &p));
     }
-    if let Some(l) = &low {
+    if let Some(l) = low {
         let p: Vec<[f64; 3]> = l.x.iter().map(|q| [q.x, q.y, q.z]).collect();
         out.point_data
             .insert(DataArray::vectors_f64("low_pressure_position", &p));
@@ -362,22 +415,8 @@ fn run(io: &StageIo, _params: &Params, progress: &Progress) -> Result<Json> {
         closed.max_stretch.clone(),
     ));
     out.frame = Frame::Lps;
-    let pd = out.to_polydata();
-    let mut tx = Transaction::new();
-    tx.write(io.output("closed"), |w| {
-        vtp::encode(w, &pd, &vtp::WriteOptions::default())
-    })?;
-    tx.write_bytes(io.output("log"), text.as_bytes())?;
-    tx.commit()?;
-    progress.set(1.0);
-    Ok(json!({
-        "converged": true,
-        "iterations": o.iterations,
-        "residual_n": o.residual_n,
-        "nodes_in_contact": in_contact(&closed.contact),
-        "intersecting_triangle_pairs": crossing.len(),
-        "solve_s": closed.solve_s,
-    }))
+    out.frame = Frame::Lps;
+    out
 }
 
 #[cfg(test)]
