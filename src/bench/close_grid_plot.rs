@@ -110,8 +110,9 @@ pub fn png(g: &Grid, title: &str) -> Vec<u8> {
     encode(&canvas.finish())
 }
 
-/// Ticks of a log axis over [lo, hi] (values, not logarithms): each decade,
-/// or 1, 2 and 5 of each when the range spans less than three.
+/// Ticks of a log axis over [lo, hi] (values, not logarithms): 1, 2 and 5
+/// of each decade when the range spans less than three decades; else
+/// whole decades, every one, second or fifth so that about a dozen fit.
 fn log_ticks(lo: f64, hi: f64) -> Vec<(f64, String)> {
     let (a, b) = (lo.log10(), hi.log10());
     let mut out: Vec<f64> = ticks(a, b, 12, 1.0)
