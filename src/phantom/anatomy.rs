@@ -521,14 +521,7 @@ impl Anatomy {
                 z_lo: a.z_join - 1.0e4,
                 z_hi: a.z_join,
             },
-            None => ZCylinder {
-                cx: da_xy[0],
-                cy: da_xy[1],
-                rx: d.da_radius,
-                ry: d.da_radius,
-                z_lo: f64::NEG_INFINITY,
-                z_hi: f64::INFINITY,
-            },
+            None => ZCylinder::endless(da_xy[0], da_xy[1], d.da_radius, d.da_radius),
         };
         // Vertebral body posterior-right of the DA, clear of it.
         const SPINE_FROM_DA: [f64; 2] = [-16.0, 28.0];

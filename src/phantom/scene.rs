@@ -417,14 +417,7 @@ fn body_and_lungs(an: &Anatomy) -> Vec<Layer> {
         ("body_fat", 0.0, FAT_HU),
         ("body_soft", SUBCUTANEOUS_FAT_MM, SOFT_TISSUE_HU),
     ] {
-        let c = ZCylinder {
-            cx: bx,
-            cy: by,
-            rx: BODY_SEMI[0] - shrink,
-            ry: BODY_SEMI[1] - shrink,
-            z_lo: f64::NEG_INFINITY,
-            z_hi: f64::INFINITY,
-        };
+        let c = ZCylinder::endless(bx, by, BODY_SEMI[0] - shrink, BODY_SEMI[1] - shrink);
         layers.push(cylinder_layer(name, c, hu));
     }
 
@@ -451,14 +444,12 @@ fn body_and_lungs(an: &Anatomy) -> Vec<Layer> {
         const PARASPINAL_RADIUS_MM: f64 = 32.0;
         // Centred a little behind the vertebral body (paraspinal muscles).
         const PARASPINAL_BEHIND_BODY_MM: f64 = 10.0;
-        let c = ZCylinder {
-            cx: an.spine_centre[0],
-            cy: an.spine_centre[1] + PARASPINAL_BEHIND_BODY_MM,
-            rx: PARASPINAL_RADIUS_MM,
-            ry: PARASPINAL_RADIUS_MM,
-            z_lo: f64::NEG_INFINITY,
-            z_hi: f64::INFINITY,
-        };
+        let c = ZCylinder::endless(
+            an.spine_centre[0],
+            an.spine_centre[1] + PARASPINAL_BEHIND_BODY_MM,
+            PARASPINAL_RADIUS_MM,
+            PARASPINAL_RADIUS_MM,
+        );
         layers.push(cylinder_layer("paraspinal", c, SOFT_TISSUE_HU));
     }
     layers
@@ -473,26 +464,12 @@ fn bones(an: &Anatomy, z_range: (f64, f64)) -> Vec<Layer> {
         ("sternum_cortex", 0.0, an.cortical_hu),
         ("sternum_marrow", CORTEX_MM, an.cancellous_hu),
     ] {
-        let c = ZCylinder {
-            cx: sx,
-            cy: sy,
-            rx: STERNUM_SEMI[0] - shrink,
-            ry: STERNUM_SEMI[1] - shrink,
-            z_lo: f64::NEG_INFINITY,
-            z_hi: f64::INFINITY,
-        };
+        let c = ZCylinder::endless(sx, sy, STERNUM_SEMI[0] - shrink, STERNUM_SEMI[1] - shrink);
         layers.push(cylinder_layer(name, c, hu));
     }
     let [vx, vy] = an.spine_centre;
     let rv = an.vertebra_radius_mm;
-    let column = ZCylinder {
-        cx: vx,
-        cy: vy,
-        rx: rv,
-        ry: rv,
-        z_lo: f64::NEG_INFINITY,
-        z_hi: f64::INFINITY,
-    };
+    let column = ZCylinder::endless(vx, vy, rv, rv);
     layers.push(cylinder_layer("discs", column, DISC_HU));
     let period = an.vertebra_period_mm;
     let first = ((z_range.0 - an.vertebra_phase_mm) / period).floor() as i64 - 1;
@@ -526,14 +503,7 @@ fn bones(an: &Anatomy, z_range: (f64, f64)) -> Vec<Layer> {
         ),
         ("spinal_canal", CANAL_RADIUS_MM, CANAL_HU),
     ] {
-        let c = ZCylinder {
-            cx: vx,
-            cy: canal_y,
-            rx: r,
-            ry: r,
-            z_lo: f64::NEG_INFINITY,
-            z_hi: f64::INFINITY,
-        };
+        let c = ZCylinder::endless(vx, canal_y, r, r);
         layers.push(cylinder_layer(name, c, hu));
     }
     layers

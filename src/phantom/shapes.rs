@@ -205,6 +205,21 @@ pub struct ZCylinder {
     pub z_hi: f64,
 }
 
+impl ZCylinder {
+    /// An elliptic cylinder along z with no ends (the body, a bone's
+    /// column, the descending aorta through the whole scan).
+    pub fn endless(cx: f64, cy: f64, rx: f64, ry: f64) -> ZCylinder {
+        ZCylinder {
+            cx,
+            cy,
+            rx,
+            ry,
+            z_lo: f64::NEG_INFINITY,
+            z_hi: f64::INFINITY,
+        }
+    }
+}
+
 impl Sdf for ZCylinder {
     fn eval(&self, p: &Point3) -> (f64, Vector3) {
         let (x, y) = (p.x - self.cx, p.y - self.cy);
