@@ -13,7 +13,7 @@ pub fn registry() -> &'static [&'static StageSpec] {
         &crate::landmarks::stage::SPEC,
         &crate::valve::stage::SPEC,
         &crate::leaflet::stage::SPEC,
-        &crate::mech::stage::SPEC,
+        &crate::close::SPEC,
         &crate::report::stage::SPEC,
     ];
     STAGES

@@ -1,47 +1,81 @@
-//! Which module may import which (the architecture issue).
+//! Which crate and module may import which (the architecture issue).
 //!
-//! - The layers below the stages are crates (`crates/`): `base` (error,
+//! - Every layer below the binary is a crate (`crates/`): `base` (error,
 //!   units, random numbers), `geom`, `io`, `template`, `mech` (the
-//!   mechanics library; the close stage is the root's `mech::stage`) and
-//!   `pipeline` (which knows no stage). The compiler keeps
-//!   them from importing anything their manifests do not name, and
-//!   [`CRATES`] says which of each other they may name.
-//! - In the root package, read from the production source (test code,
-//!   `#[cfg(test)]` items and the files they declare, may reach anywhere):
-//!   - nothing but the CLI (and `main.rs`) imports `bench`; nothing imports
-//!     `cli`; only the CLI and the benchmarks import the stage list
-//!     (`stages`), so the pipeline runs stages it does not know;
-//!   - no stage imports another stage but for the imports in [`DEBT`]
-//!     (none today). A new one fails this test, and so does one that is
-//!     gone and still listed.
+//!   mechanics library), `pipeline` (which knows no stage) and one crate
+//!   per stage (`phantom`, `segment`, `surface`, `landmarks`, `valve`,
+//!   `leaflet`, `close`, `report`). The compiler keeps each from importing
+//!   anything its manifest does not name, and [`CRATES`] says which of
+//!   each other it may name: no stage crate names another, but for the
+//!   test inputs in [`TEST_ONLY`].
+//! - In the root package (the binary's library), read from the production
+//!   source (test code, `#[cfg(test)]` items and the files they declare,
+//!   may reach anywhere): nothing but the CLI (and `main.rs`) imports
+//!   `bench`; nothing imports `cli`; only the CLI and the benchmarks import
+//!   the stage list (`stages`), so `design` and `inspect` run stages they
+//!   are handed. A new wrong-way import fails this test unless it is named
+//!   in [`DEBT`] (empty).
 //! - Test code included, nothing but the CLI and the benchmarks imports
-//!   `bench`: a stage's tests take their fixtures from the layers below.
+//!   `bench`.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The crates under `crates/` and the ones of them each may depend on.
-const CRATES: [(&str, &[&str]); 6] = [
+const CRATES: [(&str, &[&str]); 14] = [
     ("base", &[]),
     ("geom", &["base"]),
     ("io", &["base", "geom"]),
     ("template", &["base", "io"]),
     ("mech", &["base", "geom", "io"]),
     ("pipeline", &["base", "io", "template", "mech"]),
+    ("phantom", &["base", "geom", "io", "pipeline"]),
+    ("segment", &["base", "geom", "io", "pipeline"]),
+    ("surface", &["base", "geom", "io", "pipeline"]),
+    ("landmarks", &["base", "geom", "io", "pipeline"]),
+    ("valve", &["base", "geom", "io", "template", "pipeline"]),
+    ("leaflet", &["base", "geom", "io", "template", "pipeline"]),
+    ("close", &["base", "geom", "io", "mech", "pipeline"]),
+    (
+        "report",
+        &["base", "geom", "io", "template", "mech", "pipeline"],
+    ),
+];
+
+/// A stage crate's tests that take their input from an earlier stage
+/// (`[dev-dependencies]` only; the earlier stage never depends back).
+const TEST_ONLY: [(&str, &str); 2] = [
+    ("segment", "phantom"), // phantoms to segment
+    ("leaflet", "valve"),   // suture paths on an ideal cylinder
 ];
 
 /// The names under which the root package re-exports those crates
 /// (`src/lib.rs`): below everything in `src/`.
-const FROM_CRATES: [&str; 8] = [
-    "error", "rng", "units", "geom", "io", "template", "mech", "pipeline",
+const FROM_CRATES: [&str; 16] = [
+    "error",
+    "rng",
+    "units",
+    "geom",
+    "io",
+    "template",
+    "mech",
+    "pipeline",
+    "phantom",
+    "segment",
+    "surface",
+    "landmarks",
+    "valve",
+    "leaflet",
+    "close",
+    "report",
 ];
 
 /// The modules every layer may use: the crate root's error type.
 const ROOT: [&str; 2] = ["error", "lib"];
 
-/// Imports between stages and from the pipeline into stages that exist
-/// today (module → module): none. The list stays so that a circle that
-/// has to be let in for a while is named here, not hidden.
+/// Wrong-way imports between the root package's modules that exist today
+/// (module → module): none. The list stays so that a circle that has to be
+/// let in for a while is named here, not hidden.
 const DEBT: [(&str, &str); 0] = [];
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
@@ -118,18 +152,11 @@ fn production(text: &str) -> (String, Vec<String>) {
     (out, test_mods)
 }
 
-/// The top-level module a path starts with, or "mech/stage" for the close
-/// stage inside the mechanics library.
+/// The top-level module a path starts with.
 fn stage_or_module(path: &str) -> String {
-    let top: String = path
-        .chars()
+    path.chars()
         .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
-        .collect();
-    if top == "mech" && path[top.len()..].starts_with("::stage") {
-        "mech/stage".into()
-    } else {
-        top
-    }
+        .collect()
 }
 
 /// Top-level modules `code` (in the module at `path`) refers to through
@@ -173,7 +200,7 @@ fn references(code: &str, path: &[String]) -> BTreeSet<String> {
     out
 }
 
-/// module (with "x/stage" for a library's stage file) → modules it imports.
+/// module → modules it imports.
 fn graph() -> BTreeMap<String, BTreeSet<String>> {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut files = Vec::new();
@@ -207,13 +234,8 @@ fn graph() -> BTreeMap<String, BTreeSet<String>> {
         }
         let path = module_path(rel);
         let Some(top) = path.first() else { continue };
-        let name = if path.len() == 2 && path[1] == "stage" && top == "mech" {
-            "mech/stage".to_string()
-        } else {
-            top.clone()
-        };
         let refs = references(prod, &path);
-        let e = g.entry(name).or_default();
+        let e = g.entry(top.clone()).or_default();
         e.extend(refs.into_iter().filter(|r| r != top));
     }
     g
@@ -233,8 +255,8 @@ fn modules_import_only_downwards_and_the_known_circles() {
             .collect::<Vec<_>>()
             .join("\n")
     };
-    // The graph is read at all: the stages are there.
-    for m in ["mech", "mech/stage", "segment", "report"] {
+    // The graph is read at all: the root's modules are there.
+    for m in ["bench", "cli", "design", "inspect", "stages"] {
         assert!(g.contains_key(m), "{m} missing from\n{}", show());
     }
     let mut wrong = Vec::new();
@@ -257,7 +279,7 @@ fn modules_import_only_downwards_and_the_known_circles() {
                 || m == "bench"
                 || m == "stages"
             {
-                // Anything above the crates may use them (the pipeline
+                // Anything in the root may use the crates (the stages
                 // among them); the CLI, the benchmarks and the stage list
                 // sit on top.
             } else if DEBT.contains(&(m.as_str(), t.as_str())) {
@@ -297,16 +319,16 @@ fn test_code_is_left_out_and_super_paths_climb_to_the_root() {
     assert_eq!(refs, ["geom", "io"].map(String::from).into_iter().collect());
 }
 
-/// The `coapt-*` packages a manifest depends on, in any dependency table.
-fn coapt_dependencies(manifest: &str) -> BTreeSet<String> {
+/// The `coapt-*` packages a manifest depends on: in `[dev-dependencies]`
+/// if `dev`, else in the tables that build the crate itself.
+fn coapt_dependencies(manifest: &str, dev: bool) -> BTreeSet<String> {
     let mut out = BTreeSet::new();
     let mut in_deps = false;
     for line in manifest.lines() {
         let t = line.trim();
         if t.starts_with('[') {
-            in_deps = t
-                .trim_matches(|c| c == '[' || c == ']')
-                .ends_with("dependencies");
+            let table = t.trim_matches(|c| c == '[' || c == ']');
+            in_deps = table.ends_with("dependencies") && (table == "dev-dependencies") == dev;
             continue;
         }
         if in_deps {
@@ -339,12 +361,23 @@ fn crates_depend_only_on_the_layers_below() {
     for (c, allowed) in CRATES {
         let manifest =
             std::fs::read_to_string(root.join("crates").join(c).join("Cargo.toml")).unwrap();
-        for d in coapt_dependencies(&manifest) {
+        for d in coapt_dependencies(&manifest, false) {
             assert!(
                 allowed.contains(&d.as_str()),
                 "crates/{c} depends on {d}: not a layer below it"
             );
         }
+        for d in coapt_dependencies(&manifest, true) {
+            assert!(
+                allowed.contains(&d.as_str()) || TEST_ONLY.contains(&(c, d.as_str())),
+                "crates/{c}'s tests depend on {d}: neither a layer below it nor in TEST_ONLY"
+            );
+        }
+    }
+    // A test-only input never depends back on the crate whose tests take it.
+    for (c, input) in TEST_ONLY {
+        let (_, below) = CRATES.iter().find(|(n, _)| *n == input).unwrap();
+        assert!(!below.contains(&c), "{input} depends on {c}: a circle");
     }
     // The root package depends on each crate, and the workspace lists each
     // as a default member too: `cargo test --release` (the README's
@@ -363,15 +396,18 @@ fn crates_depend_only_on_the_layers_below() {
         }
     }
     assert_eq!(
-        coapt_dependencies(&manifest),
+        coapt_dependencies(&manifest, false),
         listed.into_iter().collect::<BTreeSet<_>>()
     );
-    // The parser reads a table it is shown.
+    // The parser reads the tables it is shown.
+    let shown = "[package]\nname = \"coapt-x\"\n[dependencies]\ncoapt-geom = { path = \"../geom\" }\nserde = \"1\"\n[build-dependencies]\ncoapt-base = { path = \"../base\" }\n[dev-dependencies]\ncoapt-io = { path = \"../io\" }\n";
     assert_eq!(
-        coapt_dependencies(
-            "[package]\nname = \"coapt-x\"\n[dependencies]\ncoapt-geom = { path = \"../geom\" }\nserde = \"1\"\n[dev-dependencies]\ncoapt-io = { path = \"../io\" }\n"
-        ),
-        ["geom", "io"].map(String::from).into_iter().collect()
+        coapt_dependencies(shown, false),
+        ["base", "geom"].map(String::from).into_iter().collect()
+    );
+    assert_eq!(
+        coapt_dependencies(shown, true),
+        ["io"].map(String::from).into_iter().collect()
     );
 }
 

@@ -9,7 +9,7 @@
 //! has a potential (`verify`: closed or clamped membranes) Newton uses the
 //! energy and Cholesky. `suture` sews the placed template to the wall
 //! first (seed 001 Algorithm 1). `config` reads the close stage's
-//! `close.toml` (the stage itself is the root package's `mech::stage`); a failed closure names its cause (`closure`'s balloon or
+//! `close.toml` (the stage itself is the `coapt-close` crate); a failed closure names its cause (`closure`'s balloon or
 //! collapse, else `stall`: converging, cycling, held back or rising).
 
 pub mod bending;
