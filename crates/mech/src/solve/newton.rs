@@ -136,9 +136,6 @@ pub fn newton(sys: &mut System, x: &mut Vec<V3>, opt: &NewtonOptions) -> Outcome
     newton_reusing(sys, x, opt, &mut None)
 }
 
-/// [`newton`] keeping the sparsity pattern and its symbolic factorisation
-/// in `pattern` across calls: a sequence of solves of one system (the
-/// suturing rounds) analyses the pattern once instead of once per solve.
 /// Backtracking from the full step `d` (halving to 1e-4): with an energy
 /// `e0` (symmetric tangent) the Armijo condition on it along `slope`; with
 /// `ptc`, any step that keeps ‖R‖ within three times `rn`, the shift then
@@ -221,6 +218,309 @@ fn line_search(
     (accepted, alpha)
 }
 
+/// What a Newton run carries from one iteration to the next: its shift and
+/// step cap, and what its stop rules read.
+struct Run {
+    shift: f64,
+    cap: f64,
+    rejections: usize,
+    /// The last step was cut short or refused: Newton is no longer in its
+    /// quadratic regime, and a short correction may mean round-off, not a
+    /// distant solution.
+    stalled: bool,
+    /// ‖R‖ of the last accepted iterates, newest last (nonmonotone
+    /// acceptance of non-symmetric steps).
+    recent: Vec<f64>,
+    /// ‖R‖ before the last step, when that step was a full one at the
+    /// shift's floor (for `creep` and `plateau`).
+    full_from: Option<f64>,
+    crept: usize,
+    /// ‖R‖ at the iterates joined by the current run of full steps at the
+    /// shift's floor (for `plateau`).
+    floor_run: Vec<f64>,
+    /// Accepted steps in a row cut short, by the line search or a barrier
+    /// (for `held_back`).
+    held: usize,
+}
+
+impl Run {
+    fn new(opt: &NewtonOptions) -> Run {
+        Run {
+            shift: 0.0,
+            cap: opt.max_step_mm,
+            rejections: 0,
+            stalled: false,
+            recent: Vec::with_capacity(opt.nonmonotone.max(1)),
+            full_from: None,
+            crept: 0,
+            floor_run: Vec::new(),
+            held: 0,
+        }
+    }
+
+    /// Why the run stops at residual `rn` before its next step, if it does
+    /// (the rules in the order they are asked).
+    fn stop(
+        &mut self,
+        out: &Outcome,
+        rn: f64,
+        opt: &NewtonOptions,
+        t0: Instant,
+    ) -> Option<(Stopped, String)> {
+        if out.done(rn, &opt.stop) {
+            return Some((
+                Stopped::Converged,
+                format!(
+                    "residual {:.3e} N ≤ max({:.1e} N, {:.1e} × initial)",
+                    rn, opt.stop.abs_n, opt.stop.rel
+                ),
+            ));
+        }
+        if out.iterations >= opt.stop.max_iterations {
+            return Some((
+                Stopped::IterationLimit,
+                format!(
+                    "iteration limit {} reached at residual {:.3e} N",
+                    opt.stop.max_iterations, rn
+                ),
+            ));
+        }
+        if t0.elapsed().as_secs_f64() > opt.stop.max_seconds {
+            return Some((
+                Stopped::TimeLimit,
+                format!(
+                    "time limit {:.1} s reached at residual {:.3e} N",
+                    opt.stop.max_seconds, rn
+                ),
+            ));
+        }
+        if let Some((n, keep)) = opt.stagnation {
+            if out.iterations >= n && rn > keep * out.initial_residual_n {
+                return Some((
+                    Stopped::IterationLimit,
+                    format!(
+                        "stagnated: {} steps left the residual at {:.3e} N, {:.0} % of its start",
+                        out.iterations,
+                        rn,
+                        100.0 * rn / out.initial_residual_n
+                    ),
+                ));
+            }
+        }
+        if let Some((n, f)) = opt.held_back.filter(|&(n, _)| !opt.ptc && self.held >= n) {
+            return Some((
+                Stopped::IterationLimit,
+                format!(
+                    "held back: {n} steps in a row cut to {f} of Newton's or less, at residual {rn:.3e} N"
+                ),
+            ));
+        }
+        if let Some(c) = opt.creep {
+            let creeping = self.full_from.is_some_and(|before| {
+                rn <= c.below * out.initial_residual_n && rn > c.ratio * before && rn < before
+            });
+            self.crept = if creeping { self.crept + 1 } else { 0 };
+            if self.crept >= c.steps {
+                return Some((
+                    Stopped::HandedOver,
+                    format!(
+                        "creeping: {} full steps lowered the residual only to {:.3e} N ({:.0} % of the step before)",
+                        self.crept,
+                        rn,
+                        100.0 * rn / self.full_from.unwrap_or(rn)
+                    ),
+                ));
+            }
+        }
+        if let Some(p) = opt.plateau {
+            return self.plateau(p, rn, out.initial_residual_n);
+        }
+        None
+    }
+
+    fn plateau(&mut self, p: Plateau, rn: f64, initial: f64) -> Option<(Stopped, String)> {
+        let run = &mut self.floor_run;
+        match self.full_from {
+            Some(before) => {
+                if run.is_empty() {
+                    run.push(before);
+                }
+                run.push(rn);
+                if run.len() > p.steps + 1 {
+                    run.remove(0);
+                }
+            }
+            None => run.clear(),
+        }
+        if run.len() <= p.steps {
+            return None;
+        }
+        let from = run[run.len() - 1 - p.steps];
+        let best = run[run.len() - p.steps..]
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min);
+        // Below the phase's start only (the state handed over is this
+        // iterate): a plateau above it is the stagnation rule's (the phase
+        // failed, its state is not kept).
+        (best > (1.0 - p.gain) * from && rn < initial).then(|| {
+            (
+                Stopped::HandedOver,
+                format!(
+                    "plateau: {} full steps took the residual from {:.3e} N to no less than {:.3e} N",
+                    p.steps, from, best
+                ),
+            )
+        })
+    }
+
+    /// The reference the line search must lower ‖R‖ below: the largest of
+    /// the last [`NewtonOptions::nonmonotone`] iterates', `rn` among them.
+    fn reference(&mut self, rn: f64, opt: &NewtonOptions) -> f64 {
+        if self.recent.len() >= opt.nonmonotone.max(1) {
+            self.recent.remove(0);
+        }
+        self.recent.push(rn);
+        self.recent.iter().copied().fold(rn, f64::max)
+    }
+
+    /// A step of `alpha` × `limit` of the (`capped`) correction was taken
+    /// from residual `rn` at `shift`.
+    fn accepted(
+        &mut self,
+        alpha: f64,
+        limit: f64,
+        capped: bool,
+        shift: f64,
+        rn: f64,
+        opt: &NewtonOptions,
+    ) {
+        let cut = opt.held_back.is_some_and(|(_, f)| alpha * limit <= f);
+        self.held = if cut { self.held + 1 } else { 0 };
+        self.full_from =
+            (opt.ptc && alpha == 1.0 && limit >= 1.0 && shift <= CREEP_SHIFT).then_some(rn);
+        self.rejections = 0;
+        self.stalled = alpha < 1.0 || limit < 1.0;
+        if alpha == 1.0 && capped {
+            self.cap = (2.0 * self.cap).min(MAX_STEP_GROWTH * opt.max_step_mm);
+        } else if alpha < 1.0 {
+            self.cap = (0.5 * self.cap).max(opt.max_step_mm);
+        }
+        if alpha == 1.0 && !opt.ptc {
+            self.shift = if self.shift < 1e-6 {
+                0.0
+            } else {
+                self.shift * 0.1
+            };
+        }
+    }
+
+    /// The line search found no step: shorter and more shifted next time.
+    /// False once it has failed more than [`NewtonOptions::max_rejections`]
+    /// times in a row.
+    fn rejected(&mut self, opt: &NewtonOptions) -> bool {
+        self.full_from = None;
+        self.held = 0;
+        self.rejections += 1;
+        self.stalled = true;
+        self.cap = (0.5 * self.cap).max(opt.max_step_mm);
+        self.shift = if self.shift == 0.0 {
+            1e-4
+        } else {
+            self.shift * 10.0
+        };
+        self.rejections <= opt.max_rejections
+    }
+}
+
+/// Keep the sparsity pattern (and its symbolic factorisation) while the
+/// couplings it was built for stay; else build it anew.
+fn refresh_pattern(sys: &System, pattern: &mut Option<Pattern>, last_pairs: &mut Vec<[u32; 2]>) {
+    let pairs = sys.couplings();
+    // Terms list their couplings in a fixed order, so an unchanged list
+    // (fixed planes, bending, settled contact) needs no sorted compare.
+    let rebuild = match &mut *pattern {
+        None => true,
+        Some(_) if pairs == *last_pairs => false,
+        // A new solve on the same system (the next suturing round).
+        Some(p) if pairs == p.listed => false,
+        Some(p) => {
+            let changed = !p.couples_exactly(&pairs);
+            if !changed {
+                p.listed = pairs.clone();
+            }
+            changed
+        }
+    };
+    if rebuild {
+        *pattern = Some(Pattern::new(sys.n_nodes(), &sys.dofs, &pairs));
+    }
+    *last_pairs = pairs;
+}
+
+/// Newton's correction for the packed residual `rhs`: the tangent
+/// `vals` on `pat` solved by Cholesky (`symmetric`) or inexactly by GMRES,
+/// the shift raised until the factorisation succeeds. Records which solver
+/// answered; None when none did.
+#[allow(clippy::too_many_arguments)]
+fn correction(
+    pat: &mut Pattern,
+    vals: &[f64],
+    rhs: &[f64],
+    symmetric: bool,
+    rn: f64,
+    initial_residual_n: f64,
+    opt: &NewtonOptions,
+    shift: &mut f64,
+    rec: &mut Record,
+) -> Option<Vec<f64>> {
+    let diag = pat.diagonal(vals);
+    let mean_diag = diag.iter().map(|d| d.abs()).sum::<f64>() / diag.len().max(1) as f64;
+    let before = pat.stats;
+    let mut d = None;
+    for _ in 0..20 {
+        let mut v = vals.to_vec();
+        if *shift > 0.0 {
+            let s: Vec<f64> = diag
+                .iter()
+                .map(|&g| *shift * g.abs().max(mean_diag * 1e-3))
+                .collect();
+            pat.add_diagonal(&mut v, &s);
+        }
+        let mut b = rhs.to_vec();
+        let ok = if symmetric {
+            pat.solve_llt(&v, &mut b)
+        } else {
+            // Inexact Newton: the step's linear residual need only be a
+            // tenth of what must remain after it (the residual then falls
+            // as an exact step's would), never looser than 1 %.
+            let goal = opt.stop.abs_n.max(opt.stop.rel * initial_residual_n);
+            let forcing = (0.1 * goal / rn).min(1e-2);
+            let reuse = opt.reuse_factor && *shift == 0.0;
+            pat.solve_nonsymmetric_reusing(&v, &mut b, forcing, reuse)
+        };
+        if ok.is_ok() && b.iter().all(|z| z.is_finite()) {
+            d = Some(b);
+            break;
+        }
+        *shift = if *shift == 0.0 { 1e-6 } else { *shift * 10.0 };
+    }
+    rec.linear_solver = if symmetric {
+        "cholesky"
+    } else if pat.stats.lu_solves > before.lu_solves {
+        "lu"
+    } else if pat.stats.reused_factor > before.reused_factor {
+        "gmres, earlier factor"
+    } else {
+        "gmres"
+    };
+    rec.gmres_iterations = pat.stats.gmres_iterations - before.gmres_iterations;
+    d
+}
+
+/// [`newton`] keeping the sparsity pattern and its symbolic factorisation
+/// in `pattern` across calls: a sequence of solves of one system (the
+/// suturing rounds) analyses the pattern once instead of once per solve.
 pub fn newton_reusing(
     sys: &mut System,
     x: &mut Vec<V3>,
@@ -230,26 +530,7 @@ pub fn newton_reusing(
     let t0 = Instant::now();
     let mut out = Outcome::start();
     let mut last_pairs: Vec<[u32; 2]> = Vec::new();
-    let mut shift = 0.0f64;
-    let mut cap = opt.max_step_mm;
-    let mut rejections = 0usize;
-    // The last step was cut short or refused: Newton is no longer in its
-    // quadratic regime, and a short correction may mean round-off, not a
-    // distant solution.
-    let mut stalled = false;
-    // ‖R‖ of the last accepted iterates, newest last (nonmonotone
-    // acceptance of non-symmetric steps).
-    let mut recent: Vec<f64> = Vec::with_capacity(opt.nonmonotone.max(1));
-    // ‖R‖ before the last step, when that step was a full one at the
-    // shift's floor (for `creep` and `plateau`).
-    let mut full_from: Option<f64> = None;
-    let mut crept = 0usize;
-    // ‖R‖ at the iterates joined by the current run of full steps at the
-    // shift's floor (for `plateau`).
-    let mut run: Vec<f64> = Vec::new();
-    // Accepted steps in a row cut short, by the line search or a barrier
-    // (for `held_back`).
-    let mut held = 0usize;
+    let mut run = Run::new(opt);
     loop {
         for term in sys.terms.iter_mut() {
             term.update(x);
@@ -273,136 +554,27 @@ pub fn newton_reusing(
         if let Some(w) = &sys.watch {
             w(rn);
         }
-        if out.done(rn, &opt.stop) {
-            out.converged = true;
-            out.stopped_by = Stopped::Converged;
-            out.reason = format!(
-                "residual {:.3e} N ≤ max({:.1e} N, {:.1e} × initial)",
-                rn, opt.stop.abs_n, opt.stop.rel
-            );
+        if let Some((by, reason)) = run.stop(&out, rn, opt, t0) {
+            out.converged = by == Stopped::Converged;
+            out.stopped_by = by;
+            out.reason = reason;
             break;
-        }
-        if out.iterations >= opt.stop.max_iterations {
-            out.stopped_by = Stopped::IterationLimit;
-            out.reason = format!(
-                "iteration limit {} reached at residual {:.3e} N",
-                opt.stop.max_iterations, rn
-            );
-            break;
-        }
-        if t0.elapsed().as_secs_f64() > opt.stop.max_seconds {
-            out.stopped_by = Stopped::TimeLimit;
-            out.reason = format!(
-                "time limit {:.1} s reached at residual {:.3e} N",
-                opt.stop.max_seconds, rn
-            );
-            break;
-        }
-        if let Some((n, keep)) = opt.stagnation {
-            if out.iterations >= n && rn > keep * out.initial_residual_n {
-                out.stopped_by = Stopped::IterationLimit;
-                out.reason = format!(
-                    "stagnated: {} steps left the residual at {:.3e} N, {:.0} % of its start",
-                    out.iterations,
-                    rn,
-                    100.0 * rn / out.initial_residual_n
-                );
-                break;
-            }
-        }
-        if let Some((n, f)) = opt.held_back.filter(|&(n, _)| !opt.ptc && held >= n) {
-            out.stopped_by = Stopped::IterationLimit;
-            out.reason = format!(
-                "held back: {n} steps in a row cut to {f} of Newton's or less, at residual {rn:.3e} N"
-            );
-            break;
-        }
-        if let Some(c) = opt.creep {
-            let creeping = full_from.is_some_and(|before| {
-                rn <= c.below * out.initial_residual_n && rn > c.ratio * before && rn < before
-            });
-            crept = if creeping { crept + 1 } else { 0 };
-            if crept >= c.steps {
-                out.stopped_by = Stopped::HandedOver;
-                out.reason = format!(
-                    "creeping: {} full steps lowered the residual only to {:.3e} N ({:.0} % of the step before)",
-                    crept,
-                    rn,
-                    100.0 * rn / full_from.unwrap_or(rn)
-                );
-                break;
-            }
-        }
-        if let Some(p) = opt.plateau {
-            match full_from {
-                Some(before) => {
-                    if run.is_empty() {
-                        run.push(before);
-                    }
-                    run.push(rn);
-                    if run.len() > p.steps + 1 {
-                        run.remove(0);
-                    }
-                }
-                None => run.clear(),
-            }
-            if run.len() > p.steps {
-                let from = run[run.len() - 1 - p.steps];
-                let best = run[run.len() - p.steps..]
-                    .iter()
-                    .copied()
-                    .fold(f64::INFINITY, f64::min);
-                // Below the phase's start only (the state handed over is
-                // this iterate): a plateau above it is the stagnation rule's
-                // (the phase failed, its state is not kept).
-                if best > (1.0 - p.gain) * from && rn < out.initial_residual_n {
-                    out.stopped_by = Stopped::HandedOver;
-                    out.reason = format!(
-                        "plateau: {} full steps took the residual from {:.3e} N to no less than {:.3e} N",
-                        p.steps, from, best
-                    );
-                    break;
-                }
-            }
         }
         out.iterations += 1;
-        if recent.len() >= opt.nonmonotone.max(1) {
-            recent.remove(0);
-        }
-        recent.push(rn);
-        let r_ref = recent.iter().copied().fold(rn, f64::max);
+        let r_ref = run.reference(rn, opt);
         let mut rec = Record {
             phase: "newton",
             iteration: out.iterations,
             residual_n: rn,
             max_force_n: max_norm(&r),
             step: 0.0,
-            shift,
+            shift: run.shift,
             correction_mm: 0.0,
             contact_pairs: contact_pairs(sys),
             linear_solver: "",
             gmres_iterations: 0,
         };
-        let pairs = sys.couplings();
-        // Terms list their couplings in a fixed order, so an unchanged list
-        // (fixed planes, bending, settled contact) needs no sorted compare.
-        let rebuild = match &mut *pattern {
-            None => true,
-            Some(_) if pairs == last_pairs => false,
-            // A new solve on the same system (the next suturing round).
-            Some(p) if pairs == p.listed => false,
-            Some(p) => {
-                let changed = !p.couples_exactly(&pairs);
-                if !changed {
-                    p.listed = pairs.clone();
-                }
-                changed
-            }
-        };
-        if rebuild {
-            *pattern = Some(Pattern::new(sys.n_nodes(), &sys.dofs, &pairs));
-        }
-        last_pairs = pairs;
+        refresh_pattern(sys, pattern, &mut last_pairs);
         let pat = pattern.as_mut().expect("built");
         let mut vals = vec![0.0; pat.nnz()];
         if let Err(e) = sys.tangent(x, pat, &mut vals) {
@@ -410,60 +582,31 @@ pub fn newton_reusing(
             out.reason = format!("inadmissible state: triangle {}", e.triangle);
             break;
         }
-        let diag = pat.diagonal(&vals);
-        let mean_diag = diag.iter().map(|d| d.abs()).sum::<f64>() / diag.len().max(1) as f64;
         let rhs = sys.pack(&r);
         let symmetric = opt.ptc || (sys.symmetric() && sys.terms.iter().all(|t| t.has_potential()));
         if opt.ptc && out.iterations == 1 {
-            shift = opt.initial_shift;
+            run.shift = opt.initial_shift;
         }
-        // Factorise, raising the shift until the factorisation succeeds.
-        let before = pat.stats;
-        let mut d = None;
-        for _ in 0..20 {
-            let mut v = vals.clone();
-            if shift > 0.0 {
-                let s: Vec<f64> = diag
-                    .iter()
-                    .map(|&g| shift * g.abs().max(mean_diag * 1e-3))
-                    .collect();
-                pat.add_diagonal(&mut v, &s);
-            }
-            let mut b = rhs.clone();
-            let ok = if symmetric {
-                pat.solve_llt(&v, &mut b)
-            } else {
-                // Inexact Newton: the step's linear residual need only be a
-                // tenth of what must remain after it (the residual then falls
-                // as an exact step's would), never looser than 1 %.
-                let goal = opt.stop.abs_n.max(opt.stop.rel * out.initial_residual_n);
-                let forcing = (0.1 * goal / rn).min(1e-2);
-                let reuse = opt.reuse_factor && shift == 0.0;
-                pat.solve_nonsymmetric_reusing(&v, &mut b, forcing, reuse)
-            };
-            if ok.is_ok() && b.iter().all(|z| z.is_finite()) {
-                d = Some(b);
-                break;
-            }
-            shift = if shift == 0.0 { 1e-6 } else { shift * 10.0 };
-        }
-        rec.linear_solver = if symmetric {
-            "cholesky"
-        } else if pat.stats.lu_solves > before.lu_solves {
-            "lu"
-        } else if pat.stats.reused_factor > before.reused_factor {
-            "gmres, earlier factor"
-        } else {
-            "gmres"
-        };
-        rec.gmres_iterations = pat.stats.gmres_iterations - before.gmres_iterations;
+        let d = correction(
+            pat,
+            &vals,
+            &rhs,
+            symmetric,
+            rn,
+            out.initial_residual_n,
+            opt,
+            &mut run.shift,
+            &mut rec,
+        );
         let Some(mut d) = d else {
             out.stopped_by = Stopped::Singular;
-            out.reason =
-                format!("tangent could not be factorised even with a shift of {shift:.1e}");
+            out.reason = format!(
+                "tangent could not be factorised even with a shift of {:.1e}",
+                run.shift
+            );
             break;
         };
-        rec.shift = shift;
+        rec.shift = run.shift;
         // Cap the largest nodal move.
         let dmax = sys
             .step(&vec![V3::zeros(); x.len()], &d, 1.0)
@@ -483,9 +626,9 @@ pub fn newton_reusing(
         // that accuracy, provided the residual is also below
         // `step_residual_n` (a closure: 1e-4 of its pressure load). A
         // singular tangent gives long corrections, not short ones.
-        if stalled
+        if run.stalled
             && !opt.ptc
-            && shift == 0.0
+            && run.shift == 0.0
             && opt.stop.step_mm > 0.0
             && dmax <= opt.stop.step_mm
             && rn <= opt.stop.step_residual_n
@@ -499,9 +642,9 @@ pub fn newton_reusing(
             out.history.push(rec);
             break;
         }
-        let capped = dmax > cap;
+        let capped = dmax > run.cap;
         if capped {
-            let s = cap / dmax;
+            let s = run.cap / dmax;
             d.iter_mut().for_each(|z| *z *= s);
         }
         // A barrier allows only the part of the step that crosses nothing.
@@ -529,42 +672,23 @@ pub fn newton_reusing(
             rn,
             r_ref,
             opt.ptc,
-            &mut shift,
-            (dmax / cap).min(1.0),
+            &mut run.shift,
+            (dmax / run.cap).min(1.0),
             limit,
         );
         match accepted {
             Some(xn) => {
                 *x = xn;
                 rec.step = alpha * limit;
-                let cut = opt.held_back.is_some_and(|(_, f)| alpha * limit <= f);
-                held = if cut { held + 1 } else { 0 };
-                full_from = (opt.ptc && alpha == 1.0 && limit >= 1.0 && rec.shift <= CREEP_SHIFT)
-                    .then_some(rn);
-                rejections = 0;
-                stalled = alpha < 1.0 || limit < 1.0;
-                if alpha == 1.0 && capped {
-                    cap = (2.0 * cap).min(MAX_STEP_GROWTH * opt.max_step_mm);
-                } else if alpha < 1.0 {
-                    cap = (0.5 * cap).max(opt.max_step_mm);
-                }
-                if alpha == 1.0 && !opt.ptc {
-                    shift = if shift < 1e-6 { 0.0 } else { shift * 0.1 };
-                }
+                run.accepted(alpha, limit, capped, rec.shift, rn, opt);
             }
             None => {
-                full_from = None;
-                held = 0;
-                rejections += 1;
-                stalled = true;
-                cap = (0.5 * cap).max(opt.max_step_mm);
-                shift = if shift == 0.0 { 1e-4 } else { shift * 10.0 };
-                if rejections > opt.max_rejections {
+                if !run.rejected(opt) {
                     out.history.push(rec);
                     out.stopped_by = Stopped::LineSearch;
                     out.reason = format!(
                         "line search failed {} times in a row at residual {:.3e} N (shift {:.1e})",
-                        rejections, rn, shift
+                        run.rejections, rn, run.shift
                     );
                     break;
                 }
