@@ -549,6 +549,313 @@ fn mid_sinus_profile(
     Ok(profile)
 }
 
+/// The mid-sinus radius against angle read into three sinus lobes and the
+/// three pillars between them. Sector k runs from pillar k to pillar k+1
+/// (increasing angle, i.e. counter-clockwise about the axis).
+struct Lobes {
+    /// Each pillar's lowest sample of the pillar-smoothed profile `rp`.
+    p: [usize; 3],
+    rp: Vec<f64>,
+    /// Each sector's sinus maximum: its angle, radius, and height over the
+    /// higher of its two pillars (mm).
+    sinus_deg: [f64; 3],
+    sinus_r: [f64; 3],
+    lobe_mm: [f64; 3],
+    /// Each pillar's angle: the centre of its trough (a flat floor's
+    /// lowest sample says little).
+    pillar_deg: [f64; 3],
+}
+
+impl Lobes {
+    fn new(profile: &[f64]) -> Result<Lobes, Failure> {
+        let rp = angular::smooth(profile, PILLAR_SMOOTH);
+        let rs = angular::smooth(profile, SINUS_SMOOTH);
+        let p = angular::pillars(&rp).ok_or(
+            "the radius at mid-sinus has no three minima 75° apart: no sinus lobes to find the commissures by",
+        )?;
+        let mut sinus_deg = [0.0; 3];
+        let mut sinus_r = [0.0; 3];
+        let mut lobe_mm = [0.0; 3];
+        for k in 0..3 {
+            let (a, b) = (p[k], p[(k + 1) % 3]);
+            let m = angular::sector_max(&rs, a, b, 3).ok_or("a sinus sector is empty")?;
+            sinus_deg[k] = angular::refine(&rs, m);
+            sinus_r[k] = rs[m];
+            lobe_mm[k] = rs[m] - rs[a].max(rs[b]);
+        }
+        let mut lobes = Lobes {
+            p,
+            rp,
+            sinus_deg,
+            sinus_r,
+            lobe_mm,
+            pillar_deg: [0.0; 3],
+        };
+        lobes.pillar_deg = std::array::from_fn(|k| {
+            let [before, after] = lobes.sectors_beside(k);
+            let gap = before.min(after);
+            angular::trough_centre(
+                &lobes.rp,
+                p[k],
+                lobes.rp[p[k]] + PILLAR_LEVEL * lobes.pillar_depth(k),
+                gap / 2,
+            )
+        });
+        Ok(lobes)
+    }
+
+    /// How far pillar k lies below the shallower lobe beside it (mm).
+    fn pillar_depth(&self, k: usize) -> f64 {
+        let prev = (k + 2) % 3;
+        (self.sinus_r[k].min(self.sinus_r[prev]) - self.rp[self.p[k]]).max(0.0)
+    }
+
+    /// The sectors on either side of pillar k (degrees).
+    fn sectors_beside(&self, k: usize) -> [usize; 2] {
+        let p = &self.p;
+        [
+            angular::forward(p[(k + 2) % 3], p[k], SAMPLES),
+            angular::forward(p[k], p[(k + 1) % 3], SAMPLES),
+        ]
+    }
+}
+
+/// Which sector is the right-coronary sinus, and the sinuses named from
+/// it. Sector `first` starts at C1 (the phantom's and the hand-placed
+/// landmarks' convention: sinus k lies between C_k and C_k+1): the one
+/// whose sinus faces anterior (−y in LPS), unless the CT's coronary ostia
+/// say otherwise.
+#[allow(clippy::too_many_arguments)]
+fn name_sinuses(
+    ct: Option<&Volume<i16>>,
+    mask: &Volume<u8>,
+    plane: (&Point3, &Vector3),
+    frame: RootFrame,
+    h_stj: f64,
+    lobes: &Lobes,
+    dir: &impl Fn(f64) -> Vector3,
+) -> (usize, Vec<Sinus>, SinusNaming) {
+    let anterior = (0..3)
+        .min_by(|&a, &b| {
+            dir(lobes.sinus_deg[a])
+                .y
+                .partial_cmp(&dir(lobes.sinus_deg[b]).y)
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .unwrap_or(0);
+    let found_ostia = ct.map(|ct| {
+        let pillars_deg = lobes.p.map(|k| k as f64);
+        ostia::search(ct, mask, &frame, plane, h_stj, &pillars_deg)
+    });
+    let with_ostium = std::array::from_fn(|k| {
+        found_ostia
+            .as_ref()
+            .is_some_and(|f| f.per_sector[k].is_some())
+    });
+    let naming = ostia::name(with_ostium, anterior);
+    let first = naming.right_sector;
+    let sinuses = (0..3)
+        .map(|j| Sinus {
+            nadir: format!("N{}", j + 1),
+            name: SINUS_NAMES[j],
+            ostium: found_ostia
+                .as_ref()
+                .and_then(|f| f.per_sector[(first + j) % 3].clone()),
+        })
+        .collect();
+    let sinus_naming = SinusNaming {
+        by: naming.by,
+        confidence: naming.confidence,
+        agrees_with_position: naming.agrees_with_position,
+        ct_searched: found_ostia.is_some(),
+        lumen_hu: found_ostia.as_ref().map(|f| f.lumen_hu),
+        threshold_hu: found_ostia.as_ref().map(|f| f.threshold_hu),
+        other_patches: found_ostia.as_ref().map_or(0, |f| f.other_patches),
+    };
+    (first, sinuses, sinus_naming)
+}
+
+/// How the STJ narrowing the commissures hang below was found: how much
+/// the mean radius narrows from mid-sinus to it, whether it is a minimum,
+/// and the confidence factor those give.
+struct Narrowing {
+    mm: f64,
+    is_min: bool,
+    factor: f64,
+}
+
+/// C1–C3 on the wall at the pillars' angles, `h_c` above the annulus
+/// centre `o` along the root axis `n`, C1 at the start of sector `first`.
+fn commissures(
+    probe: &LumenProbe,
+    (o, n): (&Point3, &Vector3),
+    h_c: f64,
+    first: usize,
+    lobes: &Lobes,
+    stj: &Narrowing,
+    dir: &impl Fn(f64) -> Vector3,
+) -> Result<Vec<Found>, Failure> {
+    let mut points = Vec::with_capacity(3);
+    for j in 0..3 {
+        let k = (first + j) % 3;
+        let ang = lobes.pillar_deg[k];
+        let d = dir(ang);
+        let from = o + n * h_c;
+        let rr = probe.exit(&from, &d, REACH_MM).ok_or(format!(
+            "no wall at the pillar angle {ang:.1}° at the commissure height"
+        ))?;
+        // How clearly the pillar stands out: the shallower of its two
+        // neighbouring lobes over it (mm); 1.5 mm and more is a clear pillar.
+        let depth = lobes.pillar_depth(k);
+        let gaps = lobes.sectors_beside(k);
+        let gap_factor = if gaps.iter().all(|&g| (80..=160).contains(&g)) {
+            1.0
+        } else {
+            0.6
+        };
+        let conf = (depth / 1.5).clamp(0.0, 1.0) * stj.factor * gap_factor;
+        points.push(Found {
+            label: format!("C{}", j + 1),
+            point_mm: from + d * rr,
+            confidence: conf,
+            evidence: serde_json::json!({
+                "angle_deg": ang.rem_euclid(360.0),
+                "height_mm": h_c,
+                "radius_mm": rr,
+                "pillar_depth_mm": depth,
+                "sectors_deg": gaps,
+                "stj_narrowing_mm": stj.mm,
+                "stj_is_minimum": stj.is_min,
+            }),
+        });
+    }
+    Ok(points)
+}
+
+/// N1–N3: in the annulus plane (normal `n0`), at each sector's middle
+/// between the commissures as placed, N1 in sector `first`; lifted onto
+/// the sinus floor where the plane is tilted to the nadirs.
+fn nadirs(
+    probe: &LumenProbe,
+    (o, n, n0): (&Point3, &Vector3, &Vector3),
+    first: usize,
+    lobes: &Lobes,
+    dir: &impl Fn(f64) -> Vector3,
+) -> Result<Vec<Found>, Failure> {
+    // First where each one's wall meets the plane and how much it widens
+    // above.
+    #[derive(Clone, Copy)]
+    struct OnPlane {
+        k: usize,
+        mid: f64,
+        dp: Vector3,
+        rr: f64,
+        r_plane: f64,
+        floor_rise: Option<f64>,
+    }
+    // Rays at a height above the plane start on the root axis, not on the
+    // plane's normal through the annulus centre: on a plane tilted 35° to
+    // the axis that normal leaves the axis by 0.57 mm per millimetre up,
+    // towards one sinus and away from another, and the wall's widening
+    // over 3 mm read −0.2 mm at clinical seed 1's lowest nadir (0.79 mm
+    // from the truth, confidence 0) and 6.3 mm at its highest.
+    let across = n.dot(n0);
+    if across < 0.1 {
+        return Err("the root axis lies in the annulus plane".into());
+    }
+    let rise = n / across;
+    let sinus_deg = &lobes.sinus_deg;
+    let mut on_plane = Vec::with_capacity(3);
+    for j in 0..3 {
+        let k = (first + j) % 3;
+        // The sector between the commissures as placed (the troughs'
+        // centres), not between the pillars' lowest samples.
+        let (a, b) = (lobes.pillar_deg[k], lobes.pillar_deg[(k + 1) % 3]);
+        let mid = a + 0.5 * ((b - a).rem_euclid(360.0));
+        let dd = sinus_deg[k]
+            + SECTOR_MIDDLE_WEIGHT * ((mid - sinus_deg[k] + 540.0).rem_euclid(360.0) - 180.0);
+        let dp =
+            in_plane_at_angle(&dir(dd), n, n0).ok_or("the root axis lies in the annulus plane")?;
+        let from = o + rise * NADIR_LIFT_MM;
+        let rr = probe.exit(&from, &dp, REACH_MM).ok_or(format!(
+            "no wall in the annulus plane at the sinus angle {:.1}°",
+            sinus_deg[k]
+        ))?;
+        let floor_rise = probe
+            .exit(&(o + rise * FLOOR_PROBE_MM), &dp, REACH_MM)
+            .map(|r4| r4 - rr);
+        // The wall where it meets the plane: read 1 and 2 mm above it (a
+        // mask cut at the plane is ragged) and carried down the line
+        // through them.
+        let r_plane = probe
+            .exit(&(o + rise * (2.0 * NADIR_LIFT_MM)), &dp, REACH_MM)
+            .map_or(rr, |r2| {
+                rr - (r2 - rr).clamp(-PLANE_CARRY_MAX_MM, PLANE_CARRY_MAX_MM)
+            });
+        on_plane.push(OnPlane {
+            k,
+            mid,
+            dp,
+            rr,
+            r_plane,
+            floor_rise,
+        });
+    }
+    let widest_rise = on_plane
+        .iter()
+        .filter_map(|q| q.floor_rise)
+        .fold(0.0f64, f64::max);
+    let mut points = Vec::with_capacity(3);
+    for (j, q) in on_plane.iter().enumerate() {
+        let OnPlane {
+            k,
+            mid,
+            dp,
+            rr,
+            r_plane,
+            floor_rise,
+        } = *q;
+        let off_mid = ((sinus_deg[k] - mid + 540.0).rem_euclid(360.0) - 180.0).abs();
+        // Where the wall does not widen above the plane while another
+        // nadir's does, the sinus floor lies higher: the plane is tilted to
+        // the nadirs. The nadir goes up onto the floor, and says so. A root
+        // whose three floors all widen slowly is not tilted.
+        let lifted = floor_rise
+            .filter(|&w| w < LIFT_BELOW_RISE_MM && w < TILTED_RISE_SHARE * widest_rise)
+            .and_then(|_| floor_above(probe, o, &rise, &dp));
+        // A clear lobe (≥ 1.5 mm over its pillars) whose maximum lies near
+        // the middle of its sector is a sure sinus; a lopsided one less so;
+        // a wall that does not widen above the point is no sinus floor, and
+        // one found higher up is a point off the plane the rest stand on.
+        let floor_factor = match lifted {
+            Some(_) => LIFTED_CONFIDENCE,
+            None => floor_rise.map_or(0.0, |w| (w / FLOOR_RISE_MM).clamp(0.0, 1.0)),
+        };
+        let conf = (lobes.lobe_mm[k] / 1.5).clamp(0.0, 1.0)
+            * (1.0 - off_mid / 45.0).clamp(0.0, 1.0)
+            * floor_factor;
+        let point_mm = match lifted {
+            Some((h, r)) => o + rise * h + dp * r,
+            None => o + dp * r_plane,
+        };
+        points.push(Found {
+            label: format!("N{}", j + 1),
+            point_mm,
+            confidence: conf,
+            evidence: serde_json::json!({
+                "sinus_angle_deg": sinus_deg[k].rem_euclid(360.0),
+                "sector_middle_deg": mid.rem_euclid(360.0),
+                "off_middle_deg": off_mid,
+                "lobe_mm": lobes.lobe_mm[k],
+                "radius_mm": rr,
+                "floor_rise_mm": floor_rise,
+                "lifted_mm": lifted.map(|(h, _)| h),
+            }),
+        });
+    }
+    Ok(points)
+}
+
 /// Detect C1–C3 and N1–N3 in `mask` above `plane`; with the CT, name the
 /// sinuses by the coronary ostia it shows.
 pub fn detect(
@@ -590,100 +897,14 @@ pub fn detect(
         u * t.cos() + v * t.sin()
     };
     let profile = mid_sinus_profile(&probe, &o, &n, h_sinus, &dir)?;
-    let rp = angular::smooth(&profile, PILLAR_SMOOTH);
-    let rs = angular::smooth(&profile, SINUS_SMOOTH);
-    let p = angular::pillars(&rp).ok_or(
-        "the radius at mid-sinus has no three minima 75° apart: no sinus lobes to find the commissures by",
-    )?;
-
-    // Sector k runs from pillar k to pillar k+1 (increasing angle, i.e.
-    // counter-clockwise about the axis); its sinus maximum.
-    let mut sinus_deg = [0.0; 3];
-    let mut sinus_r = [0.0; 3];
-    let mut lobe_mm = [0.0; 3];
-    for k in 0..3 {
-        let (a, b) = (p[k], p[(k + 1) % 3]);
-        let m = angular::sector_max(&rs, a, b, 3).ok_or("a sinus sector is empty")?;
-        sinus_deg[k] = angular::refine(&rs, m);
-        sinus_r[k] = rs[m];
-        lobe_mm[k] = rs[m] - rs[a].max(rs[b]);
-    }
-    // Which sector is the right-coronary sinus starts at C1 (the phantom's
-    // and the hand-placed landmarks' convention: sinus k lies between C_k
-    // and C_k+1): the one whose sinus faces anterior (−y in LPS), unless
-    // the CT's coronary ostia say otherwise.
-    let anterior = (0..3)
-        .min_by(|&a, &b| {
-            dir(sinus_deg[a])
-                .y
-                .partial_cmp(&dir(sinus_deg[b]).y)
-                .unwrap_or(std::cmp::Ordering::Equal)
-        })
-        .unwrap_or(0);
-    let found_ostia = ct.map(|ct| {
-        let frame = RootFrame {
-            origin: o,
-            axis: n,
-            e1: u,
-        };
-        let pillars_deg = p.map(|k| k as f64);
-        ostia::search(
-            ct,
-            mask,
-            &frame,
-            (&plane.point_mm, &n0),
-            h_stj,
-            &pillars_deg,
-        )
-    });
-    let with_ostium = std::array::from_fn(|k| {
-        found_ostia
-            .as_ref()
-            .is_some_and(|f| f.per_sector[k].is_some())
-    });
-    let naming = ostia::name(with_ostium, anterior);
-    let first = naming.right_sector;
-    let sinuses = (0..3)
-        .map(|j| Sinus {
-            nadir: format!("N{}", j + 1),
-            name: SINUS_NAMES[j],
-            ostium: found_ostia
-                .as_ref()
-                .and_then(|f| f.per_sector[(first + j) % 3].clone()),
-        })
-        .collect();
-    let sinus_naming = SinusNaming {
-        by: naming.by,
-        confidence: naming.confidence,
-        agrees_with_position: naming.agrees_with_position,
-        ct_searched: found_ostia.is_some(),
-        lumen_hu: found_ostia.as_ref().map(|f| f.lumen_hu),
-        threshold_hu: found_ostia.as_ref().map(|f| f.threshold_hu),
-        other_patches: found_ostia.as_ref().map_or(0, |f| f.other_patches),
+    let lobes = Lobes::new(&profile)?;
+    let frame = RootFrame {
+        origin: o,
+        axis: n,
+        e1: u,
     };
-    // Each pillar's angle: the centre of its trough (a flat floor's lowest
-    // sample says little), and its depth below the shallower lobe beside it.
-    let pillar_depth = |k: usize| {
-        let prev = (k + 2) % 3;
-        (sinus_r[k].min(sinus_r[prev]) - rp[p[k]]).max(0.0)
-    };
-    // The sectors on either side of pillar k (degrees).
-    let sectors_beside = |k: usize| {
-        [
-            angular::forward(p[(k + 2) % 3], p[k], SAMPLES),
-            angular::forward(p[k], p[(k + 1) % 3], SAMPLES),
-        ]
-    };
-    let pillar_deg: [f64; 3] = std::array::from_fn(|k| {
-        let [before, after] = sectors_beside(k);
-        let gap = before.min(after);
-        angular::trough_centre(
-            &rp,
-            p[k],
-            rp[p[k]] + PILLAR_LEVEL * pillar_depth(k),
-            gap / 2,
-        )
-    });
+    let (first, sinuses, sinus_naming) =
+        name_sinuses(ct, mask, (&plane.point_mm, &n0), frame, h_stj, &lobes, &dir);
     // The commissures' height, read on the sinus sectors' middle half: a
     // closed native valve hangs from the wall along its hinge lines,
     // which rise from the nadirs to the commissures, and the mask leaves
@@ -695,7 +916,8 @@ pub fn detect(
     // cusps: knee 15.0 mm, without 16.0; the clinical phantoms' commissures
     // 0.7–1.6 mm low).
     let clear = |deg: f64| {
-        pillar_deg
+        lobes
+            .pillar_deg
             .iter()
             .all(|&p| angular::apart_deg(deg, p) >= PILLAR_CLEAR_DEG)
     };
@@ -707,154 +929,17 @@ pub fn detect(
         hs[lc.stj]
     });
     let stj_narrowing = r[lv.sinus] - r[lv.stj];
-    let stj_factor = if lv.is_min {
-        (stj_narrowing / 0.5).clamp(0.0, 1.0)
-    } else {
-        0.5 * (stj_narrowing / 0.5).clamp(0.0, 1.0)
-    };
-    let mut points = Vec::new();
-    for j in 0..3 {
-        let k = (first + j) % 3;
-        let ang = pillar_deg[k];
-        let d = dir(ang);
-        let from = o + n * h_c;
-        let rr = probe.exit(&from, &d, REACH_MM).ok_or(format!(
-            "no wall at the pillar angle {ang:.1}° at the commissure height"
-        ))?;
-        // How clearly the pillar stands out: the shallower of its two
-        // neighbouring lobes over it (mm); 1.5 mm and more is a clear pillar.
-        let depth = pillar_depth(k);
-        let gaps = sectors_beside(k);
-        let gap_factor = if gaps.iter().all(|&g| (80..=160).contains(&g)) {
-            1.0
+    let stj = Narrowing {
+        mm: stj_narrowing,
+        is_min: lv.is_min,
+        factor: if lv.is_min {
+            (stj_narrowing / 0.5).clamp(0.0, 1.0)
         } else {
-            0.6
-        };
-        let conf = (depth / 1.5).clamp(0.0, 1.0) * stj_factor * gap_factor;
-        points.push(Found {
-            label: format!("C{}", j + 1),
-            point_mm: from + d * rr,
-            confidence: conf,
-            evidence: serde_json::json!({
-                "angle_deg": ang.rem_euclid(360.0),
-                "height_mm": h_c,
-                "radius_mm": rr,
-                "pillar_depth_mm": depth,
-                "sectors_deg": gaps,
-                "stj_narrowing_mm": stj_narrowing,
-                "stj_is_minimum": lv.is_min,
-            }),
-        });
-    }
-    // Nadirs: in the annulus plane, at each sinus maximum's angle. First
-    // where each one's wall meets the plane and how much it widens above.
-    #[derive(Clone, Copy)]
-    struct OnPlane {
-        k: usize,
-        mid: f64,
-        dp: Vector3,
-        rr: f64,
-        r_plane: f64,
-        floor_rise: Option<f64>,
-    }
-    // Rays at a height above the plane start on the root axis, not on the
-    // plane's normal through the annulus centre: on a plane tilted 35° to
-    // the axis that normal leaves the axis by 0.57 mm per millimetre up,
-    // towards one sinus and away from another, and the wall's widening
-    // over 3 mm read −0.2 mm at clinical seed 1's lowest nadir (0.79 mm
-    // from the truth, confidence 0) and 6.3 mm at its highest.
-    let across = n.dot(&n0);
-    if across < 0.1 {
-        return Err("the root axis lies in the annulus plane".into());
-    }
-    let rise = n / across;
-    let mut on_plane = Vec::with_capacity(3);
-    for j in 0..3 {
-        let k = (first + j) % 3;
-        // The sector between the commissures as placed (the troughs'
-        // centres), not between the pillars' lowest samples.
-        let (a, b) = (pillar_deg[k], pillar_deg[(k + 1) % 3]);
-        let mid = a + 0.5 * ((b - a).rem_euclid(360.0));
-        let dd = sinus_deg[k]
-            + SECTOR_MIDDLE_WEIGHT * ((mid - sinus_deg[k] + 540.0).rem_euclid(360.0) - 180.0);
-        let dp = in_plane_at_angle(&dir(dd), &n, &n0)
-            .ok_or("the root axis lies in the annulus plane")?;
-        let from = o + rise * NADIR_LIFT_MM;
-        let rr = probe.exit(&from, &dp, REACH_MM).ok_or(format!(
-            "no wall in the annulus plane at the sinus angle {:.1}°",
-            sinus_deg[k]
-        ))?;
-        let floor_rise = probe
-            .exit(&(o + rise * FLOOR_PROBE_MM), &dp, REACH_MM)
-            .map(|r4| r4 - rr);
-        // The wall where it meets the plane: read 1 and 2 mm above it (a
-        // mask cut at the plane is ragged) and carried down the line
-        // through them.
-        let r_plane = probe
-            .exit(&(o + rise * (2.0 * NADIR_LIFT_MM)), &dp, REACH_MM)
-            .map_or(rr, |r2| {
-                rr - (r2 - rr).clamp(-PLANE_CARRY_MAX_MM, PLANE_CARRY_MAX_MM)
-            });
-        on_plane.push(OnPlane {
-            k,
-            mid,
-            dp,
-            rr,
-            r_plane,
-            floor_rise,
-        });
-    }
-    let widest_rise = on_plane
-        .iter()
-        .filter_map(|q| q.floor_rise)
-        .fold(0.0f64, f64::max);
-    for (j, q) in on_plane.iter().enumerate() {
-        let OnPlane {
-            k,
-            mid,
-            dp,
-            rr,
-            r_plane,
-            floor_rise,
-        } = *q;
-        let off_mid = ((sinus_deg[k] - mid + 540.0).rem_euclid(360.0) - 180.0).abs();
-        // Where the wall does not widen above the plane while another
-        // nadir's does, the sinus floor lies higher: the plane is tilted to
-        // the nadirs. The nadir goes up onto the floor, and says so. A root
-        // whose three floors all widen slowly is not tilted.
-        let lifted = floor_rise
-            .filter(|&w| w < LIFT_BELOW_RISE_MM && w < TILTED_RISE_SHARE * widest_rise)
-            .and_then(|_| floor_above(&probe, &o, &rise, &dp));
-        // A clear lobe (≥ 1.5 mm over its pillars) whose maximum lies near
-        // the middle of its sector is a sure sinus; a lopsided one less so;
-        // a wall that does not widen above the point is no sinus floor, and
-        // one found higher up is a point off the plane the rest stand on.
-        let floor_factor = match lifted {
-            Some(_) => LIFTED_CONFIDENCE,
-            None => floor_rise.map_or(0.0, |w| (w / FLOOR_RISE_MM).clamp(0.0, 1.0)),
-        };
-        let conf = (lobe_mm[k] / 1.5).clamp(0.0, 1.0)
-            * (1.0 - off_mid / 45.0).clamp(0.0, 1.0)
-            * floor_factor;
-        let point_mm = match lifted {
-            Some((h, r)) => o + rise * h + dp * r,
-            None => o + dp * r_plane,
-        };
-        points.push(Found {
-            label: format!("N{}", j + 1),
-            point_mm,
-            confidence: conf,
-            evidence: serde_json::json!({
-                "sinus_angle_deg": sinus_deg[k].rem_euclid(360.0),
-                "sector_middle_deg": mid.rem_euclid(360.0),
-                "off_middle_deg": off_mid,
-                "lobe_mm": lobe_mm[k],
-                "radius_mm": rr,
-                "floor_rise_mm": floor_rise,
-                "lifted_mm": lifted.map(|(h, _)| h),
-            }),
-        });
-    }
+            0.5 * (stj_narrowing / 0.5).clamp(0.0, 1.0)
+        },
+    };
+    let mut points = commissures(&probe, (&o, &n), h_c, first, &lobes, &stj, &dir)?;
+    points.extend(nadirs(&probe, (&o, &n, &n0), first, &lobes, &dir)?);
     Ok(Detection {
         annulus_plane: AnnulusPlane {
             point_mm: plane.point_mm,
