@@ -293,6 +293,209 @@ fn rotate_about(v: &Vector3, axis: &Vector3, angle: f64) -> Vector3 {
     v * angle.cos() + axis.cross(v) * angle.sin() + axis * (axis.dot(v) * (1.0 - angle.cos()))
 }
 
+/// The root's radius profile for these draws: annulus, sinuses scaled to
+/// their drawn peak radii, STJ and ascending aorta; the annulus tilted
+/// when asked.
+fn radius_profile(d: &Draws, extras: &Extras) -> RadiusProfile {
+    let deg = PI / 180.0;
+    let r_a = d.r_a;
+    let r_stj = r_a * d.stj_ratio;
+    let gaps = [120.0 * deg + d.comm_dev[0], 120.0 * deg + d.comm_dev[1]];
+    let comm = [0.0, gaps[0], gaps[0] + gaps[1]];
+    let mut profile = RadiusProfile {
+        r_annulus_mm: r_a,
+        lvot_ellipticity: d.ellipticity,
+        lvot_major_angle_rad: d.ellipse_angle,
+        lvot_fade_mm: 8.0,
+        h_stj_mm: d.h_stj,
+        r_stj_mm: r_stj,
+        stj_transition_mm: d.stj_transition,
+        r_ascending_mm: r_stj * d.asc_ratio,
+        ascending_variation: d.asc_var,
+        ascending_wavelength_mm: d.asc_wavelength,
+        commissure_angles_rad: comm,
+        sinus_amplitude: [0.0; 3],
+        annulus_tilt_rad: 0.0,
+        annulus_low_angle_rad: 0.0,
+    };
+    let base_peak = profile.base_root(0.4 * d.h_stj).0;
+    for k in 0..3 {
+        profile.sinus_amplitude[k] = d.sinus_ratio[k] * r_a / base_peak - 1.0;
+    }
+    if extras.annulus_tilt_rad != 0.0 {
+        profile.annulus_tilt_rad = extras.annulus_tilt_rad;
+        profile.annulus_low_angle_rad = profile.sinus_centre(1) + ANNULUS_LOW_PAST_SINUS2_DEG * deg;
+    }
+    profile
+}
+
+/// Where the root's centreline and the descending aorta sit in a field of
+/// view they fit.
+struct Fit {
+    centreline: Centreline,
+    needs: FovNeeds,
+    da_xy: [f64; 2],
+    da_radius: f64,
+    /// Top of the ascending lumen's vertical piece (world z, mm).
+    z_asc_top: f64,
+}
+
+/// Shrink the centreline's arc until the z-range the root needs fits the
+/// field of view, then bring the descending aorta closer until the xy
+/// extent fits as well; refuse when they cannot.
+fn fit_field_of_view(
+    d: &Draws,
+    extras: &Extras,
+    profile: &RadiusProfile,
+    (origin, axis, e1): (Point3, Vector3, Vector3),
+    fov: [f64; 3],
+    tilt_rad: f64,
+) -> Result<Fit> {
+    let fov_z_mm = fov[2];
+    let s1 = d.h_stj + d.s1_above_stj;
+    let r_max = profile.r_max_bound();
+    let lvot_len = d.lvot_len;
+    let mut arc_radius = d.arc_radius;
+    let min_arc = (2.0 * r_max).max(35.0);
+    let mut da_xy = [
+        origin.x + DA_OFFSET[0] + d.da_offset[0],
+        origin.y + DA_OFFSET[1] + d.da_offset[1],
+    ];
+    let da_radius = if extras.arch {
+        DA_TO_ASCENDING * profile.r_ascending_mm
+    } else {
+        d.da_radius
+    };
+    // Top of the ascending lumen's vertical piece: the old field-of-view
+    // top, or with an arch, the join (the arch is inside the xy box of
+    // the ascending aorta and the DA, so it needs no xy room of its own).
+    let asc_top = |needs: &FovNeeds| {
+        if extras.arch {
+            needs.z_top + ARCH_JOIN_ABOVE_TRUTH_MM
+        } else {
+            needs.z_top
+        }
+    };
+    let xy_fits = |cl: &Centreline, needs: &FovNeeds, da_xy: [f64; 2]| {
+        let (lo, hi) = xy_extent(
+            cl,
+            &profile,
+            lvot_len,
+            r_max,
+            asc_top(needs),
+            da_xy,
+            da_radius,
+        );
+        // Half a millimetre of slack so the grid placement, which uses the
+        // actual top face, cannot disagree by rounding.
+        [hi[0] - lo[0] - fov[0] + 0.5, hi[1] - lo[1] - fov[1] + 0.5]
+    };
+    // With an arch the field of view must reach over it; its height
+    // depends on the span, so estimate it from the DA's start position.
+    let total_z = |cl: &Centreline, needs: &FovNeeds, da_xy: [f64; 2]| {
+        let top = if extras.arch {
+            arch_geometry(cl, &profile, asc_top(needs), da_xy, da_radius).z_top_lumen
+                + ARCH_TOP_MARGIN_MM
+        } else {
+            needs.z_top
+        };
+        top - needs.z_bottom
+    };
+    let (centreline, needs) = loop {
+        let cl = Centreline::new(origin, axis, e1, s1, arc_radius);
+        let needs = z_needs(&cl, &profile, lvot_len);
+        let excess = xy_fits(&cl, &needs, da_xy);
+        let fits_xy = excess[0] <= 0.0 && excess[1] <= 0.0;
+        let need_z = total_z(&cl, &needs, da_xy);
+        if (need_z <= fov_z_mm && fits_xy) || arc_radius <= min_arc {
+            if need_z > fov_z_mm {
+                return Err(Error::value(format!(
+                    "the aortic root{} needs {:.0} mm of z field of view at tilt {:.0}°, the grid has {:.0} mm",
+                    if extras.arch { " and arch" } else { "" },
+                    need_z,
+                    tilt_rad.to_degrees(),
+                    fov_z_mm
+                )));
+            }
+            break (cl, needs);
+        }
+        arc_radius = (arc_radius - 2.0).max(min_arc);
+    };
+    // Still too wide (steep tilt, small grid): bring the DA closer to the
+    // root, as long as the two stay well apart.
+    for _ in 0..20 {
+        let excess = xy_fits(&centreline, &needs, da_xy);
+        if excess[0] <= 0.0 && excess[1] <= 0.0 {
+            break;
+        }
+        for a in 0..2 {
+            if excess[a] > 0.0 {
+                da_xy[a] -= excess[a] + 0.5;
+            }
+        }
+    }
+    let excess = xy_fits(&centreline, &needs, da_xy);
+    let z_asc_top = asc_top(&needs);
+    let top = centreline.station(s_at_z(&centreline, z_asc_top)).point;
+    let root_to_da = (da_xy[0] - origin.x).hypot(da_xy[1] - origin.y);
+    let top_to_da = (da_xy[0] - top.x).hypot(da_xy[1] - top.y);
+    if excess[0] > 0.0
+        || excess[1] > 0.0
+        || root_to_da < r_max + da_radius + MIN_DA_SEPARATION_MM
+        || top_to_da < profile.r_ascending_mm * 1.1 + da_radius + MIN_DA_SEPARATION_MM
+        || (extras.arch && total_z(&centreline, &needs, da_xy) > fov_z_mm)
+    {
+        return Err(Error::value(format!(
+            "aortic root and descending aorta do not fit a {:.0}×{:.0} mm field of view at tilt {:.0}°: use a larger preset or spacing",
+            fov[0],
+            fov[1],
+            tilt_rad.to_degrees()
+        )));
+    }
+    Ok(Fit {
+        centreline,
+        needs,
+        da_xy,
+        da_radius,
+        z_asc_top,
+    })
+}
+
+/// The left ventricle, an ellipsoid whose apex points anterior-left-
+/// inferior and whose top stays below the root, and the myocardium
+/// around it.
+fn left_ventricle(
+    lumen: &Lumen,
+    d: &Draws,
+    origin: &Point3,
+    axis: &Vector3,
+) -> (Ellipsoid, Ellipsoid) {
+    let lvot_len = lumen.lvot_length_mm;
+    // Apex: anterior-left-inferior.
+    let apex_dir =
+        Vector3::new(0.5 + d.apex_jitter[0], -0.45 + d.apex_jitter[1], -0.75).normalize();
+    let rot = basis_with_axis(&apex_dir);
+    let semi = Vector3::new(LV_SEMI[0], LV_SEMI[1], LV_SEMI[2]);
+    let lvot_end = lumen.lvot_centre(lvot_len);
+    // The LVOT end sits 70 % of the long semi-axis from the centre.
+    let mut centre = lvot_end + apex_dir * (0.7 * LV_SEMI[2]);
+    let reach = |c: &Point3| {
+        let m = rot * Matrix3::from_diagonal(&semi.component_mul(&semi)) * rot.transpose();
+        (c - origin).dot(axis) + (axis.dot(&(m * axis))).sqrt()
+    };
+    let top = reach(&centre);
+    if top > LV_MAX_HEIGHT_MM {
+        centre -= axis * (top - LV_MAX_HEIGHT_MM);
+    }
+    let lv = Ellipsoid { centre, rot, semi };
+    let myocardium = Ellipsoid {
+        centre,
+        rot,
+        semi: semi.add_scalar(MYOCARDIUM_MM),
+    };
+    (lv, myocardium)
+}
+
 impl Anatomy {
     /// Build the anatomy for `seed` and `tilt`; `fit` reports the z-range the
     /// field of view must cover and returns whether it fits, so the arc radius
@@ -303,7 +506,6 @@ impl Anatomy {
         fov: [f64; 3],
         extras: Extras,
     ) -> Result<(Self, FovNeeds)> {
-        let fov_z_mm = fov[2];
         let d = Draws::new(seed);
         let deg = PI / 180.0;
 
@@ -318,36 +520,7 @@ impl Anatomy {
         let horizontal = Vector3::new(-azimuth.cos(), -azimuth.sin(), 0.0);
         let axis = Vector3::z() * tilt_rad.cos() + horizontal * tilt_rad.sin();
 
-        // --- Radius profile ----------------------------------------------
-        let r_a = d.r_a;
-        let r_stj = r_a * d.stj_ratio;
-        let gaps = [120.0 * deg + d.comm_dev[0], 120.0 * deg + d.comm_dev[1]];
-        let comm = [0.0, gaps[0], gaps[0] + gaps[1]];
-        let mut profile = RadiusProfile {
-            r_annulus_mm: r_a,
-            lvot_ellipticity: d.ellipticity,
-            lvot_major_angle_rad: d.ellipse_angle,
-            lvot_fade_mm: 8.0,
-            h_stj_mm: d.h_stj,
-            r_stj_mm: r_stj,
-            stj_transition_mm: d.stj_transition,
-            r_ascending_mm: r_stj * d.asc_ratio,
-            ascending_variation: d.asc_var,
-            ascending_wavelength_mm: d.asc_wavelength,
-            commissure_angles_rad: comm,
-            sinus_amplitude: [0.0; 3],
-            annulus_tilt_rad: 0.0,
-            annulus_low_angle_rad: 0.0,
-        };
-        let base_peak = profile.base_root(0.4 * d.h_stj).0;
-        for k in 0..3 {
-            profile.sinus_amplitude[k] = d.sinus_ratio[k] * r_a / base_peak - 1.0;
-        }
-        if extras.annulus_tilt_rad != 0.0 {
-            profile.annulus_tilt_rad = extras.annulus_tilt_rad;
-            profile.annulus_low_angle_rad =
-                profile.sinus_centre(1) + ANNULUS_LOW_PAST_SINUS2_DEG * deg;
-        }
+        let profile = radius_profile(&d, &extras);
 
         // e1 such that the right-coronary sinus (sinus 1) faces anterior,
         // unless the root is turned.
@@ -359,107 +532,16 @@ impl Anatomy {
             -profile.sinus_centre(0) + d.e1_jitter + extras.root_rotation_rad,
         );
 
-        // --- Centreline: shrink the arc until the needed z-range fits ------
-        let s1 = d.h_stj + d.s1_above_stj;
         let r_max = profile.r_max_bound();
         let lvot_len = d.lvot_len;
-        let mut arc_radius = d.arc_radius;
-        let min_arc = (2.0 * r_max).max(35.0);
-        let mut da_xy = [
-            origin.x + DA_OFFSET[0] + d.da_offset[0],
-            origin.y + DA_OFFSET[1] + d.da_offset[1],
-        ];
-        let da_radius = if extras.arch {
-            DA_TO_ASCENDING * profile.r_ascending_mm
-        } else {
-            d.da_radius
-        };
-        // Top of the ascending lumen's vertical piece: the old field-of-view
-        // top, or with an arch, the join (the arch is inside the xy box of
-        // the ascending aorta and the DA, so it needs no xy room of its own).
-        let asc_top = |needs: &FovNeeds| {
-            if extras.arch {
-                needs.z_top + ARCH_JOIN_ABOVE_TRUTH_MM
-            } else {
-                needs.z_top
-            }
-        };
-        let xy_fits = |cl: &Centreline, needs: &FovNeeds, da_xy: [f64; 2]| {
-            let (lo, hi) = xy_extent(
-                cl,
-                &profile,
-                lvot_len,
-                r_max,
-                asc_top(needs),
-                da_xy,
-                da_radius,
-            );
-            // Half a millimetre of slack so the grid placement, which uses the
-            // actual top face, cannot disagree by rounding.
-            [hi[0] - lo[0] - fov[0] + 0.5, hi[1] - lo[1] - fov[1] + 0.5]
-        };
-        // With an arch the field of view must reach over it; its height
-        // depends on the span, so estimate it from the DA's start position.
-        let total_z = |cl: &Centreline, needs: &FovNeeds, da_xy: [f64; 2]| {
-            let top = if extras.arch {
-                arch_geometry(cl, &profile, asc_top(needs), da_xy, da_radius).z_top_lumen
-                    + ARCH_TOP_MARGIN_MM
-            } else {
-                needs.z_top
-            };
-            top - needs.z_bottom
-        };
-        let (centreline, needs) = loop {
-            let cl = Centreline::new(origin, axis, e1, s1, arc_radius);
-            let needs = z_needs(&cl, &profile, lvot_len);
-            let excess = xy_fits(&cl, &needs, da_xy);
-            let fits_xy = excess[0] <= 0.0 && excess[1] <= 0.0;
-            let need_z = total_z(&cl, &needs, da_xy);
-            if (need_z <= fov_z_mm && fits_xy) || arc_radius <= min_arc {
-                if need_z > fov_z_mm {
-                    return Err(Error::value(format!(
-                        "the aortic root{} needs {:.0} mm of z field of view at tilt {:.0}°, the grid has {:.0} mm",
-                        if extras.arch { " and arch" } else { "" },
-                        need_z,
-                        tilt_rad.to_degrees(),
-                        fov_z_mm
-                    )));
-                }
-                break (cl, needs);
-            }
-            arc_radius = (arc_radius - 2.0).max(min_arc);
-        };
-        // Still too wide (steep tilt, small grid): bring the DA closer to the
-        // root, as long as the two stay well apart.
-        for _ in 0..20 {
-            let excess = xy_fits(&centreline, &needs, da_xy);
-            if excess[0] <= 0.0 && excess[1] <= 0.0 {
-                break;
-            }
-            for a in 0..2 {
-                if excess[a] > 0.0 {
-                    da_xy[a] -= excess[a] + 0.5;
-                }
-            }
-        }
-        let excess = xy_fits(&centreline, &needs, da_xy);
-        let z_asc_top = asc_top(&needs);
-        let top = centreline.station(s_at_z(&centreline, z_asc_top)).point;
-        let root_to_da = (da_xy[0] - origin.x).hypot(da_xy[1] - origin.y);
-        let top_to_da = (da_xy[0] - top.x).hypot(da_xy[1] - top.y);
-        if excess[0] > 0.0
-            || excess[1] > 0.0
-            || root_to_da < r_max + da_radius + MIN_DA_SEPARATION_MM
-            || top_to_da < profile.r_ascending_mm * 1.1 + da_radius + MIN_DA_SEPARATION_MM
-            || (extras.arch && total_z(&centreline, &needs, da_xy) > fov_z_mm)
-        {
-            return Err(Error::value(format!(
-                "aortic root and descending aorta do not fit a {:.0}×{:.0} mm field of view at tilt {:.0}°: use a larger preset or spacing",
-                fov[0],
-                fov[1],
-                tilt_rad.to_degrees()
-            )));
-        }
+        let fit = fit_field_of_view(&d, &extras, &profile, (origin, axis, e1), fov, tilt_rad)?;
+        let Fit {
+            centreline,
+            needs,
+            da_xy,
+            da_radius,
+            z_asc_top,
+        } = fit;
         let arch = extras.arch.then(|| {
             let mut a = arch_geometry(&centreline, &profile, z_asc_top, da_xy, da_radius);
             a.z_truth_end = needs.z_top;
@@ -483,31 +565,9 @@ impl Anatomy {
         let cl = &lumen.centreline;
         let profile = &lumen.profile;
 
-        // --- LV and myocardium --------------------------------------------
-        // Apex: anterior-left-inferior.
-        let apex_dir =
-            Vector3::new(0.5 + d.apex_jitter[0], -0.45 + d.apex_jitter[1], -0.75).normalize();
-        let rot = basis_with_axis(&apex_dir);
-        let semi = Vector3::new(LV_SEMI[0], LV_SEMI[1], LV_SEMI[2]);
-        let lvot_end = lumen.lvot_centre(lvot_len);
-        // The LVOT end sits 70 % of the long semi-axis from the centre.
-        let mut centre = lvot_end + apex_dir * (0.7 * LV_SEMI[2]);
-        let reach = |c: &Point3| {
-            let m = rot * Matrix3::from_diagonal(&semi.component_mul(&semi)) * rot.transpose();
-            (c - origin).dot(&axis) + (axis.dot(&(m * axis))).sqrt()
-        };
-        let top = reach(&centre);
-        if top > LV_MAX_HEIGHT_MM {
-            centre -= axis * (top - LV_MAX_HEIGHT_MM);
-        }
-        let lv = Ellipsoid { centre, rot, semi };
-        let myocardium = Ellipsoid {
-            centre,
-            rot,
-            semi: semi.add_scalar(MYOCARDIUM_MM),
-        };
+        let (lv, myocardium) = left_ventricle(&lumen, &d, &origin, &axis);
 
-        let coronaries = coronaries(cl, profile, &d, r_a);
+        let coronaries = coronaries(cl, profile, &d, d.r_a);
 
         // --- Descending aorta, spine, sternum, body ---------------------------
         let da = match &arch {
