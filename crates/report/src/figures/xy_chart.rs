@@ -143,8 +143,20 @@ pub fn xy_chart(chart: &XyChart) -> Figure {
     let (x0, x1) = pad(x0, x1, 0.02);
     let (y0, y1) = pad(y0, y1, 0.06);
     let (w, h) = (chart.width.clamp(200, 4000), chart.height.clamp(150, 4000));
+    let names: Vec<&str> = legend_entries(chart, &runs, &hlines)
+        .iter()
+        .map(|e| e.0)
+        .collect();
+    let legend = [legend_width(&names), 8.0 + 20.0 * names.len() as f64];
+    let (corner, y1) = legend_place(
+        &runs,
+        &hlines,
+        (x0, x1, y0, y1),
+        plot_frame((x0, x1, y0, y1), w as f64, h as f64),
+        legend,
+    );
     let mut canvas = Canvas::new(w, h, 2, [255, 255, 255]);
-    draw(chart, &runs, &hlines, (x0, x1, y0, y1), &mut canvas);
+    draw(chart, &runs, &hlines, (x0, x1, y0, y1), corner, &mut canvas);
     to_figure(&chart.id, &chart.title, &chart.caption, &canvas)
 }
 
@@ -192,22 +204,28 @@ const TITLE_ROOM: f64 = 30.0;
 const X_LABEL_ROOM: f64 = 44.0;
 const Y_LABEL_ROOM: f64 = 72.0;
 
-fn draw(
-    chart: &XyChart,
-    runs: &[Vec<Vec<(f64, f64)>>],
-    hlines: &[(&str, f64, Option<usize>)],
-    (x0, x1, y0, y1): Ranges,
-    c: &mut Canvas,
-) {
-    let (w, h) = (c.width() as f64, c.height() as f64);
-    let f = Frame {
+/// The plot's frame on a `w` × `h` px chart.
+fn plot_frame((x0, x1, y0, y1): Ranges, w: f64, h: f64) -> Frame {
+    Frame {
         x: (x0, x1),
         y: (y0, y1),
         left: MARGIN + Y_LABEL_ROOM,
         top: MARGIN + TITLE_ROOM,
         right: w - MARGIN,
         bottom: h - MARGIN - X_LABEL_ROOM,
-    };
+    }
+}
+
+fn draw(
+    chart: &XyChart,
+    runs: &[Vec<Vec<(f64, f64)>>],
+    hlines: &[(&str, f64, Option<usize>)],
+    ranges: Ranges,
+    corner: Corner,
+    c: &mut Canvas,
+) {
+    let (x0, x1, y0, y1) = ranges;
+    let f = plot_frame(ranges, c.width() as f64, c.height() as f64);
     let log = chart.log_y;
     let y_ticks = ticks(y0, y1, 10, 0.0)
         .into_iter()
@@ -244,25 +262,10 @@ fn draw(
         let colour = of.map_or(HLINE, colour_of);
         c.dashed_polyline(&[f.px(x0, y), f.px(x1, y)], 2.0, 8.0, 5.0, colour);
     }
-    // The legend: each series that has a line, then each reference line.
-    let mut entries: Vec<(&str, Rgb8, bool)> = Vec::new();
-    for (k, (s, r)) in chart.series.iter().zip(runs).enumerate() {
-        if !r.is_empty() {
-            entries.push((s.name.as_str(), colour_of(k), false));
-        }
-    }
-    for &(name, _, of) in hlines {
-        entries.push((name, of.map_or(HLINE, colour_of), true));
-    }
+    let entries = legend_entries(chart, runs, hlines);
     let names: Vec<&str> = entries.iter().map(|e| e.0).collect();
     let size = [legend_width(&names), 8.0 + 20.0 * names.len() as f64];
-    let at = match legend_corner(runs, hlines, (x0, x1, y0, y1)) {
-        Corner::UpperRight => [f.right - 8.0 - size[0], f.top + 8.0],
-        Corner::UpperLeft => [f.left + 8.0, f.top + 8.0],
-        Corner::LowerRight => [f.right - 8.0 - size[0], f.bottom - 8.0 - size[1]],
-        Corner::LowerLeft => [f.left + 8.0, f.bottom - 8.0 - size[1]],
-    };
-    legend_box(c, at, &names, &mut |c, k, p| {
+    legend_box(c, legend_at(&f, corner, size), &names, &mut |c, k, p| {
         let (_, colour, dashed) = entries[k];
         let line = [p, [p[0] + 24.0, p[1]]];
         if dashed {
@@ -297,42 +300,115 @@ enum Corner {
     LowerLeft,
 }
 
-/// The corner whose box (the outer 40 % of each axis) holds the least of the
-/// plot, so the legend does not cover a line or a threshold: each data
-/// point counts one, each reference line through the box five (a line is
-/// read along its whole length). Ties keep the usual upper right.
-fn legend_corner(
+/// The legend's rows: each series that has a line, then each reference
+/// line (dashed), with their colours.
+fn legend_entries<'a>(
+    chart: &'a XyChart,
+    runs: &[Vec<Vec<(f64, f64)>>],
+    hlines: &[(&'a str, f64, Option<usize>)],
+) -> Vec<(&'a str, Rgb8, bool)> {
+    let colour_of = |k: usize| COLOURS[k % COLOURS.len()];
+    let mut entries = Vec::new();
+    for (k, (s, r)) in chart.series.iter().zip(runs).enumerate() {
+        if !r.is_empty() {
+            entries.push((s.name.as_str(), colour_of(k), false));
+        }
+    }
+    for &(name, _, of) in hlines {
+        entries.push((name, of.map_or(HLINE, colour_of), true));
+    }
+    entries
+}
+
+/// Top-left corner (px) of a legend of `size` px in `corner` of the plot.
+fn legend_at(f: &Frame, corner: Corner, size: [f64; 2]) -> [f64; 2] {
+    match corner {
+        Corner::UpperRight => [f.right - 8.0 - size[0], f.top + 8.0],
+        Corner::UpperLeft => [f.left + 8.0, f.top + 8.0],
+        Corner::LowerRight => [f.right - 8.0 - size[0], f.bottom - 8.0 - size[1]],
+        Corner::LowerLeft => [f.left + 8.0, f.bottom - 8.0 - size[1]],
+    }
+}
+
+/// Gap (px) kept between the legend and what it would otherwise touch.
+const LEGEND_CLEAR_PX: f64 = 4.0;
+
+/// Where the legend goes and the top of the y range: the first corner
+/// (upper right, upper left, lower right, lower left) whose legend box,
+/// grown by [`LEGEND_CLEAR_PX`], no drawn line, marker or reference line
+/// enters; when each is entered, the upper right, with the y range raised
+/// until everything drawn lies below the legend.
+fn legend_place(
     runs: &[Vec<Vec<(f64, f64)>>],
     hlines: &[(&str, f64, Option<usize>)],
     (x0, x1, y0, y1): Ranges,
-) -> Corner {
-    let (wx, wy) = (0.4 * (x1 - x0), 0.4 * (y1 - y0));
-    let cost = |c: Corner| {
-        let (right, upper) = match c {
-            Corner::UpperRight => (true, true),
-            Corner::UpperLeft => (false, true),
-            Corner::LowerRight => (true, false),
-            Corner::LowerLeft => (false, false),
-        };
-        let in_x = |x: f64| if right { x >= x1 - wx } else { x <= x0 + wx };
-        let in_y = |y: f64| if upper { y >= y1 - wy } else { y <= y0 + wy };
-        let points = runs
-            .iter()
-            .flatten()
-            .flatten()
-            .filter(|&&(x, y)| in_x(x) && in_y(y))
-            .count();
-        points + 5 * hlines.iter().filter(|&&(_, y, _)| in_y(y)).count()
-    };
-    [
+    f: Frame,
+    size: [f64; 2],
+) -> (Corner, f64) {
+    let corners = [
         Corner::UpperRight,
         Corner::UpperLeft,
         Corner::LowerRight,
         Corner::LowerLeft,
-    ]
-    .into_iter()
-    .min_by_key(|&c| cost(c))
-    .expect("four corners")
+    ];
+    let clear = |corner: Corner| {
+        let at = legend_at(&f, corner, size);
+        let g = LEGEND_CLEAR_PX;
+        let (lo, hi) = (
+            [at[0] - g, at[1] - g],
+            [at[0] + size[0] + g, at[1] + size[1] + g],
+        );
+        let enters = |a: [f64; 2], b: [f64; 2]| segment_enters_box(a, b, lo, hi);
+        let lines = runs.iter().flatten().all(|run| {
+            let px: Vec<[f64; 2]> = run.iter().map(|&(x, y)| f.px(x, y)).collect();
+            px.iter().all(|&p| !enters(p, p)) && px.windows(2).all(|w| !enters(w[0], w[1]))
+        });
+        lines
+            && hlines
+                .iter()
+                .all(|&(_, y, _)| !enters(f.px(x0, y), f.px(x1, y)))
+    };
+    if let Some(c) = corners.into_iter().find(|&c| clear(c)) {
+        return (c, y1);
+    }
+    // Everything drawn lies at or below y_max; the legend takes the top
+    // `cover` px of the plot's height: raise y1 until y_max maps below it.
+    let y_max = runs
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|p| p.1)
+        .chain(hlines.iter().map(|h| h.1))
+        .fold(y0, f64::max);
+    let height = f.bottom - f.top;
+    let share = ((8.0 + size[1] + 2.0 * LEGEND_CLEAR_PX) / height).min(0.6);
+    (
+        Corner::UpperRight,
+        y1.max((y_max - share * y0) / (1.0 - share)),
+    )
+}
+
+/// Whether the segment a–b (px) meets the box [lo, hi] (Liang–Barsky).
+fn segment_enters_box(a: [f64; 2], b: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> bool {
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for k in 0..2 {
+        let d = b[k] - a[k];
+        for (p, q) in [(-d, a[k] - lo[k]), (d, hi[k] - a[k])] {
+            if p == 0.0 {
+                if q < 0.0 {
+                    return false;
+                }
+            } else {
+                let r = q / p;
+                if p < 0.0 {
+                    t0 = t0.max(r);
+                } else {
+                    t1 = t1.min(r);
+                }
+            }
+        }
+    }
+    t0 <= t1
 }
 
 #[cfg(test)]
@@ -388,18 +464,47 @@ mod tests {
 
     #[test]
     fn the_legend_goes_where_the_plot_is_empty() {
+        let frame = |r: Ranges| plot_frame(r, 720.0, 405.0);
+        let size = [150.0, 48.0];
         let rising: Vec<Vec<(f64, f64)>> = vec![(0..10).map(|k| (k as f64, k as f64)).collect()];
         let r = (0.0, 9.0, 0.0, 9.0);
         // A line from lower left to upper right leaves the other corners.
-        let c = legend_corner(&[rising.clone()], &[], r);
-        assert!(matches!(c, Corner::UpperLeft | Corner::LowerRight), "{c:?}");
+        let (c, y1) = legend_place(&[rising.clone()], &[], r, frame(r), size);
+        assert_eq!((c, y1), (Corner::UpperLeft, 9.0));
         // A threshold near the top rules out both upper corners.
+        let (c, _) = legend_place(&[rising.clone()], &[("t", 8.5, None)], r, frame(r), size);
+        assert_eq!(c, Corner::LowerRight);
+        // Nothing to avoid: the usual corner, the range as it was.
         assert_eq!(
-            legend_corner(&[rising], &[("t", 8.5, None)], r),
-            Corner::LowerRight
+            legend_place(&[], &[], r, frame(r), size),
+            (Corner::UpperRight, 9.0)
         );
-        // Nothing to avoid: the usual corner.
-        assert_eq!(legend_corner(&[], &[], r), Corner::UpperRight);
+        // Lines across the whole width at the top and the bottom (a sweep
+        // of two sizes): no corner is free, so the range grows upwards until
+        // the upper right one is, and nothing drawn then enters it.
+        let flat: Vec<Vec<(f64, f64)>> =
+            vec![vec![(0.0, 8.5), (9.0, 8.6)], vec![(0.0, 0.5), (9.0, 0.4)]];
+        let (c, y1) = legend_place(&[flat.clone()], &[], r, frame(r), size);
+        assert_eq!(c, Corner::UpperRight);
+        assert!(y1 > 9.0, "{y1}");
+        let grown = (0.0, 9.0, 0.0, y1);
+        let f = frame(grown);
+        let at = legend_at(&f, c, size);
+        let below = at[1] + size[1] + LEGEND_CLEAR_PX;
+        for &(x, y) in flat.iter().flatten() {
+            assert!(f.px(x, y)[1] >= below - 1e-9, "({x}, {y}) under the legend");
+        }
+    }
+
+    #[test]
+    fn a_segment_enters_a_box_when_it_crosses_or_ends_in_it() {
+        let (lo, hi) = ([0.0, 0.0], [10.0, 5.0]);
+        assert!(segment_enters_box([-5.0, 2.0], [15.0, 2.0], lo, hi));
+        assert!(segment_enters_box([5.0, 2.0], [5.0, 2.0], lo, hi));
+        assert!(segment_enters_box([-1.0, -1.0], [1.0, 1.0], lo, hi));
+        assert!(!segment_enters_box([-5.0, 6.0], [15.0, 6.0], lo, hi));
+        assert!(!segment_enters_box([-2.0, 0.0], [0.0, -2.0], lo, hi));
+        assert!(!segment_enters_box([11.0, 0.0], [20.0, 5.0], lo, hi));
     }
 
     #[test]
