@@ -664,6 +664,89 @@ fn seed_voxel(
         })
 }
 
+/// The box the lumen is segmented in: the track, the landmarks, the
+/// ascending aorta well above the STJ, and how far the lumen reaches from
+/// the track (at `threshold`, in `blood`); from the commissures, capped
+/// below the arch.
+fn region_of_interest(
+    ct: &Volume<i16>,
+    found: &track::Found,
+    landmarks: Option<&Landmarks>,
+    commissures3: Option<&[Point3; 3]>,
+    (threshold, blood): (f64, f64),
+    clock: &mut Clock,
+) -> (roi::RoiBox, Option<reach::Reach>) {
+    let mut lm_points: Vec<Point3> = landmarks
+        .map(|l| l.points.iter().map(|(_, q)| *q).collect())
+        .unwrap_or_default();
+    // The ascending aorta the valve and the report need reaches well above
+    // the STJ even where the axial track stops early (a tilted or
+    // elliptical section): the box holds the axis that far up.
+    if let Some((centre, axis, _)) = commissures3.and_then(anchor::circumcircle) {
+        let up = if axis.z < 0.0 { -axis } else { axis };
+        lm_points.push(centre + up * ASCENDING_ABOVE_MM);
+    }
+    // The lumen is followed on a coarse grid to see how far the root, the
+    // LV entrance and the ascending aorta reach (an axial track stops early
+    // on a tilted aorta). Anchored at the commissures it need not go far:
+    // past the arch it would only add the descending aorta.
+    let max_path = match commissures3 {
+        Some(_) => ANCHORED_REACH_MM,
+        None => reach::MAX_PATH_MM,
+    };
+    let reach = reach::lumen_reach(ct, &found.track, threshold, blood, max_path);
+    clock.lap("lumen_reach");
+    let mut box_ = roi::roi_box(ct, &found.track, found.dk, &lm_points, reach.as_ref());
+    // From the commissures the lumen followed may enter the arch and its
+    // branches (loops of vessels: tunnels in the wall surface); the
+    // ascending aorta the valve needs ends below that height.
+    if let Some(c) = commissures3 {
+        let top = c.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max) + ASCENDING_TOP_MM;
+        let k = ct.world_to_index(&Point3::new(c[0].x, c[0].y, top))[2].ceil();
+        let k = (k.max(0.0) as usize + 1).min(box_.hi[2]);
+        box_.hi[2] = k.max(box_.lo[2] + 1);
+    }
+    (box_, reach)
+}
+
+/// `opened` without what lies below the VAJ plane `pl` near it (far away
+/// the curved aorta may pass "below" the annulus plane), and then only
+/// what stays joined to `ground`.
+fn below_vaj_removed(
+    opened: &[bool],
+    dims: [usize; 3],
+    ground: usize,
+    pl: &vaj::Plane,
+    world: impl Fn(usize) -> Point3,
+) -> Vec<bool> {
+    let mut keep = opened.to_vec();
+    let c = Point3::from(pl.point_mm);
+    for (v, kv) in keep.iter_mut().enumerate() {
+        if *kv {
+            let q = world(v);
+            if pl.height(&q) < 0.0 && (q - c).norm() < 45.0 {
+                *kv = false;
+            }
+        }
+    }
+    morphology::flood_fill(&keep, dims, ground)
+}
+
+/// A lumen far larger than a tube of the tracked radius has leaked into a
+/// neighbouring chamber: refused, never passed on.
+fn refuse_a_leak(tube: &TubeCheck, final_ml: f64) -> Result<()> {
+    if tube.ratio > MAX_TUBE_RATIO {
+        return Err(Error::failed(
+            "segment",
+            format!(
+                "the segmented lumen ({:.0} ml over {:.0} mm along the aorta) is {:.1} times the volume of a tube of the tracked radius {:.1} mm: it has leaked into a neighbouring chamber (left atrium or ventricle), and a leaked mask is not passed on; give the landmarks C1–C3 and N1–N3, which bound the root, or crop the CT closer to the aorta",
+                final_ml, tube.length_mm, tube.ratio, tube.radius_mm
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Segment the aortic root and ascending aorta of `ct`.
 pub fn segment(
     ct: &Volume<i16>,
@@ -697,37 +780,14 @@ pub fn segment(
     let last = found.track.last().expect("seeded");
     let tracked_length = (track::world(ct, last) - seed_w).norm();
 
-    // --- Region of interest ---------------------------------------------------
-    let mut lm_points: Vec<Point3> = landmarks
-        .map(|l| l.points.iter().map(|(_, q)| *q).collect())
-        .unwrap_or_default();
-    // The ascending aorta the valve and the report need reaches well above
-    // the STJ even where the axial track stops early (a tilted or
-    // elliptical section): the box holds the axis that far up.
-    if let Some((centre, axis, _)) = commissures3.as_ref().and_then(anchor::circumcircle) {
-        let up = if axis.z < 0.0 { -axis } else { axis };
-        lm_points.push(centre + up * ASCENDING_ABOVE_MM);
-    }
-    // The lumen is followed on a coarse grid to see how far the root, the
-    // LV entrance and the ascending aorta reach (an axial track stops early
-    // on a tilted aorta). Anchored at the commissures it need not go far:
-    // past the arch it would only add the descending aorta.
-    let max_path = match commissures3 {
-        Some(_) => ANCHORED_REACH_MM,
-        None => reach::MAX_PATH_MM,
-    };
-    let reach = reach::lumen_reach(ct, &found.track, threshold, pool.blood, max_path);
-    clock.lap("lumen_reach");
-    let mut box_ = roi::roi_box(ct, &found.track, found.dk, &lm_points, reach.as_ref());
-    // From the commissures the lumen followed may enter the arch and its
-    // branches (loops of vessels: tunnels in the wall surface); the
-    // ascending aorta the valve needs ends below that height.
-    if let Some(c) = &commissures3 {
-        let top = c.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max) + ASCENDING_TOP_MM;
-        let k = ct.world_to_index(&Point3::new(c[0].x, c[0].y, top))[2].ceil();
-        let k = (k.max(0.0) as usize + 1).min(box_.hi[2]);
-        box_.hi[2] = k.max(box_.lo[2] + 1);
-    }
+    let (box_, reach) = region_of_interest(
+        ct,
+        &found,
+        landmarks,
+        commissures3.as_ref(),
+        (threshold, pool.blood),
+        &mut clock,
+    );
     // `roi_vol` carries the cropped grid (dims, exact affine); `img` its HU.
     let (roi_vol, mut img) = roi::crop_f32(ct, &box_)?;
     let dims = roi_vol.dims();
@@ -795,21 +855,12 @@ pub fn segment(
         roi_vol.voxel_volume(),
         rsp,
     );
-    let mut keep = opened.clone();
-    if let Some(pl) = plane {
-        // Only the part near the plane is judged: far away the curved aorta
-        // may pass "below" the annulus plane.
-        let c = Point3::from(pl.point_mm);
-        for (v, kv) in keep.iter_mut().enumerate() {
-            if *kv {
-                let q = world(v);
-                if pl.height(&q) < 0.0 && (q - c).norm() < 45.0 {
-                    *kv = false;
-                }
-            }
-        }
-        keep = morphology::flood_fill(&keep, dims, ground);
-        vaj_report.plane = Some(pl);
+    let mut keep = match &plane {
+        Some(pl) => below_vaj_removed(&opened, dims, ground, pl, world),
+        None => opened.clone(),
+    };
+    if plane.is_some() {
+        vaj_report.plane = plane;
     }
     let root_fill = plane.map(|pl| {
         let slab = root_slab(
@@ -845,18 +896,7 @@ pub fn segment(
         vaj_report.plane.as_ref(),
         vox_ml,
     );
-    if tube.ratio > MAX_TUBE_RATIO {
-        return Err(Error::failed(
-            "segment",
-            format!(
-                "the segmented lumen ({:.0} ml over {:.0} mm along the aorta) is {:.1} times the volume of a tube of the tracked radius {:.1} mm: it has leaked into a neighbouring chamber (left atrium or ventricle), and a leaked mask is not passed on; give the landmarks C1–C3 and N1–N3, which bound the root, or crop the CT closer to the aorta",
-                final_n as f64 * vox_ml,
-                tube.length_mm,
-                tube.ratio,
-                tube.radius_mm
-            ),
-        ));
-    }
+    refuse_a_leak(&tube, final_n as f64 * vox_ml)?;
 
     let landmarks_check = landmarks.map(|_| commissure_check(&commissures, &roi_vol, &keep));
     if landmarks_check
