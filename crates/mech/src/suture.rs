@@ -635,32 +635,21 @@ pub struct SewContact {
     pub xi: f64,
 }
 
-/// Algorithm 1: solve the auxiliary problem with K = k0, 2k0, 4k0, … from
-/// the placed template until max sin φ_T < ε_sew. `stop` bounds each solve
-/// (its time limit bounds the whole pre-stage). `contact`: the leaflets
-/// also keep off each other (the closure's `contact = "leaflets"`). The
-/// seed's planes alone pass through the axis, and the shell pressed onto
-/// them sinks past them where they meet: on the sample's design sweep the
-/// sewn leaflets of sizes 19–33 crossed each other in 5–71 triangle pairs
-/// that the placed ones did not, and true contact in the closure, which
-/// cannot pull crossed leaflets apart, kept them.
-pub fn suture(
+/// Seed 001's auxiliary problem on the placed leaflets `l`: a soft
+/// neo-Hookean shell with bending under `s.pressure`, kept off the planes
+/// between the leaflets (and, given `contact`, off each other), its
+/// `tris` pulled into the wall's tangent planes by a suture force of
+/// stiffness `s.k0` (the last term, which each round replaces).
+fn auxiliary_system(
     l: &Leaflets,
     s: &Settings,
     axis: &Axis,
-    wall: &Wall,
-    stop: &Stop,
-    nopt: &NewtonOptions,
+    tris: &[SuturedTri],
     contact: Option<SewContact>,
+    nopt: &NewtonOptions,
     watch: Option<super::system::Watch>,
-) -> Result<Sutured, String> {
-    let t0 = Instant::now();
-    let nopt = &NewtonOptions {
-        nonmonotone: solve::NONMONOTONE,
-        ..nopt.clone()
-    };
+) -> Result<System, String> {
     let n_leaflets = l.leaflet.iter().map(|&k| k as usize + 1).max().unwrap_or(0);
-    let tris = sutured_triangles(l, wall)?;
     let mut refs = Vec::with_capacity(l.tris.len());
     for (t, tri) in l.tris.iter().enumerate() {
         refs.push(
@@ -673,8 +662,7 @@ pub fn suture(
     let sides = model::planes_for(l, axis, n_leaflets, 4.0 * s.pressure, 0.0)?;
     let middle = middle_planes(l, axis, &sides, 3.0 * s.pressure)?;
     let planes = sides.into_iter().chain(middle).collect();
-    let force = SutureForce::new(tris.clone(), s.k0);
-    let initial = force.max_sin(&l.x);
+    let force = SutureForce::new(tris.to_vec(), s.k0);
     let mut sys = System {
         tris: l.tris.clone(),
         refs,
@@ -720,6 +708,74 @@ pub fn suture(
             )),
         );
     }
+    Ok(sys)
+}
+
+/// How the pre-stage ended after `rounds` (at `k` last), with or without
+/// a converged round to keep (`kept`) and the reason it `stalled`: its
+/// status, the max sin φ it kept (`initial` when none) and why, in words.
+fn verdict(
+    rounds: &[Round],
+    kept: bool,
+    stalled: Option<String>,
+    s: &Settings,
+    initial: f64,
+    k: f64,
+) -> (Status, f64, String) {
+    let status = match (kept, &stalled) {
+        (false, _) => Status::Failed,
+        (true, None) if rounds.last().is_some_and(|r| r.max_sin_phi < s.tolerance) => Status::Sewn,
+        _ => Status::Stalled,
+    };
+    let done = rounds.iter().rposition(|r| r.converged);
+    let last = done.map_or(initial, |i| rounds[i].max_sin_phi);
+    let reason = match (status, stalled) {
+        (Status::Sewn, _) => format!(
+            "max sin φ {last:.4} < {} after {} rounds (K = {k:.3e} N/mm)",
+            s.tolerance,
+            rounds.len()
+        ),
+        (Status::Failed, Some(r)) => r,
+        (_, Some(r)) => format!(
+            "{r}; kept K = {:.3e} N/mm, max sin φ {last:.4} ≥ {}",
+            rounds[done.expect("kept")].k_n_per_mm,
+            s.tolerance
+        ),
+        (_, None) => format!(
+            "max sin φ {last:.4} still ≥ {} after {} doublings of K",
+            s.tolerance, s.max_rounds
+        ),
+    };
+    (status, last, reason)
+}
+
+/// Algorithm 1: solve the auxiliary problem with K = k0, 2k0, 4k0, … from
+/// the placed template until max sin φ_T < ε_sew. `stop` bounds each solve
+/// (its time limit bounds the whole pre-stage). `contact`: the leaflets
+/// also keep off each other (the closure's `contact = "leaflets"`). The
+/// seed's planes alone pass through the axis, and the shell pressed onto
+/// them sinks past them where they meet: on the sample's design sweep the
+/// sewn leaflets of sizes 19–33 crossed each other in 5–71 triangle pairs
+/// that the placed ones did not, and true contact in the closure, which
+/// cannot pull crossed leaflets apart, kept them.
+pub fn suture(
+    l: &Leaflets,
+    s: &Settings,
+    axis: &Axis,
+    wall: &Wall,
+    stop: &Stop,
+    nopt: &NewtonOptions,
+    contact: Option<SewContact>,
+    watch: Option<super::system::Watch>,
+) -> Result<Sutured, String> {
+    let t0 = Instant::now();
+    let nopt = &NewtonOptions {
+        nonmonotone: solve::NONMONOTONE,
+        ..nopt.clone()
+    };
+    let tris = sutured_triangles(l, wall)?;
+    let mut sys = auxiliary_system(l, s, axis, &tris, contact, nopt, watch)?;
+    let initial = force_of(&tris, s.k0).max_sin(&l.x);
     let mut x = l.x.clone();
     let mut rounds: Vec<Round> = Vec::new();
     let mut k = s.k0;
@@ -813,32 +869,7 @@ pub fn suture(
         }
         k *= 2.0;
     }
-    let status = match (states.last(), &stalled) {
-        (None, _) => Status::Failed,
-        (Some(_), None) if rounds.last().is_some_and(|r| r.max_sin_phi < s.tolerance) => {
-            Status::Sewn
-        }
-        _ => Status::Stalled,
-    };
-    let done = rounds.iter().rposition(|r| r.converged);
-    let last = done.map_or(initial, |i| rounds[i].max_sin_phi);
-    let reason = match (status, stalled) {
-        (Status::Sewn, _) => format!(
-            "max sin φ {last:.4} < {} after {} rounds (K = {k:.3e} N/mm)",
-            s.tolerance,
-            rounds.len()
-        ),
-        (Status::Failed, Some(r)) => r,
-        (_, Some(r)) => format!(
-            "{r}; kept K = {:.3e} N/mm, max sin φ {last:.4} ≥ {}",
-            rounds[done.expect("kept")].k_n_per_mm,
-            s.tolerance
-        ),
-        (_, None) => format!(
-            "max sin φ {last:.4} still ≥ {} after {} doublings of K",
-            s.tolerance, s.max_rounds
-        ),
-    };
+    let (status, last, reason) = verdict(&rounds, states.last().is_some(), stalled, s, initial, k);
     if let Some(k) = states.pop() {
         x = k;
     }
