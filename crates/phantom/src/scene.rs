@@ -185,213 +185,15 @@ impl Scene {
     pub fn new(anatomy: Arc<Anatomy>, contrast: Contrast, z_range: (f64, f64)) -> Scene {
         let an = &anatomy;
         let mut layers: Vec<Layer> = Vec::new();
-        let lvot = an.lumen.lvot_length_mm;
-        // Blood value at a point for a structure with contrast factor f.
-        let blood = {
-            let a = anatomy.clone();
-            move |f: f64| -> HuFn {
-                let a = a.clone();
-                if contrast.enabled {
-                    Box::new(move |p: &Point3| contrast.blood_hu * f * a.blood_field(p))
-                } else {
-                    constant(BLOOD_PLAIN_HU)
-                }
-            }
-        };
-
         let arch_aabb = an.arch.as_ref().map_or(Aabb::empty(), |a| a.tube.aabb());
 
         layers.extend(body_and_lungs(an));
+        layers.push(mediastinal_fat(&anatomy, &arch_aabb));
+        layers.push(myocardium(&anatomy, contrast));
+        layers.extend(vessel_walls(&anatomy, &arch_aabb));
+        layers.extend(blood_pools(&anatomy, contrast, &arch_aabb));
 
-        // --- Mediastinal fat around heart and great vessels -----------------
-        {
-            let a = anatomy.clone();
-            let aabb = an
-                .lumen
-                .aabb(-lvot - 10.0, 400.0)
-                .grow(FAT_AROUND_AORTA_MM + FAT_BLEND_MM)
-                .union(&an.lv.aabb().grow(FAT_AROUND_LV_MM + FAT_BLEND_MM))
-                .union(&tubes_aabb(&an.pa).grow(FAT_AROUND_VESSELS_MM + FAT_BLEND_MM))
-                .union(&an.la.aabb().grow(FAT_AROUND_VESSELS_MM + FAT_BLEND_MM))
-                .union(&an.da.aabb().grow(FAT_AROUND_VESSELS_MM + FAT_BLEND_MM))
-                .union(&arch_aabb.grow(FAT_AROUND_AORTA_MM + FAT_BLEND_MM));
-            layers.push(Layer {
-                thin_mm: None,
-                name: "mediastinal_fat".into(),
-                shape: Box::new(move |pr| {
-                    let p = &pr.p;
-                    let mut d = offset(pr.aorta_capped(lvot + 10.0), FAT_AROUND_AORTA_MM);
-                    d = smooth_union(d, offset(a.lv.eval(p), FAT_AROUND_LV_MM), FAT_BLEND_MM);
-                    d = smooth_union(
-                        d,
-                        offset(tubes_sdf(&a.pa, p), FAT_AROUND_VESSELS_MM),
-                        FAT_BLEND_MM,
-                    );
-                    d = smooth_union(d, offset(a.la.eval(p), FAT_AROUND_VESSELS_MM), FAT_BLEND_MM);
-                    smooth_union(d, offset(a.da.eval(p), FAT_AROUND_VESSELS_MM), FAT_BLEND_MM)
-                }),
-                hu: constant(FAT_HU),
-                aabb,
-            });
-        }
-
-        // --- Myocardium: LV shell reaching up around the LVOT ---------------
-        {
-            // Outer radius of the basal myocardium around the LVOT, where its
-            // flat top lies below the VAJ, and the rounding of its rim.
-            const LVOT_MYOCARDIUM_MM: f64 = 9.0;
-            const MYO_TOP_BELOW_VAJ_MM: f64 = 1.0;
-            const ROUNDING_MM: f64 = 3.0;
-            const BELOW_LVOT_MM: f64 = 8.0;
-            let cl = &an.lumen.centreline;
-            let top = MYO_TOP_BELOW_VAJ_MM + ROUNDING_MM;
-            let basal = Tube::new(
-                vec![
-                    an.lumen.lvot_centre(lvot + BELOW_LVOT_MM),
-                    an.lumen.lvot_centre(top),
-                ],
-                vec![an.lumen.profile.r_annulus_mm + LVOT_MYOCARDIUM_MM - ROUNDING_MM],
-            );
-            // Capsule trimmed flat, then dilated: a cylinder with a rounded rim.
-            let axis = cl.axis;
-            let a = anatomy.clone();
-            let aabb = an.myocardium.aabb().union(&basal.aabb()).grow(LV_BLEND_MM);
-            layers.push(Layer {
-                thin_mm: None,
-                name: "myocardium".into(),
-                shape: Box::new(move |pr| {
-                    let p = &pr.p;
-                    let mut b = basal.eval(p);
-                    let cap = (p - a.lumen.centreline.origin).dot(&axis) + top;
-                    if cap > b.0 {
-                        b = (cap, axis);
-                    }
-                    smooth_union(a.myocardium.eval(p), offset(b, ROUNDING_MM), LV_BLEND_MM)
-                }),
-                hu: constant(if contrast.enabled {
-                    MYOCARDIUM_ENHANCED_HU
-                } else {
-                    MYOCARDIUM_PLAIN_HU
-                }),
-                aabb,
-            });
-        }
-
-        // --- Vessel walls (dilated lumens; the blood is painted over them) --
-        {
-            let aabb = an
-                .lumen
-                .aabb(-WALL_START_BELOW_VAJ_MM - 5.0, 400.0)
-                .union(&arch_aabb)
-                .grow(AORTIC_WALL_MM + 1.0);
-            layers.push(Layer {
-                thin_mm: None,
-                name: "aortic_wall".into(),
-                shape: Box::new(move |pr| {
-                    offset(pr.aorta_capped(WALL_START_BELOW_VAJ_MM), AORTIC_WALL_MM)
-                }),
-                hu: constant(WALL_HU),
-                aabb,
-            });
-            let a = anatomy.clone();
-            layers.push(Layer {
-                thin_mm: None,
-                name: "pa_wall".into(),
-                shape: Box::new(move |pr| offset(tubes_sdf(&a.pa, &pr.p), PA_WALL_MM)),
-                hu: constant(WALL_HU),
-                aabb: tubes_aabb(&an.pa).grow(PA_WALL_MM + 1.0),
-            });
-            let da = an.da.clone();
-            layers.push(Layer {
-                thin_mm: None,
-                name: "da_wall".into(),
-                shape: Box::new(move |pr| offset(da.eval(&pr.p), DA_WALL_MM)),
-                hu: constant(WALL_HU),
-                aabb: an.da.aabb().grow(DA_WALL_MM + 1.0),
-            });
-        }
-
-        // --- Blood pools -----------------------------------------------------
-        {
-            // Aortic lumen + LVOT, joined smoothly to the LV cavity.
-            let a = anatomy.clone();
-            let a2 = anatomy.clone();
-            let field = blood(1.0);
-            layers.push(Layer {
-                thin_mm: None,
-                name: "aorta_lv_blood".into(),
-                shape: Box::new(move |pr| {
-                    smooth_union(pr.aorta_capped(lvot), a.lv.eval(&pr.p), LV_BLEND_MM)
-                }),
-                // The LV is slightly less enhanced: blend along the axis from
-                // the annulus down to the end of the LVOT.
-                hu: Box::new(move |p| {
-                    let h = a2.lumen.height(p);
-                    let t = (-h / lvot).clamp(0.0, 1.0);
-                    field(p) * (1.0 - t * (1.0 - LV_FACTOR))
-                }),
-                aabb: an
-                    .lumen
-                    .aabb(-lvot - 2.0, 400.0)
-                    .union(&an.lv.aabb())
-                    .union(&arch_aabb)
-                    .grow(LV_BLEND_MM),
-            });
-            for c in &an.coronaries {
-                let tubes = c.tubes.clone();
-                let aabb = tubes_aabb(&tubes).grow(1.0);
-                layers.push(Layer {
-                    thin_mm: None,
-                    name: format!("coronary_{}", c.name),
-                    shape: Box::new(move |pr| tubes_sdf(&tubes, &pr.p)),
-                    hu: blood(CORONARY_FACTOR),
-                    aabb,
-                });
-            }
-            let a = anatomy.clone();
-            layers.push(Layer {
-                thin_mm: None,
-                name: "pa_blood".into(),
-                shape: Box::new(move |pr| tubes_sdf(&a.pa, &pr.p)),
-                hu: blood(PA_FACTOR),
-                aabb: tubes_aabb(&an.pa).grow(1.0),
-            });
-            let la = an.la.clone();
-            layers.push(Layer {
-                thin_mm: None,
-                name: "la_blood".into(),
-                shape: Box::new(move |pr| la.eval(&pr.p)),
-                hu: blood(LA_FACTOR),
-                aabb: an.la.aabb().grow(1.0),
-            });
-            let da = an.da.clone();
-            layers.push(Layer {
-                thin_mm: None,
-                name: "da_blood".into(),
-                shape: Box::new(move |pr| da.eval(&pr.p)),
-                hu: blood(1.0),
-                aabb: an.da.aabb().grow(1.0),
-            });
-        }
-
-        // --- Native cusps, closed (over the blood) ---------------------------
-        if let Some(c) = an.cusps {
-            let a = anatomy.clone();
-            let aabb = an
-                .lumen
-                .aabb(-an.lumen.lvot_length_mm.min(15.0), an.h_comm_mm + 2.0)
-                .grow(1.0);
-            layers.push(Layer {
-                thin_mm: Some(c.thickness_mm),
-                name: "native_cusps".into(),
-                shape: Box::new(move |pr| {
-                    let (d, n) = cusps::sheet_distance(&a, &c, &pr.p);
-                    (d - 0.5 * c.thickness_mm, n)
-                }),
-                hu: constant(CUSP_HU),
-                aabb,
-            });
-        }
+        layers.extend(native_cusps(&anatomy));
 
         layers.extend(bones(an, z_range));
 
@@ -405,6 +207,220 @@ impl Scene {
             truth_aabb,
         }
     }
+}
+
+/// Mediastinal fat around the heart and the great vessels.
+fn mediastinal_fat(anatomy: &Arc<Anatomy>, arch_aabb: &Aabb) -> Layer {
+    let an: &Anatomy = anatomy;
+    let lvot = an.lumen.lvot_length_mm;
+    let a = anatomy.clone();
+    let aabb = an
+        .lumen
+        .aabb(-lvot - 10.0, 400.0)
+        .grow(FAT_AROUND_AORTA_MM + FAT_BLEND_MM)
+        .union(&an.lv.aabb().grow(FAT_AROUND_LV_MM + FAT_BLEND_MM))
+        .union(&tubes_aabb(&an.pa).grow(FAT_AROUND_VESSELS_MM + FAT_BLEND_MM))
+        .union(&an.la.aabb().grow(FAT_AROUND_VESSELS_MM + FAT_BLEND_MM))
+        .union(&an.da.aabb().grow(FAT_AROUND_VESSELS_MM + FAT_BLEND_MM))
+        .union(&arch_aabb.grow(FAT_AROUND_AORTA_MM + FAT_BLEND_MM));
+    Layer {
+        thin_mm: None,
+        name: "mediastinal_fat".into(),
+        shape: Box::new(move |pr| {
+            let p = &pr.p;
+            let mut d = offset(pr.aorta_capped(lvot + 10.0), FAT_AROUND_AORTA_MM);
+            d = smooth_union(d, offset(a.lv.eval(p), FAT_AROUND_LV_MM), FAT_BLEND_MM);
+            d = smooth_union(
+                d,
+                offset(tubes_sdf(&a.pa, p), FAT_AROUND_VESSELS_MM),
+                FAT_BLEND_MM,
+            );
+            d = smooth_union(d, offset(a.la.eval(p), FAT_AROUND_VESSELS_MM), FAT_BLEND_MM);
+            smooth_union(d, offset(a.da.eval(p), FAT_AROUND_VESSELS_MM), FAT_BLEND_MM)
+        }),
+        hu: constant(FAT_HU),
+        aabb,
+    }
+}
+
+/// The myocardium: the LV's shell, reaching up around the LVOT.
+fn myocardium(anatomy: &Arc<Anatomy>, contrast: Contrast) -> Layer {
+    let an: &Anatomy = anatomy;
+    let lvot = an.lumen.lvot_length_mm;
+    // Outer radius of the basal myocardium around the LVOT, where its
+    // flat top lies below the VAJ, and the rounding of its rim.
+    const LVOT_MYOCARDIUM_MM: f64 = 9.0;
+    const MYO_TOP_BELOW_VAJ_MM: f64 = 1.0;
+    const ROUNDING_MM: f64 = 3.0;
+    const BELOW_LVOT_MM: f64 = 8.0;
+    let cl = &an.lumen.centreline;
+    let top = MYO_TOP_BELOW_VAJ_MM + ROUNDING_MM;
+    let basal = Tube::new(
+        vec![
+            an.lumen.lvot_centre(lvot + BELOW_LVOT_MM),
+            an.lumen.lvot_centre(top),
+        ],
+        vec![an.lumen.profile.r_annulus_mm + LVOT_MYOCARDIUM_MM - ROUNDING_MM],
+    );
+    // Capsule trimmed flat, then dilated: a cylinder with a rounded rim.
+    let axis = cl.axis;
+    let a = anatomy.clone();
+    let aabb = an.myocardium.aabb().union(&basal.aabb()).grow(LV_BLEND_MM);
+    Layer {
+        thin_mm: None,
+        name: "myocardium".into(),
+        shape: Box::new(move |pr| {
+            let p = &pr.p;
+            let mut b = basal.eval(p);
+            let cap = (p - a.lumen.centreline.origin).dot(&axis) + top;
+            if cap > b.0 {
+                b = (cap, axis);
+            }
+            smooth_union(a.myocardium.eval(p), offset(b, ROUNDING_MM), LV_BLEND_MM)
+        }),
+        hu: constant(if contrast.enabled {
+            MYOCARDIUM_ENHANCED_HU
+        } else {
+            MYOCARDIUM_PLAIN_HU
+        }),
+        aabb,
+    }
+}
+
+/// The vessel walls: the lumens dilated (the blood is painted over them).
+fn vessel_walls(anatomy: &Arc<Anatomy>, arch_aabb: &Aabb) -> Vec<Layer> {
+    let an: &Anatomy = anatomy;
+    let mut layers: Vec<Layer> = Vec::new();
+    let aabb = an
+        .lumen
+        .aabb(-WALL_START_BELOW_VAJ_MM - 5.0, 400.0)
+        .union(&arch_aabb)
+        .grow(AORTIC_WALL_MM + 1.0);
+    layers.push(Layer {
+        thin_mm: None,
+        name: "aortic_wall".into(),
+        shape: Box::new(move |pr| offset(pr.aorta_capped(WALL_START_BELOW_VAJ_MM), AORTIC_WALL_MM)),
+        hu: constant(WALL_HU),
+        aabb,
+    });
+    let a = anatomy.clone();
+    layers.push(Layer {
+        thin_mm: None,
+        name: "pa_wall".into(),
+        shape: Box::new(move |pr| offset(tubes_sdf(&a.pa, &pr.p), PA_WALL_MM)),
+        hu: constant(WALL_HU),
+        aabb: tubes_aabb(&an.pa).grow(PA_WALL_MM + 1.0),
+    });
+    let da = an.da.clone();
+    layers.push(Layer {
+        thin_mm: None,
+        name: "da_wall".into(),
+        shape: Box::new(move |pr| offset(da.eval(&pr.p), DA_WALL_MM)),
+        hu: constant(WALL_HU),
+        aabb: an.da.aabb().grow(DA_WALL_MM + 1.0),
+    });
+    layers
+}
+
+/// The blood pools: the aortic lumen joined to the LV cavity, the
+/// coronaries, the PA, the LA and the descending aorta.
+fn blood_pools(anatomy: &Arc<Anatomy>, contrast: Contrast, arch_aabb: &Aabb) -> Vec<Layer> {
+    let an: &Anatomy = anatomy;
+    let lvot = an.lumen.lvot_length_mm;
+    let mut layers: Vec<Layer> = Vec::new();
+    // Blood value at a point for a structure with contrast factor f.
+    let blood = {
+        let a = anatomy.clone();
+        move |f: f64| -> HuFn {
+            let a = a.clone();
+            if contrast.enabled {
+                Box::new(move |p: &Point3| contrast.blood_hu * f * a.blood_field(p))
+            } else {
+                constant(BLOOD_PLAIN_HU)
+            }
+        }
+    };
+    // Aortic lumen + LVOT, joined smoothly to the LV cavity.
+    let a = anatomy.clone();
+    let a2 = anatomy.clone();
+    let field = blood(1.0);
+    layers.push(Layer {
+        thin_mm: None,
+        name: "aorta_lv_blood".into(),
+        shape: Box::new(move |pr| {
+            smooth_union(pr.aorta_capped(lvot), a.lv.eval(&pr.p), LV_BLEND_MM)
+        }),
+        // The LV is slightly less enhanced: blend along the axis from
+        // the annulus down to the end of the LVOT.
+        hu: Box::new(move |p| {
+            let h = a2.lumen.height(p);
+            let t = (-h / lvot).clamp(0.0, 1.0);
+            field(p) * (1.0 - t * (1.0 - LV_FACTOR))
+        }),
+        aabb: an
+            .lumen
+            .aabb(-lvot - 2.0, 400.0)
+            .union(&an.lv.aabb())
+            .union(&arch_aabb)
+            .grow(LV_BLEND_MM),
+    });
+    for c in &an.coronaries {
+        let tubes = c.tubes.clone();
+        let aabb = tubes_aabb(&tubes).grow(1.0);
+        layers.push(Layer {
+            thin_mm: None,
+            name: format!("coronary_{}", c.name),
+            shape: Box::new(move |pr| tubes_sdf(&tubes, &pr.p)),
+            hu: blood(CORONARY_FACTOR),
+            aabb,
+        });
+    }
+    let a = anatomy.clone();
+    layers.push(Layer {
+        thin_mm: None,
+        name: "pa_blood".into(),
+        shape: Box::new(move |pr| tubes_sdf(&a.pa, &pr.p)),
+        hu: blood(PA_FACTOR),
+        aabb: tubes_aabb(&an.pa).grow(1.0),
+    });
+    let la = an.la.clone();
+    layers.push(Layer {
+        thin_mm: None,
+        name: "la_blood".into(),
+        shape: Box::new(move |pr| la.eval(&pr.p)),
+        hu: blood(LA_FACTOR),
+        aabb: an.la.aabb().grow(1.0),
+    });
+    let da = an.da.clone();
+    layers.push(Layer {
+        thin_mm: None,
+        name: "da_blood".into(),
+        shape: Box::new(move |pr| da.eval(&pr.p)),
+        hu: blood(1.0),
+        aabb: an.da.aabb().grow(1.0),
+    });
+    layers
+}
+
+/// The native cusps, closed, over the blood (when the anatomy has them).
+fn native_cusps(anatomy: &Arc<Anatomy>) -> Option<Layer> {
+    let an: &Anatomy = anatomy;
+    let c = an.cusps?;
+    let a = anatomy.clone();
+    let aabb = an
+        .lumen
+        .aabb(-an.lumen.lvot_length_mm.min(15.0), an.h_comm_mm + 2.0)
+        .grow(1.0);
+    Some(Layer {
+        thin_mm: Some(c.thickness_mm),
+        name: "native_cusps".into(),
+        shape: Box::new(move |pr| {
+            let (d, n) = cusps::sheet_distance(&a, &c, &pr.p);
+            (d - 0.5 * c.thickness_mm, n)
+        }),
+        hu: constant(CUSP_HU),
+        aabb,
+    })
 }
 
 /// The body (subcutaneous fat, then soft tissue), the lungs either side of
