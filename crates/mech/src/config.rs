@@ -362,29 +362,24 @@ fn need(v: Option<f64>, key: &str, model: &str) -> std::result::Result<f64, Stri
     v.ok_or_else(|| format!("model \"{model}\" needs `{key}`"))
 }
 
-pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
-    let raw: Raw = toml::from_str(text).map_err(|e| coapt_io::toml_error::describe(text, &e))?;
-    let positive = |v: f64, key: &str| {
-        if v > 0.0 && v.is_finite() {
-            Ok(v)
-        } else {
-            Err(format!("{key} must be positive"))
-        }
-    };
-    let thickness = positive(
-        units::parse(Kind::Length, &raw.thickness).map_err(|e| format!("thickness: {e}"))?,
-        "thickness",
-    )?;
-    let pressure =
-        units::parse(Kind::Pressure, &raw.pressure).map_err(|e| format!("pressure: {e}"))?;
-    if !(pressure >= 0.0) {
-        return Err("pressure must be ≥ 0".into());
+/// `v` when it is a positive finite number, else why not.
+fn positive(v: f64, key: &str) -> std::result::Result<f64, String> {
+    if v > 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{key} must be positive"))
     }
-    let mu = q(Kind::Pressure, &raw.mu, "mu")?;
-    let young = q(Kind::Pressure, &raw.young, "young")?;
-    let shear = mu.or(young.map(|e| e / 3.0));
+}
+
+/// The material law `raw.model` names, with its parameters (`shear`: μ,
+/// given or E/3; `young`: E), each checked.
+fn model_of(
+    raw: &Raw,
+    shear: Option<f64>,
+    young: Option<f64>,
+) -> std::result::Result<Model, String> {
     let m = raw.model.as_str();
-    let model = match m {
+    Ok(match m {
         "neo-hookean" => Model::NeoHookean {
             mu: positive(need(shear, "mu", m)?, "mu")?,
         },
@@ -440,7 +435,25 @@ pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
                 "model \"{other}\": expected msm, svk, neo-hookean, gent or goh"
             ));
         }
-    };
+    })
+}
+
+pub fn parse(text: &str) -> std::result::Result<CloseConfig, String> {
+    let raw: Raw = toml::from_str(text).map_err(|e| coapt_io::toml_error::describe(text, &e))?;
+    let thickness = positive(
+        units::parse(Kind::Length, &raw.thickness).map_err(|e| format!("thickness: {e}"))?,
+        "thickness",
+    )?;
+    let pressure =
+        units::parse(Kind::Pressure, &raw.pressure).map_err(|e| format!("pressure: {e}"))?;
+    if !(pressure >= 0.0) {
+        return Err("pressure must be ≥ 0".into());
+    }
+    let mu = q(Kind::Pressure, &raw.mu, "mu")?;
+    let young = q(Kind::Pressure, &raw.young, "young")?;
+    let shear = mu.or(young.map(|e| e / 3.0));
+    let m = raw.model.as_str();
+    let model = model_of(&raw, shear, young)?;
     let contact = match raw.contact.as_deref().unwrap_or("leaflets") {
         "leaflets" => ContactKind::Leaflets,
         "planes" => ContactKind::Planes,
