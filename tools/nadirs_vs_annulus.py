@@ -8,7 +8,7 @@ annulus mask's edge at its own angle.
 annulus plane's section of the root, bounded where the cusps hinge. Its
 plane is the least-squares plane of its voxels (LPS: the NIfTI affine's RAS
 turned by diag(-1, -1, 1)) and its centre their centroid. For each nadir
-N1-N3 of each markups file the script prints its angle about that centre in
+N1-N3 of each markups file (which holds C1-C3 and N1-N3) the script prints its angle about that centre in
 the plane, its radius, the disc's edge at that angle (the largest voxel
 radius within 6 degrees), how far out of the edge the nadir lies (negative:
 inside), and its height above the plane. A nadir on the hinge line lies at
@@ -16,27 +16,15 @@ the edge; one in the lumen inside it; one on the sinus or LVOT wall beyond
 the hinge outside it.
 """
 
-import json
 import sys
 
 import nibabel as nib
 import numpy as np
 
+from landmark_distances import points  # the markups reader: C1-C3, N1-N3 or exit 2
+
 LPS_FROM_RAS = np.diag([-1.0, -1.0, 1.0, 1.0])
 EDGE_HALF_WIDTH_DEG = 6.0
-
-
-def points(path):
-    with open(path) as f:
-        doc = json.load(f)
-    out = {}
-    for markup in doc.get("markups", []):
-        for cp in markup.get("controlPoints", []):
-            out[cp["label"]] = np.array(cp["position"], dtype=float)
-    missing = [k for k in ("N1", "N2", "N3") if k not in out]
-    if missing:
-        sys.exit(f"{path}: no point labelled {', '.join(missing)}")
-    return out
 
 
 def main():
