@@ -353,21 +353,31 @@ const RASTER_SHARE: f64 = 0.7;
 /// Share of the spare z field of view put below the needed range (the LV).
 const SPARE_BELOW: f64 = 0.6;
 
-/// Generate the phantom for `params`; `progress` receives values in [0, 1].
-pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Result<Phantom> {
-    params.validate()?;
-    progress(0.0);
-    let (dims, spacing) = params.grid_shape();
-    let fov = [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]);
-    let extras = params.extras();
-    let (mut an, needs) = anatomy::Anatomy::new(params.seed, params.tilt_rad, fov, extras)?;
-    if !params.coronaries {
-        an.coronaries.clear();
-    }
-    let an = Arc::new(an);
-    let cl = &an.lumen.centreline;
+/// Where the grid lies in the world, and the heights the truth is cut at.
+struct Placement {
+    grid: render::Grid,
+    /// The grid's bottom and top faces (world z, mm).
+    z_bottom_face: f64,
+    z_top: f64,
+    /// Where the truth region ends: the top face, or with an arch below it.
+    truth_top_z: f64,
+    /// Top of the ascending lumen: the arch join, or beyond the top face.
+    lumen_top_z: f64,
+    /// The centreline's arc length at `truth_top_z`.
+    s_top: f64,
+}
 
-    // --- Grid placement: z from the needed range, x/y centred on the heart.
+/// Place the grid: in z the range the anatomy needs, the spare mostly
+/// below it (the LV); in x and y centred on the root and the descending
+/// aorta, refused when they span more than the grid.
+fn place_grid(
+    an: &anatomy::Anatomy,
+    needs: anatomy::FovNeeds,
+    dims: [usize; 3],
+    spacing: [f64; 3],
+) -> Result<Placement> {
+    let fov = [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]);
+    let cl = &an.lumen.centreline;
     let extra = fov[2] - (needs.z_top - needs.z_bottom);
     let z_bottom_face = needs.z_bottom - SPARE_BELOW * extra;
     let z_top = z_bottom_face + fov[2];
@@ -406,7 +416,76 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
         origin,
     };
     debug_assert!((grid.z_top() - z_top).abs() < 1e-9);
-    let affine = affine_from_parts(spacing, &Matrix3::identity(), origin);
+    Ok(Placement {
+        grid,
+        z_bottom_face,
+        z_top,
+        truth_top_z,
+        lumen_top_z,
+        s_top,
+    })
+}
+
+/// The truth surface up to arc length `s_top`, on a grid fine enough for
+/// the preset's edge length (the committed sample's within its vertex
+/// budget).
+fn truth_surface(an: &anatomy::Anatomy, preset: Preset, s_top: f64) -> TriMesh {
+    // Grid spacing so that even the quad diagonals respect the edge length.
+    let mut grid_mm = preset.surface_edge_mm() / std::f64::consts::SQRT_2;
+    if preset == Preset::Sample {
+        // The sample is committed: keep its surface within the vertex budget.
+        while {
+            let (n_s, n_t) = an.lumen.surface_grid(s_top, grid_mm);
+            ((n_s + 1) * n_t) as f64 > SURFACE_VERTEX_BUDGET
+        } {
+            grid_mm *= 1.02;
+        }
+    }
+    let mut truth_surface = an.lumen.surface(s_top, grid_mm);
+    truth_surface.frame = Frame::Lps;
+    truth_surface
+}
+
+/// The true commissures, on the wall at their height and angles, and
+/// nadirs, on the wall where the (possibly tilted) annulus plane meets it
+/// at the sinus centres.
+fn truth_points(an: &anatomy::Anatomy) -> ([Point3; 3], [Point3; 3]) {
+    let profile = &an.lumen.profile;
+    let commissures: [Point3; 3] = [0, 1, 2].map(|k| {
+        an.lumen
+            .wall_point(an.h_comm_mm, profile.commissure_angles_rad[k])
+    });
+    let nadirs: [Point3; 3] = [0, 1, 2].map(|k| {
+        let th = profile.sinus_centre(k);
+        an.lumen.wall_point(profile.annulus_s(th).0, th)
+    });
+    (commissures, nadirs)
+}
+
+/// Generate the phantom for `params`; `progress` receives values in [0, 1].
+pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Result<Phantom> {
+    params.validate()?;
+    progress(0.0);
+    let (dims, spacing) = params.grid_shape();
+    let fov = [0, 1, 2].map(|a| dims[a] as f64 * spacing[a]);
+    let extras = params.extras();
+    let (mut an, needs) = anatomy::Anatomy::new(params.seed, params.tilt_rad, fov, extras)?;
+    if !params.coronaries {
+        an.coronaries.clear();
+    }
+    let an = Arc::new(an);
+    let cl = &an.lumen.centreline;
+
+    let place = place_grid(&an, needs, dims, spacing)?;
+    let Placement {
+        grid,
+        z_bottom_face,
+        z_top,
+        truth_top_z,
+        lumen_top_z,
+        s_top,
+    } = place;
+    let affine = affine_from_parts(spacing, &Matrix3::identity(), grid.origin);
 
     // --- Image and truth mask.
     let scene = scene::Scene::new(
@@ -432,32 +511,9 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
     let ct = Volume::from_fortran_vec(dims, affine, ct_values)?;
     let truth_mask = Volume::from_fortran_vec(dims, affine, raster.mask)?;
 
-    // --- Truth surface.
-    // Grid spacing so that even the quad diagonals respect the edge length.
-    let mut grid_mm = params.preset.surface_edge_mm() / std::f64::consts::SQRT_2;
-    if params.preset == Preset::Sample {
-        // The sample is committed: keep its surface within the vertex budget.
-        while {
-            let (n_s, n_t) = an.lumen.surface_grid(s_top, grid_mm);
-            ((n_s + 1) * n_t) as f64 > SURFACE_VERTEX_BUDGET
-        } {
-            grid_mm *= 1.02;
-        }
-    }
-    let mut truth_surface = an.lumen.surface(s_top, grid_mm);
-    truth_surface.frame = Frame::Lps;
+    let truth_surface = truth_surface(&an, params.preset, s_top);
 
-    // --- Landmarks.
-    let profile = &an.lumen.profile;
-    let commissures: [Point3; 3] = [0, 1, 2].map(|k| {
-        an.lumen
-            .wall_point(an.h_comm_mm, profile.commissure_angles_rad[k])
-    });
-    // On the wall where the (possibly tilted) annulus plane meets it.
-    let nadirs: [Point3; 3] = [0, 1, 2].map(|k| {
-        let th = profile.sinus_centre(k);
-        an.lumen.wall_point(profile.annulus_s(th).0, th)
-    });
+    let (commissures, nadirs) = truth_points(&an);
     let mut landmarks = Landmarks::new(Frame::Lps);
     for (k, c) in commissures.iter().enumerate() {
         landmarks.push(format!("C{}", k + 1), *c);
@@ -467,6 +523,7 @@ pub fn generate(params: &PhantomParams, progress: &(dyn Fn(f64) + Sync)) -> Resu
     }
     let valve_frame = ValveFrame::new(cl.origin, cl.axis, commissures, Some(nadirs))
         .ok_or_else(|| Error::failed("phantom", "degenerate valve frame"))?;
+    let profile = &an.lumen.profile;
 
     // --- Truth record.
     let mut aff = [[0.0; 4]; 4];
