@@ -471,7 +471,7 @@ def main():
     ap.add_argument("bench", nargs="?", help="the same run's `bench close --csv` file (one row)")
     ap.add_argument("--selftest", action="store_true", help="check the measures on sheets with known answers, exit 1 on failure")
     ap.add_argument("--thickness", type=float, default=0.5, help="leaflet thickness, mm (their margin is half of it)")
-    ap.add_argument("--touch", type=float, default=0.12, help="coapt's eta2 = 0.01 R, mm (src/bench/close.rs TOUCH)")
+    ap.add_argument("--touch", type=float, default=0.12, help="coapt's eta2 = 0.01 R, mm (crates/bench/src/close.rs TOUCH)")
     ap.add_argument("--their-origin-z", type=float, default=-1.5,
                     help="bench z of their frame's origin (their commissures are at +Hc = 1.5 mm), mm")
     args = ap.parse_args()

@@ -78,7 +78,9 @@ fn render_sample_run() {
     println!("coaptation_maps: {ms}");
     map.iter().for_each(|f| save(&out, f));
 
-    let ct_path = std::env::var("COAPT_FIGS_CT").unwrap_or("sample_data/ct.nii.gz".into());
+    // The committed sample, at the workspace root (a test runs in its crate's folder).
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sample_data/ct.nii.gz");
+    let ct_path = std::env::var("COAPT_FIGS_CT").unwrap_or(sample.display().to_string());
     let ct = nifti::read_i16(Path::new(&ct_path)).expect("ct");
     let mask = nifti::read_u8(&run.join("mask.nii.gz")).ok();
     let f = &v.frame;

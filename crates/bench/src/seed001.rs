@@ -14,13 +14,13 @@ use std::time::Instant;
 use clap::{Arg, ArgMatches, Command};
 
 use super::close::{plane_distances, zones};
-use crate::leaflet::{aft, place};
-use crate::mech::closure::{self};
-use crate::mech::config;
-use crate::mech::element::V3;
-use crate::mech::model::{Axis, Leaflets};
-use crate::template::seed001::Seed001;
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
+use coapt_leaflet::{aft, place};
+use coapt_mech::closure::{self};
+use coapt_mech::config;
+use coapt_mech::element::V3;
+use coapt_mech::model::{Axis, Leaflets};
+use coapt_template::seed001::Seed001;
 
 pub const R: f64 = 15.0;
 pub const MU_KPA: [f64; 2] = [900.0, 3000.0];

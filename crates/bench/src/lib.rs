@@ -23,8 +23,8 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-use crate::pipeline::manifest::Manifest;
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
+use coapt_pipeline::manifest::Manifest;
 
 /// One measured run of a stage.
 #[derive(Debug, Clone)]

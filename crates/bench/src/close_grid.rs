@@ -18,19 +18,19 @@ use std::time::Instant;
 
 use super::close;
 use super::displacement_error::{self, DisplacementError, Field};
-use crate::geom::{Point3, ValveFrame};
-use crate::io::{valve_json, vtp};
-use crate::mech::closure::{self, Closed};
-use crate::mech::config;
-use crate::mech::element::V3;
-use crate::mech::model::{Axis, Leaflets};
-use crate::pipeline::LogMode;
-use crate::pipeline::execute::Invocation;
-use crate::pipeline::runner::{self, RunOptions};
-use crate::report::ClosedValve;
-use crate::report::{coaptation, metrics};
-use crate::stages::registry;
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
+use coapt_geom::{Point3, ValveFrame};
+use coapt_io::{valve_json, vtp};
+use coapt_mech::closure::{self, Closed};
+use coapt_mech::config;
+use coapt_mech::element::V3;
+use coapt_mech::model::{Axis, Leaflets};
+use coapt_pipeline::LogMode;
+use coapt_pipeline::execute::Invocation;
+use coapt_pipeline::runner::{self, RunOptions};
+use coapt_report::ClosedValve;
+use coapt_report::{coaptation, metrics};
+use coapt_stages::registry;
 
 /// The grid.
 pub const HS: [f64; 5] = [3.0, 2.0, 1.0, 0.5, 0.25];
@@ -40,8 +40,8 @@ pub const CONTACTS: [&str; 2] = ["planes", "leaflets"];
 
 /// The pipeline's closure settings: GOH material, thickness, pressure,
 /// bending and tolerance of every row come from here.
-const CLOSE_TOML: &str = include_str!("../../pipelines/close.toml");
-const TEMPLATE_TOML: &str = include_str!("../../pipelines/templates/ozaki_default.toml");
+const CLOSE_TOML: &str = include_str!("../../../pipelines/close.toml");
+const TEMPLATE_TOML: &str = include_str!("../../../pipelines/templates/ozaki_default.toml");
 
 /// Contact margin per thickness, as the report stage measures
 /// (docs/report.md, "Where leaflets touch"), and its refinement of partly
@@ -389,7 +389,7 @@ fn close_row(row: &mut Row, mesh: &Mesh, time_limit_s: f64) -> Result<()> {
             row.reason = o.reason.clone();
             row.status = if o.converged {
                 Status::Converged
-            } else if o.stopped_by == crate::mech::solve::Stopped::TimeLimit
+            } else if o.stopped_by == coapt_mech::solve::Stopped::TimeLimit
                 || row.wall_s >= time_limit_s
             {
                 Status::TimeLimit
@@ -575,7 +575,7 @@ fn sample_mesh(sample: &Path, h: f64, work: &Path, threads: usize) -> Result<Mes
     let lpath = run.join("leaflets.vtp");
     let mesh = vtp::read_mesh(&lpath)?;
     let leaflets =
-        crate::mech::model::leaflets_from_mesh(&mesh).map_err(|e| Error::bad_input(&lpath, e))?;
+        coapt_mech::model::leaflets_from_mesh(&mesh).map_err(|e| Error::bad_input(&lpath, e))?;
     let vpath = run.join("valve.json");
     let frame = valve_json::read_frame(&vpath)?;
     Ok(Mesh {
@@ -726,7 +726,7 @@ mod tests {
         let msm = config::parse(&config_text("msm", "relax", "planes", 5.0).unwrap()).unwrap();
         assert_eq!(
             msm.model,
-            config::Model::Msm(crate::mech::material::msm::Law::Linear { young: 1.0 })
+            config::Model::Msm(coapt_mech::material::msm::Law::Linear { young: 1.0 })
         );
         assert_eq!(msm.reference, config::Reference::Flat);
         assert_eq!(msm.solver, config::SolverKind::Relax);

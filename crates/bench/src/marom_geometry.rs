@@ -40,13 +40,13 @@
 
 use std::f64::consts::PI;
 
-use crate::geom::{Point3, ValveFrame, Vector3};
-use crate::leaflet::aft;
-use crate::leaflet::place::{self, Path3};
-use crate::mech::element::V3;
-use crate::mech::model::{Axis, Leaflets};
-use crate::template::{OzakiTemplate, Template};
-use crate::valve::suture::PathSpec;
+use coapt_geom::{Point3, ValveFrame, Vector3};
+use coapt_leaflet::aft;
+use coapt_leaflet::place::{self, Path3};
+use coapt_mech::element::V3;
+use coapt_mech::model::{Axis, Leaflets};
+use coapt_template::{OzakiTemplate, Template};
+use coapt_valve::suture::PathSpec;
 
 /// Annulus diameter d_AA (mm), the seed's.
 pub const D_AA: f64 = 24.0;
@@ -233,7 +233,7 @@ mod tests {
             assert!(p.z <= COMMISSURE_HEIGHT + 1e-9 && p.z >= -1e-9);
             assert!(p.x.hypot(p.y) <= R + 1e-9);
         }
-        let (cross, _sewn) = crate::mech::model::leaflet_crossings(&l, &l.x);
+        let (cross, _sewn) = coapt_mech::model::leaflet_crossings(&l, &l.x);
         assert!(
             cross.is_empty(),
             "{} crossing pairs when placed",

@@ -14,9 +14,9 @@ pub fn number(lo: f64, hi: f64, unit: &'static str) -> ValueParser {
         } else {
             Err(format!(
                 "{} lies outside {} to {}{unit}: it sets the work the run does",
-                crate::units::short(v),
-                crate::units::short(lo),
-                crate::units::short(hi)
+                coapt_base::units::short(v),
+                coapt_base::units::short(lo),
+                coapt_base::units::short(hi)
             ))
         }
     })

@@ -20,17 +20,17 @@ use std::time::Instant;
 use clap::{Arg, ArgAction, ArgMatches, Command as ClapCommand};
 use serde_json::{Value as Json, json};
 
-use crate::io::{nifti, volume_file};
-use crate::pipeline::config::RunConfig;
-use crate::pipeline::manifest::{Manifest, StageRecord, Status};
-use crate::pipeline::{StageSpec, runner};
-use crate::stages::registry;
-use crate::units::{self, Kind};
-use crate::{Error, Result};
+use coapt_base::units::{self, Kind};
+use coapt_base::{Error, Result};
+use coapt_io::{nifti, volume_file};
+use coapt_pipeline::config::RunConfig;
+use coapt_pipeline::manifest::{Manifest, StageRecord, Status};
+use coapt_pipeline::{StageSpec, runner};
+use coapt_stages::registry;
 
-const PHANTOM_TOML: &str = include_str!("../../pipelines/phantom.toml");
-const CLOSE_TOML: &str = include_str!("../../pipelines/close.toml");
-const TEMPLATE_TOML: &str = include_str!("../../pipelines/templates/ozaki_default.toml");
+const PHANTOM_TOML: &str = include_str!("../../../pipelines/phantom.toml");
+const CLOSE_TOML: &str = include_str!("../../../pipelines/close.toml");
+const TEMPLATE_TOML: &str = include_str!("../../../pipelines/templates/ozaki_default.toml");
 
 /// Phases listed under "where time goes" per preset.
 const TOP_PHASES: usize = 6;
@@ -840,7 +840,7 @@ mod tests {
         assert!(cfg.run_dir.is_none());
         assert_eq!(
             cfg.sections["phantom"]["preset"],
-            crate::pipeline::Value::Choice("full".into())
+            coapt_pipeline::Value::Choice("full".into())
         );
         assert_eq!(
             cfg.sections["leaflets"]["h"].canonical(),

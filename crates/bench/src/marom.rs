@@ -22,14 +22,14 @@ use std::time::Instant;
 use clap::{Arg, ArgMatches, Command};
 
 use super::marom_geometry as geo;
-use crate::geom::Point3;
-use crate::mech::closure::{self, Closed};
-use crate::mech::config;
-use crate::mech::model::Leaflets;
-use crate::report::ClosedValve;
-use crate::report::coaptation::{self, Options as ZoneOptions};
-use crate::report::metrics::{self, Options as MetricOptions};
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
+use coapt_geom::Point3;
+use coapt_mech::closure::{self, Closed};
+use coapt_mech::config;
+use coapt_mech::model::Leaflets;
+use coapt_report::ClosedValve;
+use coapt_report::coaptation::{self, Options as ZoneOptions};
+use coapt_report::metrics::{self, Options as MetricOptions};
 
 /// The seed's laws, in its table's order.
 pub const LAWS: [&str; 4] = ["msm", "svk", "neo-hookean", "gent"];
@@ -95,7 +95,7 @@ pub struct Row {
 }
 
 fn valve_of(l: &Leaflets, c: &Closed) -> ClosedValve {
-    let p = |v: &crate::mech::element::V3| Point3::from(*v);
+    let p = |v: &coapt_mech::element::V3| Point3::from(*v);
     ClosedValve {
         x: c.x.iter().map(p).collect(),
         x0: l.x.iter().map(p).collect(),

@@ -7,11 +7,11 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
 
-use crate::geom::{Point3, TriMesh, Volume};
-use crate::phantom::structures::{Structure, Structures};
-use crate::phantom::{Phantom, PhantomParams, Preset, generate};
-use crate::segment::{ASCENDING_TOP_MM, SegmentParams, segment};
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
+use coapt_geom::{Point3, TriMesh, Volume};
+use coapt_phantom::structures::{Structure, Structures};
+use coapt_phantom::{Phantom, PhantomParams, Preset, generate};
+use coapt_segment::{ASCENDING_TOP_MM, SegmentParams, segment};
 
 /// One phantom of the grid.
 struct Case {
@@ -575,7 +575,7 @@ pub fn run(set: &str, baseline: Option<&str>, csv: Option<&Path>) -> Result<Stri
     }
     if let Some(path) = csv {
         let text = csv_rows.join("\n") + "\n";
-        crate::io::write_atomic(path, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+        coapt_io::write_atomic(path, |w| std::io::Write::write_all(w, text.as_bytes()))?;
     }
     let n = csv_rows.len() - 1;
     let mut out = vec![
@@ -594,7 +594,7 @@ pub fn run(set: &str, baseline: Option<&str>, csv: Option<&Path>) -> Result<Stri
 fn run_baseline(
     cmd: &str,
     ph: &Phantom,
-    seg: &crate::segment::Segmentation,
+    seg: &coapt_segment::Segmentation,
     secs: f64,
 ) -> Result<String> {
     let scored = Scored::of(ph);
@@ -602,7 +602,7 @@ fn run_baseline(
     let dir = work.path();
     std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
     let ct = dir.join("ct.nii.gz");
-    crate::io::nifti::write(&ct, &ph.ct)?;
+    coapt_io::nifti::write(&ct, &ph.ct)?;
     let out = dir.join("baseline.nii.gz");
     let s = seg.report.seed_mm;
     let o = std::process::Command::new(cmd)
@@ -625,7 +625,7 @@ fn run_baseline(
         .find_map(|l| l.strip_prefix("seconds "))
         .and_then(|v| v.trim().parse().ok())
         .unwrap_or(f64::NAN);
-    let bm = crate::io::nifti::read_u8(&out)?;
+    let bm = coapt_io::nifti::read_u8(&out)?;
     let b_dice = dice(&bm, &ph.truth_mask, scored);
     Ok(format!(
         "SimpleITK baseline Dice {b_dice:.4} in {b_secs:.2} s; coapt {secs:.2} s (baseline/coapt time ratio {:.2})",
@@ -636,7 +636,7 @@ fn run_baseline(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::Matrix4;
+    use coapt_geom::Matrix4;
 
     /// A ball of radius 9 mm about (1, 2, 3) voxelised on a grid of
     /// `spacing` from the origin (voxel centres inside).

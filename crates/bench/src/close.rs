@@ -15,20 +15,20 @@ use std::time::Instant;
 
 use clap::{Arg, ArgMatches, Command};
 
-use crate::geom::{Point3, Vector3};
-use crate::leaflet::aft;
-use crate::leaflet::place::{self, Path3};
-use crate::mech::closure::{self, Closed};
-use crate::mech::config;
-use crate::mech::element::V3;
-use crate::mech::model::{Axis, Leaflets};
-use crate::template::{OzakiTemplate, Template};
-use crate::valve::suture::PathSpec;
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
+use coapt_geom::{Point3, Vector3};
+use coapt_leaflet::aft;
+use coapt_leaflet::place::{self, Path3};
+use coapt_mech::closure::{self, Closed};
+use coapt_mech::config;
+use coapt_mech::element::V3;
+use coapt_mech::model::{Axis, Leaflets};
+use coapt_template::{OzakiTemplate, Template};
+use coapt_valve::suture::PathSpec;
 
 /// Root radius, straight part and belly depth (mm): the mechanics' own
 /// peer case, and the signed distances to its sector's planes.
-pub use crate::mech::peer::{HB, HC, R, plane_distances};
+pub use coapt_mech::peer::{HB, HC, R, plane_distances};
 /// Gap between leaflets (mm).
 pub const GAP: f64 = 4.0;
 /// Template D, H, H_f, L_f (mm).
@@ -107,7 +107,7 @@ pub fn ozaki_cylinder(h: f64) -> Result<(Leaflets, Axis), String> {
     Ok((l, axis))
 }
 
-pub use crate::mech::model::circumferential_fibres;
+pub use coapt_mech::model::circumferential_fibres;
 
 /// Coaptation metrics of a closed leaflet (heights along +z from the
 /// commissure plane, mm).
@@ -217,7 +217,7 @@ pub fn config_text(model: &str, solver: &str, time_limit_s: f64) -> String {
     config_text_with(model, solver, time_limit_s, false)
 }
 
-pub use crate::mech::peer::config_text_with;
+pub use coapt_mech::peer::config_text_with;
 
 /// One benchmark row.
 #[derive(Debug, Clone)]
@@ -837,7 +837,7 @@ mod tests {
                 }
             }
             // The two lug corners sit at the commissure height.
-            let c = crate::mech::model::corners(&l);
+            let c = coapt_mech::model::corners(&l);
             assert!(c.len() >= 2);
             let top =
                 l.x.iter()

@@ -1,7 +1,7 @@
 //! `coapt bench phantom`: generation time and peak memory per preset.
 
 use super::{Sample, median, run_child};
-use crate::Result;
+use coapt_base::Result;
 
 /// Phantom generation per preset: a text table.
 pub fn run(presets: &[String], repeat: u32, threads: usize) -> Result<String> {

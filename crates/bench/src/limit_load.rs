@@ -18,8 +18,8 @@
 use rayon::prelude::*;
 
 use super::stress_close::{Case, prepare};
-use crate::mech::closure;
-use crate::mech::element::V3;
+use coapt_mech::closure;
+use coapt_mech::element::V3;
 
 /// One closure of the ladder.
 #[derive(Debug, Clone, PartialEq)]

@@ -3,18 +3,18 @@
 //! binary, the design sweep and the benchmarks get theirs. Only stages that
 //! really exist are registered.
 
-use crate::pipeline::StageSpec;
+use coapt_pipeline::StageSpec;
 
 pub fn registry() -> &'static [&'static StageSpec] {
     static STAGES: &[&StageSpec] = &[
-        &crate::phantom::stage::SPEC,
-        &crate::segment::stage::SPEC,
-        &crate::surface::stage::SPEC,
-        &crate::landmarks::stage::SPEC,
-        &crate::valve::stage::SPEC,
-        &crate::leaflet::stage::SPEC,
-        &crate::close::SPEC,
-        &crate::report::stage::SPEC,
+        &coapt_phantom::stage::SPEC,
+        &coapt_segment::stage::SPEC,
+        &coapt_surface::stage::SPEC,
+        &coapt_landmarks::stage::SPEC,
+        &coapt_valve::stage::SPEC,
+        &coapt_leaflet::stage::SPEC,
+        &coapt_close::SPEC,
+        &coapt_report::stage::SPEC,
     ];
     STAGES
 }

@@ -17,12 +17,12 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::close::{circumferential_fibres, ozaki_cylinder};
-use crate::mech::closure;
-use crate::mech::config;
-use crate::mech::element::V3;
-use crate::mech::model;
-use crate::rng::SplitMix64;
-use crate::{Error, Result};
+use coapt_base::rng::SplitMix64;
+use coapt_base::{Error, Result};
+use coapt_mech::closure;
+use coapt_mech::config;
+use coapt_mech::element::V3;
+use coapt_mech::model;
 
 /// The material laws drawn from.
 pub const MODELS: [&str; 4] = ["neo-hookean", "svk", "goh", "msm"];
@@ -446,7 +446,7 @@ pub fn dispatch(b: &clap::ArgMatches, quiet: bool) -> Result<()> {
         &progress,
     )?;
     if let Some(path) = b.get_one::<PathBuf>("csv") {
-        crate::io::write_atomic(path, |w| std::io::Write::write_all(w, s.csv().as_bytes()))?;
+        coapt_io::write_atomic(path, |w| std::io::Write::write_all(w, s.csv().as_bytes()))?;
     }
     print!("{}", s.table());
     if b.get_flag("explain") {

@@ -5,7 +5,7 @@
 //! leaflet's flat mesh and the reference displacement interpolated there
 //! barycentrically, so a field linear in uv is carried over exactly.
 
-use crate::mech::element::V3;
+use coapt_mech::element::V3;
 
 /// One closed mesh as the comparison sees it.
 #[derive(Debug, Clone, Copy)]

@@ -6,12 +6,12 @@
 //! give the same bytes.
 
 use super::close_grid::{Grid, Row};
-use crate::io::png::encode;
-use crate::report::figures::notice::notice;
-use crate::report::figures::palette::INK;
-use crate::report::figures::plot_frame::{Axes, Frame, draw_axes, ticks};
-use crate::report::figures::text::{HAlign, TextStyle, VAlign, draw_text};
-use crate::report::raster::{Canvas, Rgb8};
+use coapt_io::png::encode;
+use coapt_report::figures::notice::notice;
+use coapt_report::figures::palette::INK;
+use coapt_report::figures::plot_frame::{Axes, Frame, draw_axes, ticks};
+use coapt_report::figures::text::{HAlign, TextStyle, VAlign, draw_text};
+use coapt_report::raster::{Canvas, Rgb8};
 
 const WIDTH: u32 = 960;
 const HEIGHT: u32 = 640;

@@ -17,11 +17,11 @@ use rayon::prelude::*;
 use serde_json::{Value, json};
 
 use super::median;
-use crate::geom::Volume;
-use crate::io::nifti::{self, DataType};
-use crate::surface::marching_cubes::Sample;
-use crate::surface::{SurfaceParams, extract, surface_from_mask};
-use crate::{Error, Result};
+use coapt_base::{Error, Result};
+use coapt_geom::Volume;
+use coapt_io::nifti::{self, DataType};
+use coapt_surface::marching_cubes::Sample;
+use coapt_surface::{SurfaceParams, extract, surface_from_mask};
 
 pub fn command() -> Command {
     Command::new("surface")
@@ -135,7 +135,7 @@ fn measure<T: Summed>(vol: &Volume<T>, iso: f64, repeat: u32, threads: usize) ->
         counts.push(threads);
     }
     let mut rows = Vec::new();
-    let mut first: Option<crate::surface::Isosurface> = None;
+    let mut first: Option<coapt_surface::Isosurface> = None;
     let mut identical = true;
     for &t in &counts {
         let p = pool(t)?;
