@@ -143,20 +143,30 @@ pub fn xy_chart(chart: &XyChart) -> Figure {
     let (x0, x1) = pad(x0, x1, 0.02);
     let (y0, y1) = pad(y0, y1, 0.06);
     let (w, h) = (chart.width.clamp(200, 4000), chart.height.clamp(150, 4000));
-    let names: Vec<&str> = legend_entries(chart, &runs, &hlines)
-        .iter()
-        .map(|e| e.0)
-        .collect();
-    let legend = [legend_width(&names), 8.0 + 20.0 * names.len() as f64];
+    let entries = legend_entries(chart, &runs, &hlines);
+    let names: Vec<&str> = entries.iter().map(|e| e.0).collect();
+    let size = [legend_width(&names), 8.0 + 20.0 * names.len() as f64];
     let (corner, y1) = legend_place(
         &runs,
         &hlines,
         (x0, x1, y0, y1),
         plot_frame((x0, x1, y0, y1), w as f64, h as f64),
-        legend,
+        size,
     );
+    let legend = Legend {
+        entries: &entries,
+        size,
+        corner,
+    };
     let mut canvas = Canvas::new(w, h, 2, [255, 255, 255]);
-    draw(chart, &runs, &hlines, (x0, x1, y0, y1), corner, &mut canvas);
+    draw(
+        chart,
+        &runs,
+        &hlines,
+        (x0, x1, y0, y1),
+        &legend,
+        &mut canvas,
+    );
     to_figure(&chart.id, &chart.title, &chart.caption, &canvas)
 }
 
@@ -216,12 +226,19 @@ fn plot_frame((x0, x1, y0, y1): Ranges, w: f64, h: f64) -> Frame {
     }
 }
 
+/// The legend's rows (name, colour, dashed), its size (px) and its corner.
+struct Legend<'a> {
+    entries: &'a [(&'a str, Rgb8, bool)],
+    size: [f64; 2],
+    corner: Corner,
+}
+
 fn draw(
     chart: &XyChart,
     runs: &[Vec<Vec<(f64, f64)>>],
     hlines: &[(&str, f64, Option<usize>)],
     ranges: Ranges,
-    corner: Corner,
+    legend: &Legend,
     c: &mut Canvas,
 ) {
     let (x0, x1, y0, y1) = ranges;
@@ -262,11 +279,10 @@ fn draw(
         let colour = of.map_or(HLINE, colour_of);
         c.dashed_polyline(&[f.px(x0, y), f.px(x1, y)], 2.0, 8.0, 5.0, colour);
     }
-    let entries = legend_entries(chart, runs, hlines);
-    let names: Vec<&str> = entries.iter().map(|e| e.0).collect();
-    let size = [legend_width(&names), 8.0 + 20.0 * names.len() as f64];
-    legend_box(c, legend_at(&f, corner, size), &names, &mut |c, k, p| {
-        let (_, colour, dashed) = entries[k];
+    let names: Vec<&str> = legend.entries.iter().map(|e| e.0).collect();
+    let at = legend_at(&f, legend.corner, legend.size);
+    legend_box(c, at, &names, &mut |c, k, p| {
+        let (_, colour, dashed) = legend.entries[k];
         let line = [p, [p[0] + 24.0, p[1]]];
         if dashed {
             c.dashed_polyline(&line, 2.0, 8.0, 5.0, colour);
