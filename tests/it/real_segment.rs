@@ -194,6 +194,42 @@ fn real_ct_from_landmarks_is_the_root_with_its_cusps_and_a_closed_wall() {
     assert!(report["root_fill"]["added_ml"].as_f64().unwrap() > 0.0);
 }
 
+/// The commissures alone (a user who placed C1–C3 and no nadirs): the
+/// VAJ march along the track left the root for the ventricle the region
+/// reached through the annulus and the mask was refused as a leak (exit 1);
+/// the march then goes down the commissures' axis instead.
+#[test]
+fn real_ct_from_the_commissures_alone_is_the_root() {
+    let Some(real) = real_dir() else { return };
+    let d = tmpdir("real-seg-comm");
+    let lm_path = real.join("landmarks.mrk.json");
+    let mut doc = json(&lm_path);
+    let points = doc["markups"][0]["controlPoints"].as_array_mut().unwrap();
+    points.retain(|p| p["label"].as_str().is_some_and(|l| l.starts_with('C')));
+    assert_eq!(points.len(), 3);
+    let comm_path = d.join("commissures.mrk.json");
+    std::fs::write(&comm_path, serde_json::to_string(&doc).unwrap()).unwrap();
+    let out = d.join("mask.nii.gz");
+    let o = segment(&real.join("ct.nii.gz"), Some(&comm_path), &out, "2");
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let report = json(&d.join("segment.json"));
+    let method = report["vaj"]["method"].as_str().unwrap();
+    assert!(method.contains("commissures' axis"), "{method}");
+    let r = root(&markups::read(&lm_path).unwrap());
+    let mask = nifti::read_u8(&out).unwrap();
+    assert!(
+        at(&mask, &r.comm_c),
+        "the commissures' centre is not in the lumen"
+    );
+    let dc = dice_in_root(&real, &mask, &r);
+    assert!(
+        dc >= 0.94,
+        "Dice {dc:.4} against TotalSegmentator in the root"
+    );
+    let ml = report["volumes_ml"]["final_mask"].as_f64().unwrap();
+    assert!((40.0..=60.0).contains(&ml), "{ml} ml");
+}
+
 #[test]
 fn real_ct_without_landmarks_finds_the_ascending_aorta_below_the_arch() {
     let Some(real) = real_dir() else { return };

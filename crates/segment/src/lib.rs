@@ -579,16 +579,27 @@ fn vaj_plane(
         report.method = "plane through the nadir landmarks N1–N3".into();
         vaj::plane_from_landmarks(&nd, commissures)
     } else {
+        let points = || -> Vec<Point3> {
+            (0..opened.len())
+                .filter(|&v| opened[v])
+                .map(&world)
+                .collect()
+        };
         let (start, dir, r0) = vaj::march_start(ct, &found.track);
-        let points: Vec<Point3> = (0..opened.len())
-            .filter(|&v| opened[v])
-            .map(world)
-            .collect();
-        let (pl, prof) = vaj::measure(points, voxel_mm3, start, dir, r0, sp);
+        let (mut pl, mut prof) = vaj::measure(points(), voxel_mm3, start, dir, r0, sp, false);
         report.method = match pl {
             Some(_) => "where the sinus descent flattens into the LVOT, or the end of the region below it (area profile perpendicular to the marched centreline), then where the least sections below it stop narrowing (profile.floor)".into(),
             None => "none: no sinus descent was seen along the marched centreline, the region is kept as the IDT stopped it".into(),
         };
+        let commissures3 = <[Point3; 3]>::try_from(commissures).ok();
+        if let (Some(c), Some(p)) = (commissures3, pl) {
+            if vaj::off_the_root(&p, &c) {
+                if let Some((start, dir, r0)) = vaj::march_start_at_commissures(&c) {
+                    (pl, prof) = vaj::measure(points(), voxel_mm3, start, dir, r0, sp, true);
+                    report.method = "where the sinus descent flattens into the LVOT along the commissures' axis (the march along the track left the root), then where the least sections below it stop narrowing (profile.floor)".into();
+                }
+            }
+        }
         report.profile = prof;
         pl
     };

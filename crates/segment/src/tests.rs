@@ -527,6 +527,7 @@ fn vaj_height(pts: Vec<coapt_geom::Point3>) -> f64 {
         -Vector3::z(),
         12.5,
         [0.5; 3],
+        false,
     );
     let plane = plane.expect("a VAJ plane");
     assert!(plane.normal[2] > 0.99, "plane normal {:?}", plane.normal);
@@ -605,6 +606,7 @@ fn a_root_leaning_from_the_ascending_aorta_is_cut_at_its_annulus() {
         -Vector3::z(),
         12.5,
         [0.5; 3],
+        false,
     );
     let plane = plane.expect("a VAJ plane");
     let angle = Vector3::from(plane.normal).dot(&axis).acos().to_degrees();

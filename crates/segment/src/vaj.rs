@@ -81,6 +81,46 @@ pub fn march_start(ct: &Volume<i16>, track: &[TrackPoint]) -> (Point3, Vector3, 
     (w[i], dir, track[i].r_mm)
 }
 
+/// Where a march from the commissures starts (given them but not the
+/// nadirs): [`ABOVE_COMMISSURES_MM`] above their circle's centre, heading
+/// down its axis (to the feet), at its radius; `None` when they are
+/// collinear. It is the fallback for a march along the track that left the
+/// root ([`off_the_root`]).
+pub fn march_start_at_commissures(c: &[Point3; 3]) -> Option<(Point3, Vector3, f64)> {
+    let (centre, axis, r) = super::anchor::circumcircle(c)?;
+    let up = if axis.z < 0.0 { -axis } else { axis };
+    Some((centre + up * ABOVE_COMMISSURES_MM, -up, r))
+}
+
+/// Whether a VAJ plane found along the track lies off the root of the
+/// commissures `c`: its centre farther from their circle's axis than the
+/// circle's radius. The track's chord is the ascending aorta's course, not
+/// the root's; on the real CT with only C1–C3 given the two lie 40° apart,
+/// and the march along the chord left the root at the commissures for the
+/// ventricle the region had reached through the annulus (sections of
+/// 2000–2700 mm² for 400 mm): its plane's centre lay 38 mm off the axis and
+/// the mask was refused as a leak.
+pub fn off_the_root(plane: &Plane, c: &[Point3; 3]) -> bool {
+    let Some((centre, axis, r)) = super::anchor::circumcircle(c) else {
+        return false;
+    };
+    let d = Point3::from(plane.point_mm) - centre;
+    (d - axis * d.dot(&axis)).norm() > r
+}
+
+/// Sections of a march from the commissures reach this many commissure
+/// radii from their axis: past the sinuses (about 1.3), short of the
+/// ventricle beside the root. That march keeps the commissures' axis, the
+/// root's, rather than following the sections' centres into a chamber the
+/// region reached through the annulus.
+pub const ANCHORED_REACH_RADII: f64 = 1.6;
+
+/// How far above the commissures' centre a march from them starts (mm):
+/// in the ascending aorta above the STJ (the commissures lie 0–3 mm below
+/// it), so that the profile holds the STJ, the sinus bulge and the LVOT
+/// below, as a march from the track does.
+const ABOVE_COMMISSURES_MM: f64 = 10.0;
+
 /// How far above the end of the axial track the march starts (mm): the
 /// track may run through the whole root into the LVOT (an untilted valve),
 /// so this reaches back above the sinuses (LVOT ≤ 20 mm + root ≤ 21 mm in
@@ -242,6 +282,7 @@ pub fn measure(
     dir: Vector3,
     r0_mm: f64,
     spacing: [f64; 3],
+    anchored: bool,
 ) -> (Option<Plane>, Option<Profile>) {
     let w = spacing.iter().fold(SLAB_MM, |a, &s| a.max(2.0 * s));
     let Some(cells) = Cells::new(points) else {
@@ -260,12 +301,17 @@ pub fn measure(
         } else {
             c + t * STEP_MM
         };
-        let (n, off) = cells.section(&p, &t, w, REACH_MM.min(1.8 * r + 3.0));
+        let reach = if anchored {
+            ANCHORED_REACH_RADII * r0_mm
+        } else {
+            REACH_MM.min(1.8 * r + 3.0)
+        };
+        let (n, off) = cells.section(&p, &t, w, reach);
         let a = n * voxel_mm3 / w;
         if n == 0.0 || (area.len() >= 5 && a < END_FRACTION * sorted[sorted.len() / 2]) {
             break;
         }
-        c = p + off;
+        c = if anchored { p } else { p + off };
         r = (a / std::f64::consts::PI).sqrt();
         centres.push(c);
         tangents.push(t);
@@ -273,7 +319,7 @@ pub fn measure(
         let at = sorted.partition_point(|&x| x < a);
         sorted.insert(at, a);
         let m = centres.len();
-        if m > TANGENT_CHORD {
+        if m > TANGENT_CHORD && !anchored {
             if let Some(u) = (centres[m - 1] - centres[m - 1 - TANGENT_CHORD]).try_normalize(1e-9) {
                 t = u;
             }
