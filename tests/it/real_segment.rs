@@ -228,6 +228,32 @@ fn real_ct_from_the_commissures_alone_is_the_root() {
     );
     let ml = report["volumes_ml"]["final_mask"].as_f64().unwrap();
     assert!((40.0..=60.0).contains(&ml), "{ml} ml");
+    // Without nadirs the default template's paths do not fit this root;
+    // the refusal says how to have the nadirs detected.
+    let o = coapt(&[
+        "surface",
+        "--mask",
+        &s(&out),
+        "--out",
+        &s(&d.join("aorta.vtp")),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = coapt(&[
+        "valve",
+        "--surface",
+        &s(&d.join("aorta.vtp")),
+        "--landmarks",
+        &s(&comm_path),
+        "--template",
+        &s(&repo().join("pipelines/templates/ozaki_default.toml")),
+        "--out",
+        &s(&d.join("valve.json")),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("given_landmarks"), "{}", stderr(&o));
+    assert!(!d.join("valve.json").exists());
 }
 
 #[test]

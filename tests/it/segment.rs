@@ -180,4 +180,31 @@ fn clinical_phantom_with_and_without_landmarks() {
         below >= 0.96,
         "without landmarks: Dice {below:.4} below the truth's end plane"
     );
+    // The commissures alone: the VAJ march along the track began in the
+    // arch and put its plane above the commissures, which it cut away
+    // ("the segmented lumen does not contain the centroid of the commissure
+    // landmarks"); it is found again down the commissures' axis.
+    let mut doc = json(&p.join("landmarks.mrk.json"));
+    let points = doc["markups"][0]["controlPoints"].as_array_mut().unwrap();
+    points.retain(|q| q["label"].as_str().is_some_and(|l| l.starts_with('C')));
+    let comm = d.join("commissures.mrk.json");
+    std::fs::write(&comm, serde_json::to_string(&doc).unwrap()).unwrap();
+    let only = d.join("comm.nii.gz");
+    let o = coapt(&[
+        "segment",
+        "--ct",
+        &s(&p.join("ct.nii.gz")),
+        "--landmarks",
+        &s(&comm),
+        "--out",
+        &s(&only),
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let below = dice_below_top(&nifti::read_u8(&only).unwrap());
+    eprintln!("commissures alone: Dice {below:.4} below the truth's end plane");
+    assert!(
+        below >= 0.98,
+        "commissures alone: Dice {below:.4} below the truth's end plane"
+    );
 }

@@ -709,3 +709,46 @@ fn a_ct_without_air_at_minus_1000_hu_gets_a_rescale_hint() {
         "{hint}"
     );
 }
+
+/// A chamber joined to the root beside its sinus (a ball of radius 12 mm,
+/// its centre 30 mm off the axis at the sinus' height), as the real CT's
+/// region with only C1–C3 held one: a march that follows its sections'
+/// centres drifts into it and reads the VAJ 24 mm low (tried). A march from
+/// the commissures (at z = 18, on a circle of 12.5 mm) down their axis,
+/// with sections within 1.6 of their radius, reads the knee at the
+/// annulus; and a plane whose centre lies off that axis, or not well below
+/// the commissures, is not the root's.
+#[test]
+fn a_march_from_the_commissures_keeps_to_the_root_beside_a_chamber() {
+    use coapt_geom::{Point3, Vector3};
+    let chamber = Point3::new(30.0, 0.0, 8.0);
+    let pts = half_mm_grid(-150..120, -60..60, -60..100, |q| {
+        let r = root_radius(q.z);
+        q.x * q.x + q.y * q.y <= r * r || (q - chamber).norm() <= 12.0
+    });
+    let c = [0.0f64, 120.0, 240.0].map(|a| {
+        let a = a.to_radians();
+        Point3::new(12.5 * a.cos(), 12.5 * a.sin(), 18.0)
+    });
+    let (start, dir, r0) = super::vaj::march_start_at_commissures(&c).expect("a circle");
+    assert!((start.z - 28.0).abs() < 1e-9 && (dir + Vector3::z()).norm() < 1e-9);
+    let (plane, _) = super::vaj::measure(pts, 0.125, start, dir, r0, [0.5; 3], true);
+    let plane = plane.expect("a VAJ plane");
+    let z = plane.point_mm[2];
+    assert!((-1.0..=1.5).contains(&z), "VAJ at z = {z:.2} mm");
+    assert!(plane.normal[2] > 0.99, "plane normal {:?}", plane.normal);
+    assert!(!super::vaj::off_the_root(&plane, &c));
+    let at = |p: Point3| super::vaj::Plane::new(p, Vector3::z());
+    assert!(super::vaj::off_the_root(
+        &at(Point3::new(20.0, 0.0, 0.0)),
+        &c
+    ));
+    assert!(super::vaj::off_the_root(
+        &at(Point3::new(0.0, 0.0, 40.0)),
+        &c
+    ));
+    assert!(super::vaj::off_the_root(
+        &at(Point3::new(0.0, 0.0, 15.0)),
+        &c
+    ));
+}

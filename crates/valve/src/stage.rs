@@ -160,8 +160,21 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         None
     };
     progress.set(0.2);
-    let r = compute(&mesh, &wall, &c, nadirs.as_ref(), templates.as_ref(), &vp)
-        .map_err(|e| Error::failed("valve", e))?;
+    // Without nadirs the paths are laid on the commissures' cylinder, which
+    // an asymmetric root may not allow (the real CT with C1–C3 alone: "the
+    // attachment edge is longer than the deepest path"); the nadirs, given
+    // or detected, are what fixes that.
+    let r = compute(&mesh, &wall, &c, nadirs.as_ref(), templates.as_ref(), &vp).map_err(|e| {
+        let hint = if nadirs.is_none() {
+            format!(
+                " ({} holds no nadirs: add N1–N3, or give the file as `given_landmarks` in a run config (`coapt landmarks --given` alone) so that the landmarks stage detects them)",
+                lm_path.display()
+            )
+        } else {
+            String::new()
+        };
+        Error::failed("valve", format!("{e}{hint}"))
+    })?;
     for f in r.json["findings"].as_array().into_iter().flatten() {
         if let Some(f) = f.as_str() {
             tracing::warn!("valve: {f}");
