@@ -584,6 +584,75 @@ fn given_landmarks_are_used_as_before() {
     assert!(!d.join("run/landmarks.mrk.json").exists());
 }
 
+/// A `landmarks` input with the commissures and no nadirs (what a user who
+/// placed C1–C3 gives): the landmarks stage runs with it as the given
+/// points and detects N1–N3; segment, before it, is seeded from the file;
+/// the valve and the report read the completed landmarks. Before, the
+/// landmarks stage was left out and the valve ran without nadirs.
+#[test]
+fn commissures_alone_are_completed_by_detected_nadirs() {
+    let d = tmpdir("lm-commissures");
+    let sd = repo().join("sample_data");
+    let truth = markups::read(&sd.join("landmarks.mrk.json")).unwrap();
+    let mut given = Landmarks::new(coapt::geom::Frame::Lps);
+    for l in ["C1", "C2", "C3"] {
+        given.push(l, truth.get(l).unwrap());
+    }
+    let given_path = d.join("commissures.mrk.json");
+    markups::write_mrk_json(&given_path, &given, coapt::geom::Frame::Lps).unwrap();
+    let run = run_default_chain(
+        &d,
+        &[("ct", &sd.join("ct.nii.gz")), ("landmarks", &given_path)],
+        "",
+    );
+    let manifest = json(&run.join("manifest.json"));
+    let stages: Vec<&str> = manifest["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["stage"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        stages,
+        [
+            "segment",
+            "surface",
+            "landmarks",
+            "valve",
+            "leaflets",
+            "close",
+            "report"
+        ]
+    );
+    let input = |stage: &str, name: &str| {
+        let s = manifest["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["stage"] == stage)
+            .unwrap();
+        s["inputs"][name]["path"].as_str().unwrap().to_string()
+    };
+    assert_eq!(input("segment", "landmarks"), s(&given_path));
+    assert_eq!(input("landmarks", "given_landmarks"), s(&given_path));
+    assert!(input("valve", "landmarks").ends_with("landmarks.mrk.json"));
+    assert_ne!(input("valve", "landmarks"), s(&given_path));
+    let found = markups::read(&run.join("landmarks.mrk.json")).unwrap();
+    let rep = json(&run.join("landmarks.json"));
+    for p in rep["points"].as_array().unwrap() {
+        let l = p["label"].as_str().unwrap();
+        let want = if l.starts_with('C') {
+            "given"
+        } else {
+            "detected"
+        };
+        assert_eq!(p["source"], want, "{p}");
+        let off = (found.get(l).unwrap() - truth.get(l).unwrap()).norm();
+        assert!(off <= 1.5, "{l} {off:.2} mm from the truth");
+    }
+    assert!(run.join("report.json").is_file());
+}
+
 /// A user's file holding some of the points (here C1, moved 1.5 mm along
 /// the wall's tangent, and N2) corrects the detection point by point: the
 /// written landmarks are the user's where given and the detector's

@@ -35,6 +35,9 @@ pub struct RunConfig {
     /// The `[design]` section as written: `coapt design` reads it (errors
     /// name this file and the key); `coapt run` ignores it.
     pub design: Option<toml::Table>,
+    /// Inputs given in part, which the stage that makes them completes
+    /// ([`RunConfig::complete_partial_inputs`]).
+    pub completed: BTreeSet<String>,
 }
 
 impl RunConfig {
@@ -70,6 +73,7 @@ impl RunConfig {
             inputs: BTreeMap::new(),
             sections: BTreeMap::new(),
             design: None,
+            completed: BTreeSet::new(),
         };
         for (key, value) in &doc {
             match key.as_str() {
@@ -179,7 +183,37 @@ impl RunConfig {
                 }
             }
         }
+        cfg.complete_partial_inputs(registry);
         Ok(cfg)
+    }
+
+    /// An input `X` given in part (landmarks without all three nadirs: a
+    /// user who placed the commissures) is completed by the stage that makes
+    /// `X` from `given_X`: that stage runs with the file as `given_X` (its
+    /// points override what the stage finds), the stages before it read the
+    /// file as given (segment seeds from the commissures), and those after
+    /// it the completed artifact. Before, the landmarks stage was left out,
+    /// and the valve laid its paths without nadirs, which the real CT's
+    /// root does not take. An input that cannot be read is left for the
+    /// run's validation to name.
+    fn complete_partial_inputs(&mut self, registry: &[&'static StageSpec]) {
+        for spec in registry {
+            for out in spec.outputs {
+                let given = format!("given_{}", out.name);
+                let Some(path) = self.inputs.get(out.name) else {
+                    continue;
+                };
+                if spec.input(&given).is_none()
+                    || self.inputs.contains_key(&given)
+                    || !super::validate::is_partial(out.kind, path)
+                {
+                    continue;
+                }
+                let path = path.clone();
+                self.inputs.insert(given, path);
+                self.completed.insert(out.name.to_string());
+            }
+        }
     }
 }
 

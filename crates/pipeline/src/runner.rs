@@ -101,7 +101,9 @@ pub fn plan(cfg: &RunConfig, registry: &[&'static StageSpec]) -> Result<Vec<&'st
         // already gives what it would make (e.g. a mask segmented elsewhere),
         // or an earlier stage makes it (the phantom's true landmarks are not
         // detected again).
+        let completes = spec.outputs.iter().any(|o| cfg.completed.contains(o.name));
         if !configured
+            && !completes
             && spec
                 .outputs
                 .iter()
@@ -110,7 +112,7 @@ pub fn plan(cfg: &RunConfig, registry: &[&'static StageSpec]) -> Result<Vec<&'st
             continue;
         }
         for out in spec.outputs {
-            if cfg.inputs.contains_key(out.name) {
+            if cfg.inputs.contains_key(out.name) && !cfg.completed.contains(out.name) {
                 return Err(Error::config(
                     &cfg.path,
                     format!("inputs.{}", out.name),
@@ -241,7 +243,7 @@ pub fn run(
     }
     for (at, spec) in chain.iter().enumerate().take(last + 1).skip(first) {
         for port in spec.inputs {
-            let Some(path) = wired(&artifact, &chain, at, port.name) else {
+            let Some(path) = wired(&artifact, &cfg, &chain, at, port.name) else {
                 continue;
             };
             let made_upstream = chain[..first].iter().any(|s| s.output(port.name).is_some());
@@ -288,7 +290,9 @@ pub fn run(
             inputs: spec
                 .inputs
                 .iter()
-                .filter_map(|p| wired(&artifact, &chain, at, p.name).map(|path| (p.name, path)))
+                .filter_map(|p| {
+                    wired(&artifact, &cfg, &chain, at, p.name).map(|path| (p.name, path))
+                })
                 .collect(),
             outputs: spec
                 .outputs
@@ -336,14 +340,23 @@ pub fn run(
 /// ones the landmarks stage detects from segment's own mask).
 fn wired(
     artifact: &BTreeMap<&str, PathBuf>,
+    cfg: &RunConfig,
     chain: &[&'static StageSpec],
     at: usize,
     name: &str,
 ) -> Option<PathBuf> {
-    let path = artifact.get(name)?;
     let made_later = chain[at..].iter().any(|s| s.output(name).is_some());
     let made_earlier = chain[..at].iter().any(|s| s.output(name).is_some());
-    (made_earlier || !made_later).then(|| path.clone())
+    if made_later && !made_earlier {
+        // An input given in part reaches the stages before the one that
+        // completes it as given.
+        return cfg
+            .completed
+            .contains(name)
+            .then(|| cfg.inputs.get(name).cloned())
+            .flatten();
+    }
+    artifact.get(name).cloned()
 }
 
 /// Run a single stage by hand (`coapt <stage> …`): always runs. When the

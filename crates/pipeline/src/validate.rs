@@ -13,6 +13,17 @@ pub const REQUIRED_LANDMARKS: [&str; 3] = ["C1", "C2", "C3"];
 /// The points of the valve: commissures and nadirs.
 pub const VALVE_LANDMARKS: [&str; 6] = ["C1", "C2", "C3", "N1", "N2", "N3"];
 
+/// Whether an input of `kind` at `path` holds only part of what the stage
+/// making that kind writes: landmarks with the commissures but not all
+/// three nadirs. False when it cannot be read (validation names that).
+pub fn is_partial(kind: ArtifactKind, path: &Path) -> bool {
+    kind == ArtifactKind::Landmarks
+        && markups::read(path).is_ok_and(|lm| {
+            lm.require(&REQUIRED_LANDMARKS).is_ok()
+                && VALVE_LANDMARKS[3..].iter().any(|l| lm.get(l).is_none())
+        })
+}
+
 pub fn input(kind: ArtifactKind, path: &Path) -> Result<()> {
     if !path.exists() {
         return Err(Error::bad_input(path, "not found"));
