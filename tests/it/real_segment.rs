@@ -252,7 +252,7 @@ fn real_ct_from_the_commissures_alone_is_the_root() {
         "-q",
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stderr(&o).contains("given_landmarks"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("have them detected"), "{}", stderr(&o));
     assert!(!d.join("valve.json").exists());
 }
 

@@ -167,7 +167,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let r = compute(&mesh, &wall, &c, nadirs.as_ref(), templates.as_ref(), &vp).map_err(|e| {
         let hint = if nadirs.is_none() {
             format!(
-                " ({} holds no nadirs: add N1–N3, or give the file as `given_landmarks` in a run config (`coapt landmarks --given` alone) so that the landmarks stage detects them)",
+                " ({} holds no nadirs: add N1–N3, or have them detected: `coapt run` with this file as `landmarks`, or `coapt landmarks --given` it)",
                 lm_path.display()
             )
         } else {
