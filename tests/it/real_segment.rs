@@ -256,6 +256,33 @@ fn real_ct_from_the_commissures_alone_is_the_root() {
     assert!(!d.join("valve.json").exists());
 }
 
+/// Nadirs placed 15 mm too low, in the ventricle: the plane through them
+/// lets the lumen into the ventricle and the mask is refused as a leak, as
+/// before; the refusal now points at the nadirs given, not at giving them.
+#[test]
+fn real_ct_nadirs_placed_in_the_ventricle_are_what_the_leak_refusal_names() {
+    let Some(real) = real_dir() else { return };
+    let d = tmpdir("real-seg-low-nadirs");
+    let mut doc = json(&real.join("landmarks.mrk.json"));
+    for p in doc["markups"][0]["controlPoints"].as_array_mut().unwrap() {
+        if p["label"].as_str().is_some_and(|l| l.starts_with('N')) {
+            let z = p["position"][2].as_f64().unwrap();
+            p["position"][2] = serde_json::json!(z - 15.0);
+        }
+    }
+    let lm = d.join("low.mrk.json");
+    std::fs::write(&lm, serde_json::to_string(&doc).unwrap()).unwrap();
+    let out = d.join("mask.nii.gz");
+    let o = segment(&real.join("ct.nii.gz"), Some(&lm), &out, "2");
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("leaked") && e.contains("check that they lie on the annulus"),
+        "{e}"
+    );
+    assert!(!out.exists());
+}
+
 #[test]
 fn real_ct_without_landmarks_finds_the_ascending_aorta_below_the_arch() {
     let Some(real) = real_dir() else { return };

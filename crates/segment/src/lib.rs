@@ -745,12 +745,19 @@ fn below_vaj_removed(
 
 /// A lumen far larger than a tube of the tracked radius has leaked into a
 /// neighbouring chamber: refused, never passed on.
-fn refuse_a_leak(tube: &TubeCheck, final_ml: f64) -> Result<()> {
+fn refuse_a_leak(tube: &TubeCheck, final_ml: f64, nadirs_given: bool) -> Result<()> {
     if tube.ratio > MAX_TUBE_RATIO {
+        // The nadirs bound the root from below; when they were given the
+        // leak passed their plane, so they are what to check.
+        let advice = if nadirs_given {
+            "the plane through the nadirs N1–N3 given let it through: check that they lie on the annulus, at the lowest points of the cusps' hinges (a nadir placed in the ventricle moves the plane below the annulus)"
+        } else {
+            "give the landmarks C1–C3 and N1–N3, which bound the root, or crop the CT closer to the aorta"
+        };
         return Err(Error::failed(
             "segment",
             format!(
-                "the segmented lumen ({:.0} ml over {:.0} mm along the aorta) is {:.1} times the volume of a tube of the tracked radius {:.1} mm: it has leaked into a neighbouring chamber (left atrium or ventricle), and a leaked mask is not passed on; give the landmarks C1–C3 and N1–N3, which bound the root, or crop the CT closer to the aorta",
+                "the segmented lumen ({:.0} ml over {:.0} mm along the aorta) is {:.1} times the volume of a tube of the tracked radius {:.1} mm: it has leaked into a neighbouring chamber (left atrium or ventricle), and a leaked mask is not passed on; {advice}",
                 final_ml, tube.length_mm, tube.ratio, tube.radius_mm
             ),
         ));
@@ -907,7 +914,7 @@ pub fn segment(
         vaj_report.plane.as_ref(),
         vox_ml,
     );
-    refuse_a_leak(&tube, final_n as f64 * vox_ml)?;
+    refuse_a_leak(&tube, final_n as f64 * vox_ml, nadirs.is_some())?;
 
     let landmarks_check = landmarks.map(|_| commissure_check(&commissures, &roi_vol, &keep));
     if landmarks_check
