@@ -132,7 +132,13 @@ pub fn run(opts: &Options, registry: &[&'static StageSpec], inv: &Invocation) ->
         if port.name == "template" || made_by_sizes.contains(&port.name) {
             continue;
         }
-        let path = match cfg.inputs.get(port.name) {
+        // An input given in part was completed upstream: the sizes read
+        // the completed artifact.
+        let given = cfg
+            .inputs
+            .get(port.name)
+            .filter(|_| !cfg.completed.contains(port.name));
+        let path = match given {
             Some(p) => p.clone(),
             None => match chain[..first].iter().find_map(|s| s.output(port.name)) {
                 Some(out) => run_dir.join(out.file),

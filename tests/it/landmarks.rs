@@ -651,6 +651,21 @@ fn commissures_alone_are_completed_by_detected_nadirs() {
         assert!(off <= 1.5, "{l} {off:.2} mm from the truth");
     }
     assert!(run.join("report.json").is_file());
+    // `coapt design` on the same config: its sizes' reports read the
+    // completed landmarks too, not the file given.
+    let o = coapt(&["design", &s(&d.join("chain.toml")), "--sizes", "19", "-q"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let m = json(&run.join("design/size-19/manifest.json"));
+    let report = m["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["stage"] == "report")
+        .unwrap();
+    assert_eq!(
+        report["inputs"]["landmarks"]["path"].as_str().unwrap(),
+        s(&run.join("landmarks.mrk.json"))
+    );
 }
 
 /// A user's file holding some of the points (here C1, moved 1.5 mm along
