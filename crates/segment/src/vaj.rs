@@ -118,7 +118,7 @@ pub fn off_the_root(plane: &Plane, c: &[Point3; 3]) -> bool {
 /// ventricle beside the root. That march keeps the commissures' axis, the
 /// root's, rather than following the sections' centres into a chamber the
 /// region reached through the annulus.
-pub const ANCHORED_REACH_RADII: f64 = 1.6;
+const ANCHORED_REACH_RADII: f64 = 1.6;
 
 /// How far above the commissures' centre a march from them starts (mm):
 /// in the ascending aorta above the STJ (the commissures lie 0–3 mm below

@@ -167,7 +167,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     let r = compute(&mesh, &wall, &c, nadirs.as_ref(), templates.as_ref(), &vp).map_err(|e| {
         let hint = if nadirs.is_none() {
             format!(
-                " ({} holds no nadirs: add N1–N3, or have them detected: `coapt run` with this file as `landmarks`, or `coapt landmarks --given` it)",
+                " ({} holds no nadirs: add N1–N3, or have them detected: give this file to `coapt run` as `landmarks`, or to `coapt landmarks --given`)",
                 lm_path.display()
             )
         } else {
