@@ -221,10 +221,10 @@ fn real_ct_from_the_commissures_alone_is_the_root() {
         at(&mask, &r.comm_c),
         "the commissures' centre is not in the lumen"
     );
-    let dc = dice_in_root(&real, &mask, &r);
+    let sc = crate::real_ct::root_region_scores(&out);
     assert!(
-        dc >= 0.94,
-        "Dice {dc:.4} against TotalSegmentator in the root"
+        sc.dice >= 0.95 && sc.mean_mm <= 0.65 && sc.p95_mm <= 1.6,
+        "against TotalSegmentator in the root + ascending region: {sc:?}"
     );
     let ml = report["volumes_ml"]["final_mask"].as_f64().unwrap();
     assert!((40.0..=60.0).contains(&ml), "{ml} ml");

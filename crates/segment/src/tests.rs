@@ -715,7 +715,7 @@ fn a_ct_without_air_at_minus_1000_hu_gets_a_rescale_hint() {
 /// region with only C1–C3 held one: a march that follows its sections'
 /// centres drifts into it and reads the VAJ 24 mm low (tried). A march from
 /// the commissures (at z = 18, on a circle of 12.5 mm) down their axis,
-/// with sections within 1.6 of their radius, reads the knee at the
+/// on the region within 1.6 of their radius of it, reads the knee at the
 /// annulus; and a plane whose centre lies off that axis, or not well below
 /// the commissures, is not the root's.
 #[test]

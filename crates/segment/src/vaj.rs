@@ -113,11 +113,11 @@ pub fn off_the_root(plane: &Plane, c: &[Point3; 3]) -> bool {
     (d - up * height).norm() > r || height > -0.5 * r
 }
 
-/// Sections of a march from the commissures reach this many commissure
-/// radii from their axis: past the sinuses (about 1.3), short of the
-/// ventricle beside the root. That march keeps the commissures' axis, the
-/// root's, rather than following the sections' centres into a chamber the
-/// region reached through the annulus.
+/// A march from the commissures sees the region within this many
+/// commissure radii of their axis: past the sinuses (about 1.3), short of
+/// a chamber beside the root. It keeps to that axis, the root's, rather
+/// than following its sections' centres into a chamber the region reached
+/// through the annulus.
 const ANCHORED_REACH_RADII: f64 = 1.6;
 
 /// How far above the commissures' centre a march from them starts (mm):
@@ -290,6 +290,22 @@ pub fn measure(
     anchored: bool,
 ) -> (Option<Plane>, Option<Profile>) {
     let w = spacing.iter().fold(SLAB_MM, |a, &s| a.max(2.0 * s));
+    // A march from the commissures sees only the cylinder about their axis
+    // that holds the root: not a chamber beside it, in its sections nor in
+    // the floor's least sections (`vaj_floor::settle`).
+    let points = if anchored {
+        let axis = dir.try_normalize(1e-9).unwrap_or_else(Vector3::z);
+        let r_max = ANCHORED_REACH_RADII * r0_mm;
+        points
+            .into_iter()
+            .filter(|q| {
+                let d = q - start;
+                (d - axis * d.dot(&axis)).norm() <= r_max
+            })
+            .collect()
+    } else {
+        points
+    };
     let Some(cells) = Cells::new(points) else {
         return (None, None);
     };
@@ -306,12 +322,7 @@ pub fn measure(
         } else {
             c + t * STEP_MM
         };
-        let reach = if anchored {
-            ANCHORED_REACH_RADII * r0_mm
-        } else {
-            REACH_MM.min(1.8 * r + 3.0)
-        };
-        let (n, off) = cells.section(&p, &t, w, reach);
+        let (n, off) = cells.section(&p, &t, w, REACH_MM.min(1.8 * r + 3.0));
         let a = n * voxel_mm3 / w;
         if n == 0.0 || (area.len() >= 5 && a < END_FRACTION * sorted[sorted.len() / 2]) {
             break;
