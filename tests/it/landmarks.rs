@@ -10,6 +10,17 @@ use coapt::io::markups;
 use crate::common::*;
 use crate::real_segment::real_dir;
 
+/// The whole chain when the landmarks stage runs in it.
+const DETECTING_CHAIN: [&str; 7] = [
+    "segment",
+    "surface",
+    "landmarks",
+    "valve",
+    "leaflets",
+    "close",
+    "report",
+];
+
 const LABELS: [&str; 6] = ["C1", "C2", "C3", "N1", "N2", "N3"];
 
 /// Distance of each found point to the truth, labels taken as they are.
@@ -224,19 +235,7 @@ fn run_on_a_ct_alone_reaches_a_report() {
     assert!(run.join("report.json").is_file());
     assert_honest_verdict(&run);
     let (manifest, stages) = manifest_stages(&run);
-    assert_eq!(
-        stages,
-        [
-            "segment",
-            "surface",
-            "landmarks",
-            "valve",
-            "leaflets",
-            "close",
-            "report"
-        ],
-        "{manifest}"
-    );
+    assert_eq!(stages, DETECTING_CHAIN, "{manifest}");
     let seg = manifest["stages"]
         .as_array()
         .unwrap()
@@ -605,34 +604,9 @@ fn commissures_alone_are_completed_by_detected_nadirs() {
         &[("ct", &sd.join("ct.nii.gz")), ("landmarks", &given_path)],
         "",
     );
-    let manifest = json(&run.join("manifest.json"));
-    let stages: Vec<&str> = manifest["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["stage"].as_str().unwrap())
-        .collect();
-    assert_eq!(
-        stages,
-        [
-            "segment",
-            "surface",
-            "landmarks",
-            "valve",
-            "leaflets",
-            "close",
-            "report"
-        ]
-    );
-    let input = |stage: &str, name: &str| {
-        let s = manifest["stages"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|s| s["stage"] == stage)
-            .unwrap();
-        s["inputs"][name]["path"].as_str().unwrap().to_string()
-    };
+    let (manifest, stages) = manifest_stages(&run);
+    assert_eq!(stages, DETECTING_CHAIN, "{manifest}");
+    let input = |stage: &str, name: &str| stage_input(&manifest, stage, name);
     assert_eq!(input("segment", "landmarks"), s(&given_path));
     assert_eq!(input("landmarks", "given_landmarks"), s(&given_path));
     assert!(input("valve", "landmarks").ends_with("landmarks.mrk.json"));
@@ -655,17 +629,22 @@ fn commissures_alone_are_completed_by_detected_nadirs() {
     // completed landmarks too, not the file given.
     let o = coapt(&["design", &s(&d.join("chain.toml")), "--sizes", "19", "-q"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let m = json(&run.join("design/size-19/manifest.json"));
-    let report = m["stages"]
+    let sized = json(&run.join("design/size-19/manifest.json"));
+    assert_eq!(
+        stage_input(&sized, "report", "landmarks"),
+        s(&run.join("landmarks.mrk.json"))
+    );
+}
+
+/// The path a run's `manifest` records for `stage`'s input `name`.
+fn stage_input(manifest: &serde_json::Value, stage: &str, name: &str) -> String {
+    let rec = manifest["stages"]
         .as_array()
         .unwrap()
         .iter()
-        .find(|s| s["stage"] == "report")
+        .find(|s| s["stage"] == stage)
         .unwrap();
-    assert_eq!(
-        report["inputs"]["landmarks"]["path"].as_str().unwrap(),
-        s(&run.join("landmarks.mrk.json"))
-    );
+    rec["inputs"][name]["path"].as_str().unwrap().to_string()
 }
 
 /// A user's file holding some of the points (here C1, moved 1.5 mm along
