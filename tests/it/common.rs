@@ -260,3 +260,15 @@ pub fn manifest_stages(run: &Path) -> (serde_json::Value, Vec<String>) {
         .collect();
     (manifest, stages)
 }
+
+/// Writes to `to` the commissures C1–C3 of the landmarks file `from` and
+/// nothing else: what a user who placed only the commissures gives.
+pub fn commissures_only(from: &Path, to: &Path) {
+    use coapt::io::markups;
+    let all = markups::read(from).unwrap();
+    let mut c = coapt::geom::Landmarks::new(coapt::geom::Frame::Lps);
+    for l in ["C1", "C2", "C3"] {
+        c.push(l, all.get(l).unwrap());
+    }
+    markups::write_mrk_json(to, &c, coapt::geom::Frame::Lps).unwrap();
+}

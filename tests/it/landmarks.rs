@@ -593,12 +593,8 @@ fn commissures_alone_are_completed_by_detected_nadirs() {
     let d = tmpdir("lm-commissures");
     let sd = repo().join("sample_data");
     let truth = markups::read(&sd.join("landmarks.mrk.json")).unwrap();
-    let mut given = Landmarks::new(coapt::geom::Frame::Lps);
-    for l in ["C1", "C2", "C3"] {
-        given.push(l, truth.get(l).unwrap());
-    }
     let given_path = d.join("commissures.mrk.json");
-    markups::write_mrk_json(&given_path, &given, coapt::geom::Frame::Lps).unwrap();
+    commissures_only(&sd.join("landmarks.mrk.json"), &given_path);
     let run = run_default_chain(
         &d,
         &[("ct", &sd.join("ct.nii.gz")), ("landmarks", &given_path)],

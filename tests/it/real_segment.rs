@@ -203,12 +203,8 @@ fn real_ct_from_the_commissures_alone_is_the_root() {
     let Some(real) = real_dir() else { return };
     let d = tmpdir("real-seg-comm");
     let lm_path = real.join("landmarks.mrk.json");
-    let mut doc = json(&lm_path);
-    let points = doc["markups"][0]["controlPoints"].as_array_mut().unwrap();
-    points.retain(|p| p["label"].as_str().is_some_and(|l| l.starts_with('C')));
-    assert_eq!(points.len(), 3);
     let comm_path = d.join("commissures.mrk.json");
-    std::fs::write(&comm_path, serde_json::to_string(&doc).unwrap()).unwrap();
+    commissures_only(&lm_path, &comm_path);
     let out = d.join("mask.nii.gz");
     let o = segment(&real.join("ct.nii.gz"), Some(&comm_path), &out, "2");
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));

@@ -184,11 +184,8 @@ fn clinical_phantom_with_and_without_landmarks() {
     // arch and put its plane above the commissures, which it cut away
     // ("the segmented lumen does not contain the centroid of the commissure
     // landmarks"); it is found again down the commissures' axis.
-    let mut doc = json(&p.join("landmarks.mrk.json"));
-    let points = doc["markups"][0]["controlPoints"].as_array_mut().unwrap();
-    points.retain(|q| q["label"].as_str().is_some_and(|l| l.starts_with('C')));
     let comm = d.join("commissures.mrk.json");
-    std::fs::write(&comm, serde_json::to_string(&doc).unwrap()).unwrap();
+    commissures_only(&p.join("landmarks.mrk.json"), &comm);
     let only = d.join("comm.nii.gz");
     let o = coapt(&[
         "segment",
