@@ -271,6 +271,18 @@ pub struct Detection {
     pub sinus_naming: SinusNaming,
 }
 
+impl Detection {
+    /// Angle of `p` about the detected axis (degrees from `e1`, in [0, 360)).
+    pub fn angle_deg(&self, p: &Point3) -> f64 {
+        let r = p - self.origin_mm;
+        let e2 = self.axis.cross(&self.e1);
+        r.dot(&e2)
+            .atan2(r.dot(&self.e1))
+            .to_degrees()
+            .rem_euclid(360.0)
+    }
+}
+
 /// One sinus: its nadir's label, its name and its coronary ostium if the
 /// CT shows one.
 #[derive(Debug, Clone, Serialize)]

@@ -6,6 +6,7 @@ pub mod angular;
 pub mod annulus;
 pub mod detect;
 pub mod lumen_rays;
+pub mod numbering;
 pub mod ostia;
 pub mod stage;
 pub mod stage_params;

@@ -6,6 +6,7 @@ use serde_json::{Value as Json, json};
 
 use super::annulus;
 use super::detect::{self, Detection};
+use super::numbering;
 use super::ostia::{self, NamedBy};
 use super::stage_params::LandmarksParams;
 use coapt_base::{Error, Result};
@@ -199,16 +200,6 @@ fn commissure_angles(det: &Detection) -> Option<[f64; 3]> {
     a.try_into().ok()
 }
 
-/// Angle of `p` about the detected axis (degrees from `e1`).
-fn angle_about_axis(det: &Detection, p: &Point3) -> f64 {
-    let r = p - det.origin_mm;
-    let e2 = det.axis.cross(&det.e1);
-    r.dot(&e2)
-        .atan2(r.dot(&det.e1))
-        .to_degrees()
-        .rem_euclid(360.0)
-}
-
 fn point_of<'a>(det: &'a Detection, label: &str) -> Option<&'a Point3> {
     det.points
         .iter()
@@ -223,8 +214,8 @@ fn leaflet_sinuses(det: &Detection) -> Option<Vec<&'static str>> {
     let sectors = commissure_angles(det)?;
     (0..3)
         .map(|k| {
-            let a = angle_about_axis(det, point_of(det, &format!("C{}", k + 1))?);
-            let b = angle_about_axis(det, point_of(det, &format!("C{}", (k + 1) % 3 + 1))?);
+            let a = det.angle_deg(point_of(det, &format!("C{}", k + 1))?);
+            let b = det.angle_deg(point_of(det, &format!("C{}", (k + 1) % 3 + 1))?);
             let mid = a + 0.5 * (b - a).rem_euclid(360.0);
             Some(det.sinuses.get(ostia::sector_of(mid, &sectors))?.name)
         })
@@ -252,7 +243,7 @@ fn describe(label: &str, det: &Detection, sources: &[Source]) -> String {
     let by_label = label[1..].parse::<usize>().unwrap_or(1).clamp(1, 3) - 1;
     let k = match (found, commissure_angles(det)) {
         (Some((p, Source::Given { .. })), Some(sectors)) => {
-            let deg = angle_about_axis(det, &p.point_mm);
+            let deg = det.angle_deg(&p.point_mm);
             if label.starts_with('C') {
                 let off = |x: f64| super::angular::apart_deg(deg, x);
                 (0..3)
@@ -315,8 +306,14 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         Some(p) => Some(volume_file::read_ct(p)?),
         None => None,
     };
+    let given = match io.input("given_landmarks") {
+        Some(p) => Some(markups::read(p)?),
+        None => None,
+    };
     let mut det =
         detect::detect(&mask, &plane, ct.as_ref()).map_err(|e| Error::failed("landmarks", e))?;
+    let turn = given.as_ref().map_or(0, |g| numbering::user_turn(&det, g));
+    numbering::renumber(&mut det, turn);
     let tris = mesh.wall_triangles();
     let x: Vec<Vector3> = mesh.vertices.iter().map(|p| p.coords).collect();
     let bvh = Bvh::build(&x, &tris);
@@ -345,10 +342,6 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     }
     let detect_s = t1.elapsed().as_secs_f64();
     progress.set(0.9);
-    let given = match io.input("given_landmarks") {
-        Some(p) => Some(markups::read(p)?),
-        None => None,
-    };
     let sources = merge_given(&mut det, given.as_ref());
     let found = findings(&det, &sources, lp.min_confidence);
     for f in &found {
@@ -369,6 +362,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
             json!(detect::COMMISSURE_ABOVE_KNEE_MM),
         );
         m.insert("min_confidence".into(), json!(lp.min_confidence));
+        // How far the given file's numbering turns the detector's (which
+        // starts at the right-coronary sinus): 1 means its C2, N2 are the
+        // detector's C1, N1.
+        m.insert("numbering_turn".into(), json!(turn));
         if let Some(Json::Array(points)) = m.get_mut("points") {
             for ((p, s), found) in points.iter_mut().zip(&sources).zip(&det.points) {
                 p["source"] = json!(s.name());
