@@ -117,8 +117,29 @@ fn landmarks_without_commissures() {
               {"id": "2", "label": "C2", "position": [4.0, 5.0, 6.0]}]}]}"#,
     )
     .unwrap();
+    // `coapt run` completes such a file, so `check` lets it pass and says
+    // so; the valve stage on its own needs the commissures.
     let o = coapt(&["check", "--landmarks", p.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("`coapt run` finds the others"),
+        "{}",
+        stdout(&o)
+    );
+    let surface = repo().join("sample_data/truth_surface.vtp");
+    let o = coapt(&[
+        "valve",
+        "--surface",
+        &s(&surface),
+        "--landmarks",
+        &s(&p),
+        "--out",
+        &s(&d.join("valve.json")),
+        "--paths",
+        &s(&d.join("paths.vtp")),
+    ]);
     assert_bad_input(&o, &p, &["C1", "C3"]);
+    assert!(!d.join("valve.json").exists());
 }
 
 #[test]

@@ -40,6 +40,10 @@ pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
 /// Assert exit code 2 with a one-line `error:` naming `file` and containing `words`.
 pub fn assert_bad_input(o: &Output, file: &Path, words: &[&str]) {
     let err = stderr(o);
@@ -261,14 +265,14 @@ pub fn manifest_stages(run: &Path) -> (serde_json::Value, Vec<String>) {
     (manifest, stages)
 }
 
-/// Writes to `to` the commissures C1–C3 of the landmarks file `from` and
-/// nothing else: what a user who placed only the commissures gives.
-pub fn commissures_only(from: &Path, to: &Path) {
+/// The points `labels` of the landmarks file `from`, written to `to`: a
+/// user who placed only some of them (say the commissures).
+pub fn some_points(from: &Path, to: &Path, labels: &[&str]) {
     use coapt::io::markups;
     let all = markups::read(from).unwrap();
     let mut c = coapt::geom::Landmarks::new(coapt::geom::Frame::Lps);
-    for l in ["C1", "C2", "C3"] {
-        c.push(l, all.get(l).unwrap());
+    for l in labels {
+        c.push(*l, all.get(l).unwrap());
     }
     markups::write_mrk_json(to, &c, coapt::geom::Frame::Lps).unwrap();
 }

@@ -204,7 +204,7 @@ fn real_ct_from_the_commissures_alone_is_the_root() {
     let d = tmpdir("real-seg-comm");
     let lm_path = real.join("landmarks.mrk.json");
     let comm_path = d.join("commissures.mrk.json");
-    commissures_only(&lm_path, &comm_path);
+    some_points(&lm_path, &comm_path, &["C1", "C2", "C3"]);
     let out = d.join("mask.nii.gz");
     let o = segment(&real.join("ct.nii.gz"), Some(&comm_path), &out, "2");
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));

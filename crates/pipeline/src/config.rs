@@ -183,37 +183,49 @@ impl RunConfig {
                 }
             }
         }
-        cfg.complete_partial_inputs(registry);
+        cfg.complete_partial_inputs(registry)?;
         Ok(cfg)
     }
 
-    /// An input `X` given in part (landmarks without all three nadirs: a
-    /// user who placed the commissures) is completed by the stage that makes
-    /// `X` from `given_X`: that stage runs with the file as `given_X` (its
-    /// points override what the stage finds), the stages before it read the
-    /// file as given (segment seeds from the commissures), and those after
-    /// it the completed artifact. Before, the landmarks stage was left out,
+    /// An input `X` given in part (landmarks with some of the valve's six
+    /// points: a user who placed the commissures, or only the nadirs) is
+    /// completed by the stage that makes `X` from `given_X`: that stage
+    /// runs with the file as `given_X` (its points override what the stage
+    /// finds), the stages before it read the file as given (segment seeds
+    /// from the commissures, cuts at the nadirs' plane), and those after it
+    /// the completed artifact. Before, the landmarks stage was left out,
     /// and the valve laid its paths without nadirs, which the real CT's
     /// root does not take. An input that cannot be read is left for the
-    /// run's validation to name.
-    fn complete_partial_inputs(&mut self, registry: &[&'static StageSpec]) {
+    /// run's validation to name; one given in part beside its own `given_X`
+    /// is refused, since the stage takes one file of corrections.
+    fn complete_partial_inputs(&mut self, registry: &[&'static StageSpec]) -> Result<()> {
         for spec in registry {
             for out in spec.outputs {
                 let given = format!("given_{}", out.name);
                 let Some(path) = self.inputs.get(out.name) else {
                     continue;
                 };
-                if spec.input(&given).is_none()
-                    || self.inputs.contains_key(&given)
-                    || !super::validate::is_partial(out.kind, path)
-                {
+                if spec.input(&given).is_none() || !super::validate::is_partial(out.kind, path) {
                     continue;
+                }
+                if let Some(other) = self.inputs.get(&given) {
+                    return Err(Error::config(
+                        &self.path,
+                        format!("inputs.{}", out.name),
+                        format!(
+                            "{} holds only some of the points, which stage {} completes from a file of given points, but inputs.{given} ({}) is set too: put the points you placed into one file and give it as either",
+                            path.display(),
+                            spec.name,
+                            other.display()
+                        ),
+                    ));
                 }
                 let path = path.clone();
                 self.inputs.insert(given, path);
                 self.completed.insert(out.name.to_string());
             }
         }
+        Ok(())
     }
 }
 

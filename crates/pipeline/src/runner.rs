@@ -141,12 +141,25 @@ pub fn plan(cfg: &RunConfig, registry: &[&'static StageSpec]) -> Result<Vec<&'st
 }
 
 /// The kind an artifact has wherever a stage declares it.
-fn input_kind(registry: &[&'static StageSpec], name: &str) -> Option<super::spec::ArtifactKind> {
-    registry
-        .iter()
-        .flat_map(|s| s.inputs.iter().chain(s.outputs.iter()))
-        .find(|p| p.name == name)
-        .map(|p| p.kind)
+/// The kind an external input is judged as: the artifact's own (the kind
+/// of the stage output of that name, when one makes it), or, for an input
+/// given in part, what the completing stage's `given_X` takes.
+fn input_kind(
+    registry: &[&'static StageSpec],
+    cfg: &RunConfig,
+    name: &str,
+) -> Option<super::spec::ArtifactKind> {
+    let port = |name: &str, ports: fn(&StageSpec) -> &[super::spec::Port]| {
+        registry
+            .iter()
+            .flat_map(|s| ports(s).iter())
+            .find(|p| p.name == name)
+            .map(|p| p.kind)
+    };
+    if cfg.completed.contains(name) {
+        return port(&format!("given_{name}"), |s| s.inputs);
+    }
+    port(name, |s| s.outputs).or_else(|| port(name, |s| s.inputs))
 }
 
 fn position(chain: &[&StageSpec], name: &str, flag: &str) -> Result<usize> {
@@ -189,7 +202,7 @@ pub fn run(
     if chain.is_empty() {
         // Inputs only: check them, which is all this build can do with them.
         for (name, path) in &cfg.inputs {
-            if let Some(kind) = input_kind(registry, name) {
+            if let Some(kind) = input_kind(registry, &cfg, name) {
                 validate::input(kind, path)?;
             }
         }
@@ -237,7 +250,7 @@ pub fn run(
     // Fail fast on bad external inputs and on missing upstream artifacts,
     // before any stage spends time.
     for (name, path) in &cfg.inputs {
-        if let Some(kind) = input_kind(registry, name) {
+        if let Some(kind) = input_kind(registry, &cfg, name) {
             validate::input(kind, path)?;
         }
     }

@@ -14,13 +14,18 @@ pub const REQUIRED_LANDMARKS: [&str; 3] = ["C1", "C2", "C3"];
 pub const VALVE_LANDMARKS: [&str; 6] = ["C1", "C2", "C3", "N1", "N2", "N3"];
 
 /// Whether an input of `kind` at `path` holds only part of what the stage
-/// making that kind writes: landmarks with the commissures but not all
-/// three nadirs. False when it cannot be read (validation names that).
+/// making that kind writes: landmarks with some of the valve's six points
+/// but not all (a user who placed the commissures, or only the nadirs).
+/// False when it cannot be read, or holds none of them (validation names
+/// either).
 pub fn is_partial(kind: ArtifactKind, path: &Path) -> bool {
     kind == ArtifactKind::Landmarks
         && markups::read(path).is_ok_and(|lm| {
-            lm.require(&REQUIRED_LANDMARKS).is_ok()
-                && VALVE_LANDMARKS[3..].iter().any(|l| lm.get(l).is_none())
+            let held = VALVE_LANDMARKS
+                .iter()
+                .filter(|l| lm.get(l).is_some())
+                .count();
+            held > 0 && held < VALVE_LANDMARKS.len()
         })
 }
 

@@ -26,9 +26,9 @@ pub static SPEC: StageSpec = StageSpec {
             name: "landmarks",
             flag: "landmarks",
             file: "landmarks.mrk.json",
-            kind: ArtifactKind::Landmarks,
+            kind: ArtifactKind::SomeLandmarks,
             required: false,
-            help: "optional: commissures C1–C3 seed the segmentation and bound its region, nadirs N1–N3 give the VAJ plane",
+            help: "optional, any of the valve's points: commissures C1–C3 seed the segmentation and bound its region, nadirs N1–N3 give the VAJ plane",
         },
     ],
     outputs: &[
