@@ -1,7 +1,8 @@
 //! The cohort workflow (`pipelines/Snakefile`): two phantoms through every
 //! stage with `snakemake --cores 2`, a third whose landmarks coapt finds in
-//! the CT, and the same report.json metrics as `coapt run` on the same
-//! inputs, with and without a landmarks file. Snakemake comes from PyPI into a venv
+//! the CT, a fourth whose landmarks file holds only the nadirs, and the
+//! same report.json metrics as `coapt run` on the same inputs, with a
+//! landmarks file, without one and with part of one. Snakemake comes from PyPI into a venv
 //! this test makes (`~/.cache/coapt-snakemake`); without Python or network
 //! it says that it skipped, unless `COAPT_REQUIRE_SNAKEMAKE=1`.
 
@@ -58,10 +59,18 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let template = s(&r.join("pipelines/templates/ozaki_default.toml"));
     let close = s(&r.join("pipelines/close.toml"));
+    let sample_ct = s(&r.join("sample_data/ct.nii.gz"));
+    let nadirs = d.join("nadirs.mrk.json");
+    some_points(
+        &r.join("sample_data/landmarks.mrk.json"),
+        &nadirs,
+        &["N1", "N2", "N3"],
+    );
+    let nadirs = s(&nadirs);
     std::fs::write(
         d.join("cohort.yaml"),
         format!(
-            "coapt: {}\nout: cohort\ncases:\n  p1: {{phantom: {{preset: sample, seed: 1}}}}\n  p2: {{phantom: {{preset: sample, seed: 2}}}}\n  p3: {{phantom: {{preset: sample, seed: 1}}, landmarks: detect}}\nvariants:\n  default: {{template: {template}, close: {close}}}\n",
+            "coapt: {}\nout: cohort\ncases:\n  p1: {{phantom: {{preset: sample, seed: 1}}}}\n  p2: {{phantom: {{preset: sample, seed: 2}}}}\n  p3: {{phantom: {{preset: sample, seed: 1}}, landmarks: detect}}\n  p4: {{ct: {sample_ct}, landmarks: {nadirs}}}\nvariants:\n  default: {{template: {template}, close: {close}}}\n",
             env!("CARGO_BIN_EXE_coapt")
         ),
     )
@@ -84,7 +93,7 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
         String::from_utf8_lossy(&o.stdout),
         String::from_utf8_lossy(&o.stderr)
     );
-    for case in ["p1", "p2", "p3"] {
+    for case in ["p1", "p2", "p3", "p4"] {
         let rep = json(&d.join(format!("cohort/{case}/default/report.json")));
         assert_eq!(rep["verdict"]["closed"], true, "{case}: {}", rep["verdict"]);
         assert!(
@@ -95,10 +104,10 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
     // The cohort's table: a header and a row per case, from its reports.
     let table = std::fs::read_to_string(d.join("cohort/cohort.csv")).unwrap();
     let lines: Vec<&str> = table.lines().collect();
-    assert_eq!(lines.len(), 4, "{table}");
+    assert_eq!(lines.len(), 5, "{table}");
     assert_eq!(lines[0], coapt::report::cohort_summary::COLUMNS.join(","));
     assert!(lines[1].starts_with("p1/default,") && lines[2].starts_with("p2/default,"));
-    assert!(lines[3].starts_with("p3/default,"));
+    assert!(lines[3].starts_with("p3/default,") && lines[4].starts_with("p4/default,"));
     // p3's points were found by `coapt landmarks`, and the report says so.
     let found = json(&d.join("cohort/p3/landmarks.json"));
     assert!(
@@ -136,6 +145,30 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
     assert_eq!(
         metrics(&json(&d.join("cohort/p3/default/report.json"))),
         metrics(&json(&d.join("detect/report.json")))
+    );
+    // A file of nadirs alone: `coapt run` completes it through the
+    // landmarks stage, and so does the workflow, to the same points and
+    // valve.
+    std::fs::write(
+        d.join("partial.toml"),
+        format!("[run]\ndir = \"partial\"\n[inputs]\nct = \"{sample_ct}\"\nlandmarks = \"{nadirs}\"\ntemplate = \"{template}\"\nconfig = \"{close}\"\n"),
+    )
+    .unwrap();
+    let o = coapt(&["run", &s(&d.join("partial.toml")), "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let completed = std::fs::read(d.join("cohort/p4/landmarks.mrk.json")).unwrap();
+    assert_eq!(
+        completed,
+        std::fs::read(d.join("partial/landmarks.mrk.json")).unwrap()
+    );
+    let given = coapt::io::markups::read(Path::new(&nadirs)).unwrap();
+    let completed = coapt::io::markups::read(&d.join("cohort/p4/landmarks.mrk.json")).unwrap();
+    for l in ["N1", "N2", "N3"] {
+        assert_eq!(completed.get(l), given.get(l), "{l} is the file's");
+    }
+    assert_eq!(
+        metrics(&json(&d.join("cohort/p4/default/report.json"))),
+        metrics(&json(&d.join("partial/report.json")))
     );
     // Nothing changed: a dry run has nothing to do.
     let o = snakemake("--dry-run");
