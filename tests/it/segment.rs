@@ -183,7 +183,7 @@ fn clinical_phantom_with_and_without_landmarks() {
     // The commissures alone: the VAJ march along the track began in the
     // arch and put its plane above the commissures, which it cut away
     // ("the segmented lumen does not contain the centroid of the commissure
-    // landmarks"); it is found again down the commissures' axis.
+    // landmarks"); it is now the CT's own, segmented without landmarks.
     let comm = d.join("commissures.mrk.json");
     some_points(&p.join("landmarks.mrk.json"), &comm, &["C1", "C2", "C3"]);
     let only = d.join("comm.nii.gz");

@@ -556,8 +556,11 @@ fn cut_above_root(
 /// The VAJ plane: through the nadirs N1–N3 when given, else where the
 /// sinus descent flattens into the LVOT along the centreline marched down
 /// from the track on the opened lumen `opened` (`world`: its voxels in
-/// LPS mm, each `voxel_mm3`). The report says which, without the plane
-/// (set once the lumen is cut at it).
+/// LPS mm, each `voxel_mm3`). With C1–C3 given, a plane off their root is
+/// replaced by `alone`'s (the CT segmented without landmarks, whose region
+/// does not reach the ventricle through the annulus as the anchored one
+/// can), else by a march down the commissures' axis. The report says
+/// which, without the plane (set once the lumen is cut at it).
 #[allow(clippy::too_many_arguments)]
 fn vaj_plane(
     nadirs: Option<&[Point3]>,
@@ -568,6 +571,7 @@ fn vaj_plane(
     world: impl Fn(usize) -> Point3,
     voxel_mm3: f64,
     sp: [f64; 3],
+    alone: impl FnOnce() -> Option<vaj::Plane>,
 ) -> (Option<vaj::Plane>, VajReport) {
     let mut report = VajReport {
         method: "none".into(),
@@ -594,7 +598,10 @@ fn vaj_plane(
         let commissures3 = <[Point3; 3]>::try_from(commissures).ok();
         if let (Some(c), Some(p)) = (commissures3, pl) {
             if vaj::off_the_root(&p, &c) {
-                if let Some((start, dir, r0)) = vaj::march_start_at_commissures(&c) {
+                if let Some(q) = alone().filter(|q| !vaj::off_the_root(q, &c)) {
+                    pl = Some(q);
+                    report.method = "the VAJ plane of the CT segmented without landmarks (the march along the track left the root)".into();
+                } else if let Some((start, dir, r0)) = vaj::march_start_at_commissures(&c) {
                     (pl, prof) = vaj::measure(points(), voxel_mm3, start, dir, r0, sp, true);
                     report.method = "where the sinus descent flattens into the LVOT along the commissures' axis (the march along the track left the root), then where the least sections below it stop narrowing (profile.floor)".into();
                 }
@@ -872,6 +879,11 @@ pub fn segment(
         world,
         roi_vol.voxel_volume(),
         rsp,
+        || {
+            segment(input, None, p)
+                .ok()
+                .and_then(|s| s.report.vaj.plane)
+        },
     );
     let mut keep = match &plane {
         Some(pl) => below_vaj_removed(&opened, dims, ground, pl, world),
