@@ -92,15 +92,21 @@ fn segment_and_surface(d: &Path, ct: &Path) -> (PathBuf, PathBuf, PathBuf) {
 /// and the landmarks found there with segment's VAJ plane:
 /// (the phantom's folder, found, truth).
 fn from_phantom_ct(d: &Path, args: &[&str]) -> (PathBuf, Landmarks, Landmarks) {
+    let ph = phantom_in(d, args);
+    let (mask, seg, surf) = segment_and_surface(d, &ph.join("ct.nii.gz"));
+    let found = detect(d, &mask, &surf, Some(&seg));
+    let truth = markups::read(&ph.join("landmarks.mrk.json")).unwrap();
+    (ph, found, truth)
+}
+
+/// `coapt phantom args` written to `d/ph`.
+fn phantom_in(d: &Path, args: &[&str]) -> PathBuf {
     let ph = d.join("ph");
     let mut a = vec!["phantom", "--out", ph.to_str().unwrap(), "--quiet"];
     a.extend_from_slice(args);
     let o = coapt(&a);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let (mask, seg, surf) = segment_and_surface(d, &ph.join("ct.nii.gz"));
-    let found = detect(d, &mask, &surf, Some(&seg));
-    let truth = markups::read(&ph.join("landmarks.mrk.json")).unwrap();
-    (ph, found, truth)
+    ph
 }
 
 fn detect(d: &Path, mask: &Path, surface: &Path, report: Option<&Path>) -> Landmarks {
@@ -390,18 +396,7 @@ fn landmarks_of_phantom(d: &Path, args: &[&str]) -> (serde_json::Value, serde_js
 #[test]
 fn clinical_phantom_ct_alone_reaches_a_report() {
     let d = tmpdir("lm-run-clinical");
-    let ph = d.join("ph");
-    let o = coapt(&[
-        "phantom",
-        "--out",
-        &s(&ph),
-        "--quiet",
-        "--preset",
-        "clinical",
-        "--seed",
-        "1",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let ph = phantom_in(&d, &["--preset", "clinical", "--seed", "1"]);
     let run = run_default_chain(&d, &[("ct", &ph.join("ct.nii.gz"))], "");
     assert!(run.join("report.json").is_file());
     assert_honest_verdict(&run);
@@ -583,6 +578,26 @@ fn given_landmarks_are_used_as_before() {
     assert!(!d.join("run/landmarks.mrk.json").exists());
 }
 
+/// The CT of `case` (a folder with `ct.nii.gz` and `landmarks.mrk.json`:
+/// the sample, a phantom, the real CT), its landmarks, and a file in `d` of
+/// only `labels` of them: what a user who placed some of the points gives.
+fn given_only(d: &Path, case: &Path, labels: &[&str]) -> (PathBuf, Landmarks, PathBuf) {
+    let truth = markups::read(&case.join("landmarks.mrk.json")).unwrap();
+    let given = d.join("given.mrk.json");
+    some_points(&case.join("landmarks.mrk.json"), &given, labels);
+    (case.join("ct.nii.gz"), truth, given)
+}
+
+/// Every point of `found` within `bound(label)` of `truth`'s (labels as they are).
+fn assert_within(truth: &Landmarks, found: &Landmarks, bound: impl Fn(&str) -> f64) {
+    let dist = distances(truth, found);
+    eprintln!("distances to the truth: {dist:?}");
+    for (l, e) in &dist {
+        let b = bound(l);
+        assert!(*e <= b, "{l}: {e:.2} mm > {b} mm ({dist:?})");
+    }
+}
+
 /// A `landmarks` input with the commissures and no nadirs (what a user who
 /// placed C1–C3 gives): the landmarks stage runs with it as the given
 /// points and detects N1–N3; segment, before it, is seeded from the file;
@@ -591,19 +606,8 @@ fn given_landmarks_are_used_as_before() {
 #[test]
 fn commissures_alone_are_completed_by_detected_nadirs() {
     let d = tmpdir("lm-commissures");
-    let sd = repo().join("sample_data");
-    let truth = markups::read(&sd.join("landmarks.mrk.json")).unwrap();
-    let given_path = d.join("commissures.mrk.json");
-    some_points(
-        &sd.join("landmarks.mrk.json"),
-        &given_path,
-        &["C1", "C2", "C3"],
-    );
-    let run = run_default_chain(
-        &d,
-        &[("ct", &sd.join("ct.nii.gz")), ("landmarks", &given_path)],
-        "",
-    );
+    let (ct, truth, given_path) = given_only(&d, &repo().join("sample_data"), &["C1", "C2", "C3"]);
+    let run = run_default_chain(&d, &[("ct", &ct), ("landmarks", &given_path)], "");
     let (manifest, stages) = manifest_stages(&run);
     assert_eq!(stages, DETECTING_CHAIN, "{manifest}");
     let input = |stage: &str, name: &str| stage_input(&manifest, stage, name);
@@ -661,18 +665,8 @@ fn run_until_valve(d: &Path, inputs: &[(&str, &Path)]) -> PathBuf {
 #[test]
 fn nadirs_alone_are_completed_by_detected_commissures() {
     let d = tmpdir("lm-nadirs");
-    let sd = repo().join("sample_data");
-    let truth = markups::read(&sd.join("landmarks.mrk.json")).unwrap();
-    let given_path = d.join("nadirs.mrk.json");
-    some_points(
-        &sd.join("landmarks.mrk.json"),
-        &given_path,
-        &["N1", "N2", "N3"],
-    );
-    let run = run_until_valve(
-        &d,
-        &[("ct", &sd.join("ct.nii.gz")), ("landmarks", &given_path)],
-    );
+    let (ct, truth, given_path) = given_only(&d, &repo().join("sample_data"), &["N1", "N2", "N3"]);
+    let run = run_until_valve(&d, &[("ct", &ct), ("landmarks", &given_path)]);
     let (manifest, stages) = manifest_stages(&run);
     assert_eq!(stages, DETECTING_CHAIN[..4], "{manifest}");
     assert_eq!(
@@ -689,27 +683,18 @@ fn nadirs_alone_are_completed_by_detected_commissures() {
         seg["vaj"]
     );
     let found = markups::read(&run.join("landmarks.mrk.json")).unwrap();
-    for l in LABELS {
-        let off = (found.get(l).unwrap() - truth.get(l).unwrap()).norm();
-        if l.starts_with('N') {
-            assert_eq!(off, 0.0, "{l} is the user's");
-        } else {
-            assert!(off <= 1.5, "{l} {off:.2} mm from the truth");
-        }
-    }
+    assert_within(
+        &truth,
+        &found,
+        |l| if l.starts_with('N') { 0.0 } else { 1.5 },
+    );
     assert!(run.join("valve.json").is_file());
 
     let cfg = d.join("chain.toml");
     let text = std::fs::read_to_string(&cfg).unwrap()
         + &format!("given_landmarks = \"{}\"\n", given_path.display());
     std::fs::write(&cfg, text).unwrap();
-    let o = coapt(&["run", &s(&cfg), "--quiet"]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("inputs.given_landmarks") && stderr(&o).contains("into one file"),
-        "{}",
-        stderr(&o)
-    );
+    run_refused(&cfg, &["inputs.given_landmarks", "into one file"]);
 }
 
 /// The real CT with only its hand-placed nadirs. That file numbers the
@@ -723,26 +708,16 @@ fn nadirs_alone_are_completed_by_detected_commissures() {
 fn real_ct_nadirs_alone_take_the_files_numbering() {
     let Some(real) = real_dir() else { return };
     let d = tmpdir("lm-real-nadirs");
-    let hand = markups::read(&real.join("landmarks.mrk.json")).unwrap();
-    let given_path = d.join("nadirs.mrk.json");
-    some_points(
-        &real.join("landmarks.mrk.json"),
-        &given_path,
-        &["N1", "N2", "N3"],
-    );
-    let run = run_until_valve(
-        &d,
-        &[("ct", &real.join("ct.nii.gz")), ("landmarks", &given_path)],
-    );
+    let (ct, hand, given_path) = given_only(&d, &real, &["N1", "N2", "N3"]);
+    let run = run_until_valve(&d, &[("ct", &ct), ("landmarks", &given_path)]);
     let rep = json(&run.join("landmarks.json"));
     assert_eq!(rep["numbering_turn"], 2, "{}", rep["sinuses"]);
     let found = markups::read(&run.join("landmarks.mrk.json")).unwrap();
-    let dist = distances(&hand, &found);
-    eprintln!("real CT from its nadirs: {dist:?}");
-    for (l, e) in &dist {
-        let bound = if l.starts_with('N') { 0.0 } else { 3.0 };
-        assert!(*e <= bound, "{l}: {e:.2} mm > {bound} mm ({dist:?})");
-    }
+    assert_within(
+        &hand,
+        &found,
+        |l| if l.starts_with('N') { 0.0 } else { 3.0 },
+    );
     let valve = json(&run.join("valve.json"));
     assert!(
         valve.get("nadir_of_leaflet").is_none(),
@@ -761,39 +736,18 @@ fn real_ct_nadirs_alone_take_the_files_numbering() {
 #[test]
 fn clinical_phantom_from_its_commissures_alone_within_1_5_mm() {
     let d = tmpdir("lm-clinical-commissures");
-    let ph = d.join("ph");
-    let o = coapt(&[
-        "phantom",
-        "--out",
-        &s(&ph),
-        "--quiet",
-        "--preset",
-        "clinical",
-        "--seed",
-        "2",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let truth = markups::read(&ph.join("landmarks.mrk.json")).unwrap();
-    let given_path = d.join("commissures.mrk.json");
-    some_points(
-        &ph.join("landmarks.mrk.json"),
-        &given_path,
-        &["C1", "C2", "C3"],
-    );
-    let run = run_until_valve(
-        &d,
-        &[("ct", &ph.join("ct.nii.gz")), ("landmarks", &given_path)],
-    );
+    let ph = phantom_in(&d, &["--preset", "clinical", "--seed", "2"]);
+    let (ct, truth, given_path) = given_only(&d, &ph, &["C1", "C2", "C3"]);
+    let run = run_until_valve(&d, &[("ct", &ct), ("landmarks", &given_path)]);
     let seg = json(&run.join("segment.json"));
     let method = seg["vaj"]["method"].as_str().unwrap();
     assert!(method.contains("segmented without landmarks"), "{method}");
     let found = markups::read(&run.join("landmarks.mrk.json")).unwrap();
-    let dist = distances(&truth, &found);
-    eprintln!("clinical seed 2 from its commissures: {dist:?}");
-    for (l, e) in &dist {
-        let bound = if l.starts_with('C') { 0.0 } else { 1.5 };
-        assert!(*e <= bound, "{l}: {e:.2} mm > {bound} mm ({dist:?})");
-    }
+    assert_within(
+        &truth,
+        &found,
+        |l| if l.starts_with('C') { 0.0 } else { 1.5 },
+    );
 }
 
 /// The path a run's `manifest` records for `stage`'s input `name`.
@@ -877,14 +831,19 @@ fn given_points_override_detected_ones_point_by_point() {
         ),
     )
     .unwrap();
-    let cfg = d.join("merged/chain.toml");
-    let o = coapt(&["run", &s(&cfg), "--quiet"]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("holds none of C1, C2, C3, N1, N2, N3"),
-        "{}",
-        stderr(&o)
+    run_refused(
+        &d.join("merged/chain.toml"),
+        &["holds none of C1, C2, C3, N1, N2, N3"],
     );
+}
+
+/// `coapt run cfg` refuses before any work (exit 2), saying `words`.
+fn run_refused(cfg: &Path, words: &[&str]) {
+    let o = coapt(&["run", &s(cfg), "--quiet"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    for w in words {
+        assert!(stderr(&o).contains(w), "no {w:?} in: {}", stderr(&o));
+    }
 }
 
 /// The real CT, segmented without landmarks: the found points against the

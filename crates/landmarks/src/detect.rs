@@ -272,6 +272,46 @@ pub struct Detection {
 }
 
 impl Detection {
+    /// A detection about the z axis through the origin holding `points`
+    /// and `sinuses`, its other measures plausible: for unit tests of what
+    /// is done with a detection.
+    #[cfg(test)]
+    pub(crate) fn on_z_axis(points: Vec<Found>, sinuses: Vec<Sinus>, stj_is_minimum: bool) -> Self {
+        Detection {
+            annulus_plane: AnnulusPlane {
+                point_mm: Point3::origin(),
+                normal: Vector3::z(),
+            },
+            origin_mm: Point3::origin(),
+            axis: Vector3::z(),
+            axis_turns_deg: Vec::new(),
+            annulus_tilt_deg: 0.0,
+            sinus_height_mm: 9.0,
+            stj_height_mm: 18.0,
+            knee_height_mm: 16.5,
+            commissure_stj_height_mm: 18.0,
+            sector_profile_mm: Vec::new(),
+            sinus_mean_radius_mm: 14.0,
+            stj_mean_radius_mm: 13.0,
+            stj_is_minimum,
+            commissure_height_mm: 17.0,
+            axial_profile_mm: Vec::new(),
+            angular_profile_mm: Vec::new(),
+            e1: Vector3::x(),
+            points,
+            sinuses,
+            sinus_naming: SinusNaming {
+                by: super::ostia::NamedBy::Position,
+                confidence: 0.5,
+                agrees_with_position: true,
+                ct_searched: false,
+                lumen_hu: None,
+                threshold_hu: None,
+                other_patches: 0,
+            },
+        }
+    }
+
     /// Angle of `p` about the detected axis (degrees from `e1`, in [0, 360)).
     pub fn angle_deg(&self, p: &Point3) -> f64 {
         let r = p - self.origin_mm;

@@ -70,11 +70,10 @@ pub fn renumber(det: &mut Detection, s: usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::detect::{AnnulusPlane, Found, Sinus, SinusNaming};
-    use crate::ostia::NamedBy;
-    use coapt_geom::{Frame, Point3, Vector3};
+    use crate::detect::{Found, Sinus};
+    use coapt_geom::{Frame, Point3};
 
-    /// A detection on the unit circle about z: C_i at 120 i degrees, N_i
+    /// A detection on a circle about z: C_i at 120 i degrees, N_i
     /// between C_i and C_i+1, sinuses named in the detector's order.
     fn detection() -> Detection {
         let at = |deg: f64| {
@@ -91,47 +90,16 @@ mod tests {
             .map(|i| found(format!("C{}", i + 1), 120.0 * i as f64))
             .collect();
         points.extend((0..3).map(|i| found(format!("N{}", i + 1), 60.0 + 120.0 * i as f64)));
-        Detection {
-            annulus_plane: AnnulusPlane {
-                point_mm: Point3::origin(),
-                normal: Vector3::z(),
-            },
-            origin_mm: Point3::origin(),
-            axis: Vector3::z(),
-            axis_turns_deg: Vec::new(),
-            annulus_tilt_deg: 0.0,
-            sinus_height_mm: 9.0,
-            stj_height_mm: 18.0,
-            knee_height_mm: 16.5,
-            commissure_stj_height_mm: 18.0,
-            sector_profile_mm: Vec::new(),
-            sinus_mean_radius_mm: 14.0,
-            stj_mean_radius_mm: 13.0,
-            stj_is_minimum: true,
-            commissure_height_mm: 17.0,
-            axial_profile_mm: Vec::new(),
-            angular_profile_mm: Vec::new(),
-            e1: Vector3::x(),
-            points,
-            sinuses: ["right_coronary", "left_coronary", "non_coronary"]
-                .iter()
-                .enumerate()
-                .map(|(j, &name)| Sinus {
-                    nadir: format!("N{}", j + 1),
-                    name,
-                    ostium: None,
-                })
-                .collect(),
-            sinus_naming: SinusNaming {
-                by: NamedBy::Position,
-                confidence: 0.5,
-                agrees_with_position: true,
-                ct_searched: false,
-                lumen_hu: None,
-                threshold_hu: None,
-                other_patches: 0,
-            },
-        }
+        let sinuses = ["right_coronary", "left_coronary", "non_coronary"]
+            .iter()
+            .enumerate()
+            .map(|(j, &name)| Sinus {
+                nadir: format!("N{}", j + 1),
+                name,
+                ostium: None,
+            })
+            .collect();
+        Detection::on_z_axis(points, sinuses, true)
     }
 
     fn given(points: &[(&str, f64)]) -> Landmarks {

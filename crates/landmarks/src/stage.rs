@@ -409,7 +409,7 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::detect::{AnnulusPlane, Found, SinusNaming};
+    use crate::detect::Found;
 
     fn detection(conf: [f64; 2], stj_is_minimum: bool) -> Detection {
         let found = |label: &str, confidence: f64| Found {
@@ -418,39 +418,11 @@ mod tests {
             confidence,
             evidence: json!({"pillar_depth_mm": 0.2}),
         };
-        Detection {
-            annulus_plane: AnnulusPlane {
-                point_mm: Point3::origin(),
-                normal: Vector3::z(),
-            },
-            origin_mm: Point3::origin(),
-            axis: Vector3::z(),
-            axis_turns_deg: Vec::new(),
-            annulus_tilt_deg: 0.0,
-            sinus_height_mm: 9.0,
-            stj_height_mm: 18.0,
-            knee_height_mm: 16.5,
-            commissure_stj_height_mm: 18.0,
-            sector_profile_mm: Vec::new(),
-            sinus_mean_radius_mm: 14.0,
-            stj_mean_radius_mm: 13.0,
+        Detection::on_z_axis(
+            vec![found("C1", conf[0]), found("N1", conf[1])],
+            Vec::new(),
             stj_is_minimum,
-            commissure_height_mm: 17.0,
-            axial_profile_mm: Vec::new(),
-            angular_profile_mm: Vec::new(),
-            e1: Vector3::x(),
-            points: vec![found("C1", conf[0]), found("N1", conf[1])],
-            sinuses: Vec::new(),
-            sinus_naming: SinusNaming {
-                by: NamedBy::Position,
-                confidence: 0.5,
-                agrees_with_position: true,
-                ct_searched: false,
-                lumen_hu: None,
-                threshold_hu: None,
-                other_patches: 0,
-            },
-        }
+        )
     }
 
     /// A point under the threshold, and an STJ that is no minimum, are
