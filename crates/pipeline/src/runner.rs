@@ -140,7 +140,6 @@ pub fn plan(cfg: &RunConfig, registry: &[&'static StageSpec]) -> Result<Vec<&'st
     Ok(chain)
 }
 
-/// The kind an artifact has wherever a stage declares it.
 /// The kind an external input is judged as: the artifact's own (the kind
 /// of the stage output of that name, when one makes it), or, for an input
 /// given in part, what the completing stage's `given_X` takes.
