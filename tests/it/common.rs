@@ -180,6 +180,21 @@ pub fn run_chain_with(
     close: &Path,
     extra: &str,
 ) -> PathBuf {
+    let cfg = chain_config(dir, inputs, template, close, extra);
+    let o = coapt(&["run", &s(&cfg), "--quiet"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    dir.join("run")
+}
+
+/// `dir/chain.toml`: a run config of `inputs`, `template` and the mechanics
+/// of `close` into `dir/run`, `extra` appended.
+pub fn chain_config(
+    dir: &Path,
+    inputs: &[(&str, &Path)],
+    template: &Path,
+    close: &Path,
+    extra: &str,
+) -> PathBuf {
     let mut text = format!(
         "[run]\ndir = \"{}\"\n\n[inputs]\n",
         dir.join("run").display()
@@ -194,9 +209,7 @@ pub fn run_chain_with(
     );
     let cfg = dir.join("chain.toml");
     std::fs::write(&cfg, text).unwrap();
-    let o = coapt(&["run", &s(&cfg), "--quiet"]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    dir.join("run")
+    cfg
 }
 
 /// A run's verdict (`run/report.json`) is its criteria's conjunction when

@@ -643,14 +643,13 @@ fn commissures_alone_are_completed_by_detected_nadirs() {
 /// `coapt run` of `inputs` with the default template, up to the valve: all
 /// a landmarks file given in part needs to be completed and used.
 fn run_until_valve(d: &Path, inputs: &[(&str, &Path)]) -> PathBuf {
-    let mut text = format!("[run]\ndir = \"{}\"\n\n[inputs]\n", d.join("run").display());
-    for (k, v) in inputs {
-        text += &format!("{k} = \"{}\"\n", v.display());
-    }
-    let template = repo().join("pipelines/templates/ozaki_default.toml");
-    text += &format!("template = \"{}\"\n", template.display());
-    let cfg = d.join("chain.toml");
-    std::fs::write(&cfg, text).unwrap();
+    let cfg = chain_config(
+        d,
+        inputs,
+        &repo().join("pipelines/templates/ozaki_default.toml"),
+        &repo().join("pipelines/close.toml"),
+        "",
+    );
     let o = coapt(&["run", &s(&cfg), "--until", "valve", "--quiet"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     d.join("run")

@@ -118,26 +118,26 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
     // started), not in the clone.
     assert!(d.join("cohort/.snakemake").is_dir());
     assert!(!r.join(".snakemake").exists());
+    // `coapt run` into `d/dir` with the cohort's template and mechanics;
+    // `head` goes before [inputs], `inputs` into it.
+    let coapt_run = |dir: &str, head: &str, inputs: &str| {
+        let cfg = d.join(format!("{dir}.toml"));
+        std::fs::write(
+            &cfg,
+            format!("[run]\ndir = \"{dir}\"\n{head}[inputs]\n{inputs}template = \"{template}\"\nconfig = \"{close}\"\n"),
+        )
+        .unwrap();
+        let o = coapt(&["run", &s(&cfg), "--quiet"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
     // The same phantom through `coapt run`.
-    std::fs::write(
-        d.join("run.toml"),
-        format!("[run]\ndir = \"run\"\n[phantom]\npreset = \"sample\"\nseed = 2\n[inputs]\ntemplate = \"{template}\"\nconfig = \"{close}\"\n"),
-    )
-    .unwrap();
-    let o = coapt(&["run", &s(&d.join("run.toml")), "--quiet"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    coapt_run("run", "[phantom]\npreset = \"sample\"\nseed = 2\n", "");
     assert_eq!(
         metrics(&json(&d.join("cohort/p2/default/report.json"))),
         metrics(&json(&d.join("run/report.json")))
     );
     // A CT alone through `coapt run` finds the same landmarks and valve.
-    std::fs::write(
-        d.join("detect.toml"),
-        format!("[run]\ndir = \"detect\"\n[inputs]\nct = \"cohort/p3/input/ct.nii.gz\"\ntemplate = \"{template}\"\nconfig = \"{close}\"\n"),
-    )
-    .unwrap();
-    let o = coapt(&["run", &s(&d.join("detect.toml")), "--quiet"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    coapt_run("detect", "", "ct = \"cohort/p3/input/ct.nii.gz\"\n");
     assert_eq!(
         std::fs::read(d.join("cohort/p3/landmarks.mrk.json")).unwrap(),
         std::fs::read(d.join("detect/landmarks.mrk.json")).unwrap()
@@ -149,13 +149,11 @@ fn cohort_workflow_runs_two_phantoms_and_matches_coapt_run() {
     // A file of nadirs alone: `coapt run` completes it through the
     // landmarks stage, and so does the workflow, to the same points and
     // valve.
-    std::fs::write(
-        d.join("partial.toml"),
-        format!("[run]\ndir = \"partial\"\n[inputs]\nct = \"{sample_ct}\"\nlandmarks = \"{nadirs}\"\ntemplate = \"{template}\"\nconfig = \"{close}\"\n"),
-    )
-    .unwrap();
-    let o = coapt(&["run", &s(&d.join("partial.toml")), "--quiet"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    coapt_run(
+        "partial",
+        "",
+        &format!("ct = \"{sample_ct}\"\nlandmarks = \"{nadirs}\"\n"),
+    );
     let completed = std::fs::read(d.join("cohort/p4/landmarks.mrk.json")).unwrap();
     assert_eq!(
         completed,
