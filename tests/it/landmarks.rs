@@ -725,6 +725,55 @@ fn real_ct_nadirs_alone_take_the_files_numbering() {
     );
 }
 
+/// The sample's nadirs given numbered the other way round the valve (N2
+/// and N3 swapped): the commissures found are numbered that way too, so
+/// that N_k still lies between C_k and C_k+1 (the truth's C1 and C2 swap
+/// labels, C3 keeps its own), each within 1.5 mm of the truth's point of
+/// its new label. Before, the detector's counter-clockwise C1–C3 came back
+/// beside the clockwise nadirs.
+#[test]
+fn nadirs_numbered_clockwise_number_the_commissures_so() {
+    let d = tmpdir("lm-mirrored");
+    let case = repo().join("sample_data");
+    let truth = markups::read(&case.join("landmarks.mrk.json")).unwrap();
+    let relabel = |l: &str| {
+        match l {
+            "N2" => "N3",
+            "N3" => "N2",
+            "C1" => "C2",
+            "C2" => "C1",
+            other => other,
+        }
+        .to_string()
+    };
+    let mut mirrored = Landmarks::new(truth.frame);
+    for (l, p) in &truth.points {
+        mirrored.push(relabel(l), *p);
+    }
+    let mut nadirs = Landmarks::new(truth.frame);
+    for (l, p) in mirrored.points.iter().filter(|(l, _)| l.starts_with('N')) {
+        nadirs.push(l.clone(), *p);
+    }
+    let given = d.join("given.mrk.json");
+    markups::write_mrk_json(&given, &nadirs, truth.frame).unwrap();
+    let run = run_until_valve(
+        &d,
+        &[("ct", &case.join("ct.nii.gz")), ("landmarks", &given)],
+    );
+    let rep = json(&run.join("landmarks.json"));
+    assert_eq!(rep["numbering_mirrored"], true, "{}", rep["sinuses"]);
+    let found = markups::read(&run.join("landmarks.mrk.json")).unwrap();
+    assert_within(&mirrored, &found, |l| {
+        if l.starts_with('N') { 0.0 } else { 1.5 }
+    });
+    let valve = json(&run.join("valve.json"));
+    assert!(
+        valve.get("nadir_of_leaflet").is_none(),
+        "{}",
+        valve["nadir_of_leaflet"]
+    );
+}
+
 /// Clinical seed 2 from its commissures alone: the march along the track
 /// began in the arch, and its plane lay far above the commissures. Marched
 /// down the commissures' axis instead (the fallback before), the plane was

@@ -312,8 +312,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
     };
     let mut det =
         detect::detect(&mask, &plane, ct.as_ref()).map_err(|e| Error::failed("landmarks", e))?;
-    let turn = given.as_ref().map_or(0, |g| numbering::user_turn(&det, g));
-    numbering::renumber(&mut det, turn);
+    let numbering = given
+        .as_ref()
+        .map_or_else(Default::default, |g| numbering::user_numbering(&det, g));
+    numbering::renumber(&mut det, numbering);
     let tris = mesh.wall_triangles();
     let x: Vec<Vector3> = mesh.vertices.iter().map(|p| p.coords).collect();
     let bvh = Bvh::build(&x, &tris);
@@ -364,8 +366,10 @@ fn run(io: &StageIo, params: &Params, progress: &Progress) -> Result<Json> {
         m.insert("min_confidence".into(), json!(lp.min_confidence));
         // How far the given file's numbering turns the detector's (which
         // starts at the right-coronary sinus): 1 means its C2, N2 are the
-        // detector's C1, N1.
-        m.insert("numbering_turn".into(), json!(turn));
+        // detector's C1, N1; mirrored, it runs the other way round (its
+        // C_s−i and N_s−i−1 are the detector's C_i and N_i).
+        m.insert("numbering_turn".into(), json!(numbering.turn));
+        m.insert("numbering_mirrored".into(), json!(numbering.mirrored));
         if let Some(Json::Array(points)) = m.get_mut("points") {
             for ((p, s), found) in points.iter_mut().zip(&sources).zip(&det.points) {
                 p["source"] = json!(s.name());

@@ -581,7 +581,21 @@ fn vaj_plane(
     };
     let plane = if let Some(nd) = nadirs.and_then(|v| <[Point3; 3]>::try_from(v).ok()) {
         report.method = "plane through the nadir landmarks N1–N3".into();
-        vaj::plane_from_landmarks(&nd, commissures)
+        // The nadirs' order says nothing of which side is the aorta (a
+        // file may number them either way round): the normal faces the
+        // commissures, or without them where the track began, in the
+        // ascending aorta.
+        let up: Vec<Point3> = if commissures.is_empty() {
+            found
+                .track
+                .first()
+                .map(|t| track::world(ct, t))
+                .into_iter()
+                .collect()
+        } else {
+            commissures.to_vec()
+        };
+        vaj::plane_from_landmarks(&nd, &up)
     } else {
         let points = || -> Vec<Point3> {
             (0..opened.len())

@@ -752,3 +752,22 @@ fn a_march_from_the_commissures_keeps_to_the_root_beside_a_chamber() {
         &c
     ));
 }
+
+/// The nadirs' order does not set which side of their plane is the aorta:
+/// numbered either way round, the normal faces the point given above.
+#[test]
+fn a_nadir_plane_faces_the_aorta_whichever_way_its_nadirs_run() {
+    use coapt_geom::Point3;
+    let at = |deg: f64| {
+        let r = f64::to_radians(deg);
+        Point3::new(12.0 * r.cos(), 12.0 * r.sin(), 0.1 * r.sin())
+    };
+    let up = [Point3::new(1.0, -2.0, 30.0)];
+    let ccw = super::vaj::plane_from_landmarks(&[at(60.0), at(180.0), at(300.0)], &up).unwrap();
+    let cw = super::vaj::plane_from_landmarks(&[at(60.0), at(300.0), at(180.0)], &up).unwrap();
+    assert!(ccw.normal[2] > 0.99 && cw.normal[2] > 0.99, "{ccw:?} {cw:?}");
+    assert!(ccw.height(&up[0]) > 0.0 && cw.height(&up[0]) > 0.0);
+    // Without a point above, the order decides.
+    let bare = super::vaj::plane_from_landmarks(&[at(60.0), at(300.0), at(180.0)], &[]).unwrap();
+    assert!(bare.normal[2] < -0.99, "{bare:?}");
+}

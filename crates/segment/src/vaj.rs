@@ -41,19 +41,18 @@ impl Plane {
     }
 }
 
-/// Plane through the nadirs, normal toward the commissures.
-pub fn plane_from_landmarks(nadirs: &[Point3; 3], commissures: &[Point3]) -> Option<Plane> {
+/// Plane through the nadirs, normal toward the centroid of `above` (the
+/// commissures, or a point in the ascending aorta); by the nadirs' order
+/// when `above` is empty.
+pub fn plane_from_landmarks(nadirs: &[Point3; 3], above: &[Point3]) -> Option<Plane> {
     let c = Point3::from((nadirs[0].coords + nadirs[1].coords + nadirs[2].coords) / 3.0);
     let mut n = (nadirs[1] - nadirs[0]).cross(&(nadirs[2] - nadirs[0]));
     if n.norm() < 1e-9 {
         return None;
     }
     n.normalize_mut();
-    if !commissures.is_empty() {
-        let cc = commissures
-            .iter()
-            .fold(Vector3::zeros(), |a, p| a + p.coords)
-            / commissures.len() as f64;
+    if !above.is_empty() {
+        let cc = above.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / above.len() as f64;
         if (cc - c.coords).dot(&n) < 0.0 {
             n = -n;
         }
