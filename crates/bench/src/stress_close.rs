@@ -531,16 +531,18 @@ mod tests {
         }
     }
 
-    /// Plausible case 81 of seed 2 (neo-Hookean without bending, h 0.36 mm,
-    /// 64 mmHg, 1.6 MPa, 0.78 mm) fails at its full load applied at once
-    /// (1500 iterations): the load steps reach the equilibrium, and say so.
-    /// Which wandering membrane they rescue is chaotic (seed 1's case 42
-    /// was this test's case until the suturing rounds were loosened and
-    /// moved its sutured state by about 1e-7 mm); in 300 plausible cases
-    /// this is the one.
+    /// Plausible case 95 of seed 3 (GOH without bending, h 0.50 mm,
+    /// 82.8 mmHg, 1.05 MPa, 0.40 mm) fails at its full load applied at once
+    /// (1500 iterations): the load steps reach the equilibrium, and say so
+    /// (1959 iterations in all). Which wandering membrane they rescue is
+    /// chaotic: seed 1's case 42 was this test's case until the suturing
+    /// rounds were loosened and moved its sutured state by about 1e-7 mm,
+    /// then seed 2's case 81 until the contact patterns were kept across
+    /// steps and ordered by node (which closes it at once); in 300
+    /// plausible cases this is the one.
     #[test]
     fn a_closure_that_fails_at_once_converges_by_load_steps() {
-        let r = run_case(&case(2, 81, (0.25, 2.0), &PLAUSIBLE), 600.0);
+        let r = run_case(&case(3, 95, (0.25, 2.0), &PLAUSIBLE), 600.0);
         match &r.verdict {
             Verdict::Converged => {}
             v => panic!("{v:?}"),
