@@ -765,7 +765,10 @@ fn a_nadir_plane_faces_the_aorta_whichever_way_its_nadirs_run() {
     let up = [Point3::new(1.0, -2.0, 30.0)];
     let ccw = super::vaj::plane_from_landmarks(&[at(60.0), at(180.0), at(300.0)], &up).unwrap();
     let cw = super::vaj::plane_from_landmarks(&[at(60.0), at(300.0), at(180.0)], &up).unwrap();
-    assert!(ccw.normal[2] > 0.99 && cw.normal[2] > 0.99, "{ccw:?} {cw:?}");
+    assert!(
+        ccw.normal[2] > 0.99 && cw.normal[2] > 0.99,
+        "{ccw:?} {cw:?}"
+    );
     assert!(ccw.height(&up[0]) > 0.0 && cw.height(&up[0]) > 0.0);
     // Without a point above, the order decides.
     let bare = super::vaj::plane_from_landmarks(&[at(60.0), at(300.0), at(180.0)], &[]).unwrap();
