@@ -440,7 +440,8 @@ impl Run {
 /// pairs over a closure, a few hundred changing per step while it
 /// settles; in the suturing rounds a few at the commissures), and each
 /// new pattern cost its AMD ordering and symbolic analysis (15 ms of a
-/// 100 ms Newton step) and its element slot tables (12 ms). A pattern that
+/// 100 ms Newton step) and new element slot tables (about 12 ms more
+/// assembly). A pattern that
 /// keeps the couplings it had, as explicit zeros, is reused while it
 /// covers the new ones; the stale couplings it carries add a little fill
 /// and are shed once they exceed this fraction.
