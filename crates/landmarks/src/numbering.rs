@@ -139,6 +139,22 @@ mod tests {
         Detection::on_z_axis(points, sinuses, true)
     }
 
+    /// The angles (degrees, rounded) of C1, N1, C2, N2, C3, N3 about the axis.
+    fn angles(det: &Detection) -> [f64; 6] {
+        ["C1", "N1", "C2", "N2", "C3", "N3"].map(|label| {
+            let p = det.points.iter().find(|p| p.label == label).unwrap();
+            det.angle_deg(&p.point_mm).round()
+        })
+    }
+
+    /// (nadir, name) of each sinus, in list order.
+    fn sinus_names(det: &Detection) -> Vec<(&str, &'static str)> {
+        det.sinuses
+            .iter()
+            .map(|s| (s.nadir.as_str(), s.name))
+            .collect()
+    }
+
     fn given(points: &[(&str, f64)]) -> Landmarks {
         let mut lm = Landmarks::new(Frame::Lps);
         for (label, deg) in points {
@@ -167,22 +183,10 @@ mod tests {
         renumber(&mut det, n);
         let labels: Vec<&str> = det.points.iter().map(|p| p.label.as_str()).collect();
         assert_eq!(labels, ["C1", "C2", "C3", "N1", "N2", "N3"]);
-        let deg = |label: &str| {
-            let p = det.points.iter().find(|p| p.label == label).unwrap();
-            det.angle_deg(&p.point_mm).round()
-        };
         // N_k between C_k and C_k+1 in the user's numbering.
+        assert_eq!(angles(&det), [120.0, 180.0, 240.0, 300.0, 0.0, 60.0]);
         assert_eq!(
-            ["C1", "N1", "C2", "N2", "C3", "N3"].map(deg),
-            [120.0, 180.0, 240.0, 300.0, 0.0, 60.0]
-        );
-        let names: Vec<(&str, &str)> = det
-            .sinuses
-            .iter()
-            .map(|s| (s.nadir.as_str(), s.name))
-            .collect();
-        assert_eq!(
-            names,
+            sinus_names(&det),
             [
                 ("N1", "left_coronary"),
                 ("N2", "non_coronary"),
@@ -221,21 +225,9 @@ mod tests {
         let n = user_numbering(&det, &g);
         assert!(n.mirrored, "{n:?}");
         renumber(&mut det, n);
-        let deg = |label: &str| {
-            let p = det.points.iter().find(|p| p.label == label).unwrap();
-            det.angle_deg(&p.point_mm).round()
-        };
+        assert_eq!(angles(&det), [120.0, 60.0, 0.0, 300.0, 240.0, 180.0]);
         assert_eq!(
-            ["C1", "N1", "C2", "N2", "C3", "N3"].map(deg),
-            [120.0, 60.0, 0.0, 300.0, 240.0, 180.0]
-        );
-        let names: Vec<(&str, &str)> = det
-            .sinuses
-            .iter()
-            .map(|s| (s.nadir.as_str(), s.name))
-            .collect();
-        assert_eq!(
-            names,
+            sinus_names(&det),
             [
                 ("N1", "right_coronary"),
                 ("N2", "non_coronary"),
